@@ -42,10 +42,14 @@ class Channel : public FrameSink {
 
 inline std::string_view to_string(BusState s) {
   switch (s) {
-    case BusState::Ok: return "ok";
-    case BusState::Warning: return "warning";
-    case BusState::ErrorPassive: return "error-passive";
-    case BusState::BusOff: return "bus-off";
+    case BusState::Ok:
+      return "ok";
+    case BusState::Warning:
+      return "warning";
+    case BusState::ErrorPassive:
+      return "error-passive";
+    case BusState::BusOff:
+      return "bus-off";
   }
   return "?";
 }

@@ -4,6 +4,8 @@
 #include <charconv>
 #include <cstdio>
 
+#include "common/hex.hpp"
+
 namespace candp2::can {
 
 namespace {
@@ -141,7 +143,8 @@ LogParseResult parse_log_line(std::string_view text) {
   {
     auto [p, ec] = std::from_chars(stamp.data(), stamp.data() + dot, line.sec);
     if (ec != std::errc{} || p != stamp.data() + dot) return err(1, "bad seconds in timestamp");
-    auto [p2, ec2] = std::from_chars(stamp.data() + dot + 1, stamp.data() + stamp.size(), line.usec);
+    auto [p2, ec2] =
+        std::from_chars(stamp.data() + dot + 1, stamp.data() + stamp.size(), line.usec);
     if (ec2 != std::errc{} || p2 != stamp.data() + stamp.size())
       return err(dot + 2, "bad microseconds in timestamp");
   }
@@ -171,15 +174,7 @@ std::string format_log_line(const LogLine& line) {
 }
 
 std::string hex_bytes(std::span<const std::uint8_t> bytes) {
-  static constexpr char kHex[] = "0123456789ABCDEF";
-  std::string out;
-  out.reserve(bytes.size() * 3);
-  for (std::size_t i = 0; i < bytes.size(); ++i) {
-    if (i) out += ' ';
-    out += kHex[bytes[i] >> 4];
-    out += kHex[bytes[i] & 0xF];
-  }
-  return out;
+  return candp2::hex_bytes(bytes);
 }
 
 }  // namespace candp2::can

@@ -18,10 +18,10 @@ inline constexpr std::uint32_t kMaxExtId = 0x1FFFFFFF;
 inline constexpr std::uint8_t kMaxDlc = 8;
 
 struct Frame {
-  std::uint32_t id = 0;    // 11- or 29-bit value, without flag bits
-  bool extended = false;   // 29-bit identifier
-  bool remote = false;     // remote transmission request
-  std::uint8_t dlc = 0;    // 0..8; for remote frames the requested length
+  std::uint32_t id = 0;                // 11- or 29-bit value, without flag bits
+  bool extended = false;               // 29-bit identifier
+  bool remote = false;                 // remote transmission request
+  std::uint8_t dlc = 0;                // 0..8; for remote frames the requested length
   std::array<std::uint8_t, 8> data{};  // bytes past dlc are always zero
 
   std::span<const std::uint8_t> payload() const { return {data.data(), remote ? 0u : dlc}; }
@@ -42,7 +42,9 @@ struct Ident {
   friend bool operator==(const Ident&, const Ident&) = default;
   friend auto operator<=>(const Ident&, const Ident&) = default;
 };
-inline Ident ident_of(const Frame& f) { return {f.id, f.extended}; }
+inline Ident ident_of(const Frame& f) {
+  return {f.id, f.extended};
+}
 
 // candump "compact" notation, as cansend accepts it:
 //   123#1122        11-bit data frame (3 hex digits)

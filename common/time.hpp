@@ -8,7 +8,8 @@
 namespace candp2 {
 
 using Duration = std::chrono::microseconds;
-// Microseconds since an arbitrary origin chosen by the owner of the clock (daemon start, 0 in tests).
+// Microseconds since an arbitrary origin chosen by the owner of the clock (daemon start, 0 in
+// tests).
 using Time = std::chrono::microseconds;
 
 using std::chrono::microseconds;

@@ -70,8 +70,9 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(Bad{"1231122", 7, "'#'"}, Bad{"12#11", 0, "3 (11-bit) or 8"},
                       Bad{"800#11", 0, "above 0x7FF"}, Bad{"3FFFFFFF#", 0, "above 0x1FFFFFFF"},
                       Bad{"12G#11", 2, "hex digit"}, Bad{"123#112", 6, "odd number"},
-                      Bad{"123#1Z", 5, "hex digit"}, Bad{"123#001122334455667788", 20, "more than 8"},
-                      Bad{"123#R9", 5, "0..8"}, Bad{"123#R4x", 6, "after remote"}));
+                      Bad{"123#1Z", 5, "hex digit"},
+                      Bad{"123#001122334455667788", 20, "more than 8"}, Bad{"123#R9", 5, "0..8"},
+                      Bad{"123#R4x", 6, "after remote"}));
 
 TEST(CandumpLog, ParsesAndFormats) {
   auto r = parse_log_line("(1700000000.123456) can0 123#1122");

@@ -5,7 +5,9 @@
 namespace candp2::can {
 namespace {
 
-Frame F(const char* text) { return *parse_candump(text).frame; }
+Frame F(const char* text) {
+  return *parse_candump(text).frame;
+}
 
 TEST(VirtualBus, OthersReceiveInSendOrderSenderDoesNot) {
   VirtualBus bus;

@@ -1,0 +1,133 @@
+#include "gateway/slot_engine.hpp"
+
+#include <algorithm>
+#include <cstring>
+
+#include "gateway/form.hpp"
+
+namespace candp2::gw {
+
+void SlotEngine::configure(const SlotConfig& cfg) {
+  tx_.clear();
+  rx_.clear();
+  rx_index_.clear();
+  rx_ids_.clear();
+  released_ = false;
+  for (const Slot& s : cfg.slots) {
+    if (s.kind == SlotKind::Tx) {
+      TxSlot t;
+      t.offset = s.offset;
+      t.length = s.length;
+      t.data_len = s.data_len;
+      t.id = s.id;
+      t.form = s.form;
+      t.cycle_ms = s.cycle_ms;
+      tx_.push_back(t);
+    } else if (s.kind == SlotKind::Rx) {
+      RxSlot r;
+      r.offset = s.offset;
+      r.data_len = s.data_len;
+      r.counter = s.counter;
+      r.form = s.form;
+      const auto key = ident_key(*s.id);
+      // manual §5.2.1: the same Rx identifier on two slots - the later slot wins.
+      auto it = std::find_if(rx_index_.begin(), rx_index_.end(),
+                             [&](const auto& e) { return e.first == key; });
+      if (it != rx_index_.end())
+        it->second = static_cast<std::uint16_t>(rx_.size());
+      else {
+        rx_index_.emplace_back(key, static_cast<std::uint16_t>(rx_.size()));
+        rx_ids_.push_back(*s.id);
+      }
+      rx_.push_back(r);
+    }
+  }
+  std::sort(rx_index_.begin(), rx_index_.end());
+}
+
+void SlotEngine::send(const TxSlot& s, TxPort& tx) const {
+  if (!s.id) return;  // manual §5.1.4: 0x07F8 dummy output, nothing is sent
+  can::Frame f;
+  f.id = s.id->id;
+  f.extended = s.id->extended;
+  f.dlc = static_cast<std::uint8_t>(s.data_len);  // without the Tx-Counter byte (manual §5.1.2)
+  std::memcpy(f.data.data(), s.last.data(), s.data_len);
+  form_swap(std::span(f.data.data(), s.data_len), s.form);
+  tx.transmit(f);
+}
+
+void SlotEngine::on_outputs(std::span<const std::uint8_t> outputs, TxPort& tx) {
+  const bool active = tx.tx_active();
+  for (TxSlot& s : tx_) {
+    const std::uint8_t* bytes = outputs.data() + s.offset;
+    // emulator-spec §4: data bytes or the Tx-Counter byte differ from the previous Data_Exchange.
+    const bool changed = !s.have_data || std::memcmp(s.last.data(), bytes, s.length) != 0;
+    if (changed) std::memcpy(s.last.data(), bytes, s.length);
+    s.have_data = true;
+    if (active && (changed || !s.sent_since_release)) {
+      send(s, tx);
+      s.sent_since_release = true;
+    }
+  }
+}
+
+bool SlotEngine::on_frame(const can::Frame& frame, std::span<std::uint8_t> inputs) {
+  if (frame.remote) return false;  // emulator-spec §4: remote frames never update slots
+  const auto key = ident_key(frame);
+  auto it =
+      std::lower_bound(rx_index_.begin(), rx_index_.end(), std::make_pair(key, std::uint16_t{0}));
+  if (it == rx_index_.end() || it->first != key) return false;
+  RxSlot& s = rx_[it->second];
+  std::uint8_t* dst = inputs.data() + s.offset;
+  const std::size_t n = std::min<std::size_t>(frame.dlc, s.data_len);
+  std::memcpy(dst, frame.data.data(), n);
+  std::memset(dst + n, 0, s.data_len - n);  // the rest of the slot's data bytes are zero
+  form_swap(std::span(dst, s.data_len), s.form);
+  if (s.counter) dst[s.data_len] = ++s.count;  // Rx-Counter: modulo 256 (manual §5.1.2)
+  return true;
+}
+
+void SlotEngine::on_release(Time now, TxPort& tx) {
+  released_ = true;
+  for (TxSlot& s : tx_) {
+    s.sent_since_release = false;
+    // emulator-spec §4: the cycle timer runs freely from release.
+    s.next_cycle = now + milliseconds(s.cycle_ms);
+    if (s.have_data && tx.tx_active()) {
+      send(s, tx);
+      s.sent_since_release = true;
+    }
+  }
+}
+
+void SlotEngine::advance(Time now, TxPort& tx) {
+  if (!released_) return;
+  const bool active = tx.tx_active();
+  for (TxSlot& s : tx_) {
+    if (s.cycle_ms == 0) continue;
+    const auto period = milliseconds(s.cycle_ms);
+    if (s.next_cycle > now) continue;
+    // One send per due time; a late call catches up by skipping missed periods (a real CAN
+    // controller would not queue a burst of stale cyclic frames either).
+    if (active && s.have_data) {
+      send(s, tx);
+      s.sent_since_release = true;
+    }
+    const auto missed = (now - s.next_cycle) / period;
+    s.next_cycle += period * (missed + 1);
+  }
+}
+
+std::optional<Time> SlotEngine::next_deadline() const {
+  if (!released_) return std::nullopt;
+  std::optional<Time> next;
+  for (const TxSlot& s : tx_)
+    if (s.cycle_ms && (!next || s.next_cycle < *next)) next = s.next_cycle;
+  return next;
+}
+
+std::vector<can::Ident> SlotEngine::rx_idents() const {
+  return rx_ids_;
+}
+
+}  // namespace candp2::gw

@@ -1,0 +1,64 @@
+// Normal-mode slot traffic (manual §2.2, §3.2.3, §5.2.2-5.2.3; emulator-spec §4):
+// Tx on release, on change and every `cycle` ms; Rx into the input image with zero fill, form swap,
+// Rx-Counter; "the later Rx slot wins". Pure; the input image is owned by the caller.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "common/time.hpp"
+#include "gateway/slot_config.hpp"
+#include "gateway/tx_port.hpp"
+
+namespace candp2::gw {
+
+class SlotEngine {
+ public:
+  void configure(const SlotConfig& cfg);
+  void clear() { configure(SlotConfig{}); }
+
+  // One Data_Exchange's output image: frames for Tx slots whose bytes changed (or that never sent
+  // since release) go out when tx.tx_active().
+  void on_outputs(std::span<const std::uint8_t> outputs, TxPort& tx);
+  // A received frame: true when an input slot took it; the slot's bytes in `inputs` are updated.
+  bool on_frame(const can::Frame& frame, std::span<std::uint8_t> inputs);
+  // Transmission released: every Tx slot that has data goes out once; cycle timers start now.
+  void on_release(Time now, TxPort& tx);
+  // Cyclic sends due at or before `now`.
+  void advance(Time now, TxPort& tx);
+  std::optional<Time> next_deadline() const;
+
+  std::vector<can::Ident> rx_idents() const;
+  std::size_t tx_slot_count() const { return tx_.size(); }
+  std::size_t rx_slot_count() const { return rx_.size(); }
+
+ private:
+  struct TxSlot {
+    std::size_t offset = 0, length = 0, data_len = 0;
+    std::optional<can::Ident> id;
+    std::uint8_t form = 0;
+    std::uint16_t cycle_ms = 0;
+    std::array<std::uint8_t, 9> last{};  // image bytes of the previous Data_Exchange
+    bool have_data = false;              // a Data_Exchange delivered data
+    bool sent_since_release = false;
+    Time next_cycle{0};
+  };
+  struct RxSlot {
+    std::size_t offset = 0, data_len = 0;
+    bool counter = false;
+    std::uint8_t form = 0;
+    std::uint8_t count = 0;
+  };
+  void send(const TxSlot& s, TxPort& tx) const;
+
+  std::vector<TxSlot> tx_;
+  std::vector<RxSlot> rx_;
+  std::vector<std::pair<std::uint32_t, std::uint16_t>> rx_index_;  // ident key -> rx_ index, sorted
+  std::vector<can::Ident> rx_ids_;  // distinct Rx identifiers in slot order
+  bool released_ = false;
+};
+
+}  // namespace candp2::gw
