@@ -1,0 +1,130 @@
+// The simulated DP master (class 1) with its PLC process image (emulator-spec §8).
+//
+// Per slave: Slave_Diag → Set_Prm → Chk_Cfg → Slave_Diag → cyclic Data_Exchange, retrying the
+// parameterization while the slave reports a fault; every transition and the diagnosis it saw are
+// logged (the pyprofibus master's discipline: state → name, handler, time limit). The master owns
+// one PLC process image (I and Q, 8192 bytes each) shared by all slaves, as in a PLC; slot bytes
+// are copied between the image and each slave's DP data at the PLC addresses of the configuration.
+// Pure: time passed in; the daemon calls cycle() every cycle_ms.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "common/log.hpp"
+#include "common/time.hpp"
+#include "profibus_sim/dp_slave.hpp"
+
+namespace candp2::dp {
+
+inline constexpr std::size_t kImageSize = 8192;  // emulator-spec §8: registers 0..4095 x 2 bytes
+
+struct ProcessImage {
+  std::array<std::uint8_t, kImageSize> inputs{};   // PLC I bytes (slave → PLC)
+  std::array<std::uint8_t, kImageSize> outputs{};  // PLC Q bytes (PLC → slave)
+};
+
+// A PLC program run once per master cycle before the Data_Exchanges (reads I, writes Q), e.g. the
+// Page-Mode driver (FB2 equivalent).
+class PlcProgram {
+ public:
+  virtual ~PlcProgram() = default;
+  virtual void scan(ProcessImage& image, Time now) = 0;
+};
+
+// Where a Chk_Cfg entry's bytes live in the PLC image (the addresses of the SIMATIC dialog).
+struct EntryAddress {
+  std::optional<std::uint16_t> input;   // PLC I address of the entry's input bytes
+  std::optional<std::uint16_t> output;  // PLC Q address of the entry's output bytes
+};
+
+struct SlaveParameters {
+  std::vector<std::uint8_t> prm;        // the whole Set_Prm telegram
+  std::vector<std::uint8_t> cfg;        // Chk_Cfg data
+  std::vector<EntryAddress> addresses;  // one per Chk_Cfg entry (missing = not mapped)
+  std::string name;
+};
+
+enum class MasterSlaveState : std::uint8_t {
+  Init,       // read the diagnosis to see whether the slave is there
+  SetPrm,     // send Set_Prm
+  ChkCfg,     // send Chk_Cfg
+  CheckDiag,  // read the diagnosis: ready for Data_Exchange?
+  DataExch,   // cyclic Data_Exchange
+  Retry,      // a fault was reported; wait, then start again
+};
+std::string_view to_string(MasterSlaveState s);
+
+struct MasterOptions {
+  std::uint8_t address = 1;
+  Duration retry_delay = milliseconds(1000);  // between parameterization attempts after a fault
+};
+
+class DpMaster {
+ public:
+  DpMaster(MasterOptions options, LogSink* log = nullptr);
+
+  // The slave must outlive the master. Returns the slave's index.
+  std::size_t add_slave(DpSlave& slave, SlaveParameters params);
+  void set_program(PlcProgram* program) { program_ = program; }
+
+  // One bus cycle: the PLC program scans, then each slave's state machine takes one step
+  // (a Data_Exchange for slaves in Data_Exch).
+  void cycle(Time now);
+
+  // Start parameterization of a slave again (Modbus control register 8192 = 2).
+  void reparameterize(std::uint8_t slave_address, Time now);
+
+  ProcessImage& image() { return image_; }
+  const ProcessImage& image() const { return image_; }
+
+  struct SlaveView {
+    std::uint8_t address;
+    MasterSlaveState state;
+    std::optional<DpSlave::Diag> last_diag;
+    std::uint32_t data_exchanges;
+    std::uint32_t parameterizations;
+  };
+  std::vector<SlaveView> slaves() const;
+  std::optional<SlaveView> slave(std::uint8_t address) const;
+  std::uint8_t address() const { return options_.address; }
+
+ private:
+  struct Mapping {
+    std::size_t dp_offset;
+    std::uint16_t plc_address;
+    std::size_t length;
+  };
+  struct Entry {
+    DpSlave* slave;
+    SlaveParameters params;
+    std::vector<Mapping> out_map, in_map;
+    std::size_t out_len = 0, in_len = 0;
+    std::vector<std::uint8_t> out_buf;
+    MasterSlaveState state = MasterSlaveState::Init;
+    std::optional<DpSlave::Diag> last_diag;
+    Time retry_at{0};
+    std::uint32_t data_exchanges = 0;
+    std::uint32_t parameterizations = 0;
+  };
+  void step(Entry& e, Time now);
+  void go(Entry& e, MasterSlaveState next, std::string_view why);
+  void read_diag(Entry& e, Time now);
+  void fault(Entry& e, Time now, std::string_view why);
+
+  MasterOptions options_;
+  Logger log_;
+  ProcessImage image_;
+  PlcProgram* program_ = nullptr;
+  std::vector<Entry> entries_;
+};
+
+// "02 05 00 FF 04 A4 05 04 00 00 00" decoded into words, for logs and reports:
+// "Station_Not_Ready Prm_Req master=none ident=04A4 ext=00 00 00".
+std::string describe_diag(const DpSlave::Diag& d);
+
+}  // namespace candp2::dp
