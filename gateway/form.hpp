@@ -7,6 +7,7 @@
 // The function is its own inverse, so the same call converts in both directions.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <utility>
@@ -35,6 +36,14 @@ inline void form_swap(std::span<std::uint8_t> data, std::uint8_t form) {
     }
   }
   if (open && n > 0) reverse(start, n - 1);
+}
+
+// The same conversion as a permutation: out[i] = in[perm[i]]. Precomputed per slot so the hot
+// path is a table lookup instead of a bit walk.
+inline std::array<std::uint8_t, 8> form_permutation(std::uint8_t form, std::size_t n) {
+  std::array<std::uint8_t, 8> perm{0, 1, 2, 3, 4, 5, 6, 7};
+  form_swap(std::span(perm.data(), n < 8 ? n : 8), form);
+  return perm;
 }
 
 }  // namespace candp2::gw

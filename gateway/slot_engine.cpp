@@ -20,7 +20,7 @@ void SlotEngine::configure(const SlotConfig& cfg) {
       t.length = s.length;
       t.data_len = s.data_len;
       t.id = s.id;
-      t.form = s.form;
+      t.perm = form_permutation(s.form, s.data_len);
       t.cycle_ms = s.cycle_ms;
       tx_.push_back(t);
     } else if (s.kind == SlotKind::Rx) {
@@ -28,7 +28,8 @@ void SlotEngine::configure(const SlotConfig& cfg) {
       r.offset = s.offset;
       r.data_len = s.data_len;
       r.counter = s.counter;
-      r.form = s.form;
+      r.swap = s.form != kFormNone;
+      r.perm = form_permutation(s.form, s.data_len);
       const auto key = ident_key(*s.id);
       // manual §5.2.1: the same Rx identifier on two slots - the later slot wins.
       auto it = std::find_if(rx_index_.begin(), rx_index_.end(),
@@ -51,8 +52,7 @@ void SlotEngine::send(const TxSlot& s, TxPort& tx) const {
   f.id = s.id->id;
   f.extended = s.id->extended;
   f.dlc = static_cast<std::uint8_t>(s.data_len);  // without the Tx-Counter byte (manual §5.1.2)
-  std::memcpy(f.data.data(), s.last.data(), s.data_len);
-  form_swap(std::span(f.data.data(), s.data_len), s.form);
+  for (std::size_t i = 0; i < s.data_len; ++i) f.data[i] = s.last[s.perm[i]];
   tx.transmit(f);
 }
 
@@ -80,9 +80,13 @@ bool SlotEngine::on_frame(const can::Frame& frame, std::span<std::uint8_t> input
   RxSlot& s = rx_[it->second];
   std::uint8_t* dst = inputs.data() + s.offset;
   const std::size_t n = std::min<std::size_t>(frame.dlc, s.data_len);
-  std::memcpy(dst, frame.data.data(), n);
-  std::memset(dst + n, 0, s.data_len - n);  // the rest of the slot's data bytes are zero
-  form_swap(std::span(dst, s.data_len), s.form);
+  std::array<std::uint8_t, 8> bytes{};  // the rest of the slot's data bytes are zero
+  std::memcpy(bytes.data(), frame.data.data(), n);
+  if (s.swap) {
+    for (std::size_t i = 0; i < s.data_len; ++i) dst[i] = bytes[s.perm[i]];
+  } else {
+    std::memcpy(dst, bytes.data(), s.data_len);
+  }
   if (s.counter) dst[s.data_len] = ++s.count;  // Rx-Counter: modulo 256 (manual §5.1.2)
   return true;
 }

@@ -39,7 +39,7 @@ class SlotEngine {
   struct TxSlot {
     std::size_t offset = 0, length = 0, data_len = 0;
     std::optional<can::Ident> id;
-    std::uint8_t form = 0;
+    std::array<std::uint8_t, 8> perm{};  // form as a permutation (manual §5.2.2)
     std::uint16_t cycle_ms = 0;
     std::array<std::uint8_t, 9> last{};  // image bytes of the previous Data_Exchange
     bool have_data = false;              // a Data_Exchange delivered data
@@ -49,7 +49,8 @@ class SlotEngine {
   struct RxSlot {
     std::size_t offset = 0, data_len = 0;
     bool counter = false;
-    std::uint8_t form = 0;
+    bool swap = false;
+    std::array<std::uint8_t, 8> perm{};  // form as a permutation (manual §5.2.2)
     std::uint8_t count = 0;
   };
   void send(const TxSlot& s, TxPort& tx) const;

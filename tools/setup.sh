@@ -1,0 +1,117 @@
+#!/usr/bin/env bash
+# candp2 set-up for a fresh Debian 12 machine (run as root, or with sudo available).
+#
+#   tools/setup.sh run    install what is needed, build, run candp2d on its embedded default
+#                         (virtual CAN bus, simulated drives, Modbus on 127.0.0.1:1502)
+#   tools/setup.sh test   install what is needed, build, run every test: unit and end-to-end tests,
+#                         the unit tests again under ASan/UBSan, every libFuzzer target for a bounded
+#                         time, and the SocketCAN tests inside a QEMU guest
+#   tools/setup.sh deps   only install the packages
+#
+# Environment: CANDP2_FUZZ_SECONDS (default 30 per target), CANDP2_JOBS (default: nproc).
+set -euo pipefail
+
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$here"
+jobs=${CANDP2_JOBS:-$(nproc)}
+fuzz_seconds=${CANDP2_FUZZ_SECONDS:-30}
+
+# Debian packages, one purpose per line.
+packages=(
+  build-essential cmake ninja-build pkg-config          # toolchain
+  clang-14 libclang-rt-14-dev clang-format              # libFuzzer, sanitizers, formatting
+  libgtest-dev libgmock-dev libbenchmark-dev            # tests and benchmarks
+  libmodbus-dev nlohmann-json3-dev libcli11-dev         # Modbus/TCP, JSON configuration, CLI
+  libspdlog-dev libfmt-dev                              # logging
+  can-utils mbpoll                                      # independent CAN and Modbus peers
+  python3-can python3-pymodbus python3-serial-asyncio   # independent python peers (/usr/bin/python3)
+  qemu-system-x86 linux-image-amd64 busybox-static      # the SocketCAN guest (vcan)
+)
+
+as_root() {
+  if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi
+}
+
+install_deps() {
+  local missing=()
+  for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  if [ ${#missing[@]} -eq 0 ]; then
+    echo "setup: all ${#packages[@]} packages present"
+    return
+  fi
+  echo "setup: installing ${missing[*]}"
+  as_root env DEBIAN_FRONTEND=noninteractive apt-get update -q
+  as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
+}
+
+configure_build() {  # DIR [cmake args...]
+  local dir=$1
+  shift
+  cmake -S . -B "$dir" -G Ninja "$@" >/dev/null
+  cmake --build "$dir" -j "$jobs"
+}
+
+run_daemon() {
+  configure_build build -DCMAKE_BUILD_TYPE=Release
+  echo "setup: starting build/bin/candp2d (Ctrl-C to stop)"
+  exec build/bin/candp2d "$@"
+}
+
+run_fuzzers() {
+  local dir=build-fuzz
+  CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -G Ninja -DCANDP2_FUZZ=ON -DCANDP2_APPS=OFF \
+    -DCANDP2_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+  cmake --build "$dir" -j "$jobs"
+  local failed=0 ran=0
+  for f in "$dir"/fuzz/*; do
+    [ -x "$f" ] || continue
+    local name corpus
+    name=$(basename "$f")
+    corpus="tests/fuzz/corpus/$name"
+    local work="$dir/fuzz-work/$name"
+    mkdir -p "$work"
+    [ -d "$corpus" ] && cp -n "$corpus"/* "$work"/ 2>/dev/null || true
+    echo "fuzz: $name for ${fuzz_seconds}s"
+    if "$f" -max_total_time="$fuzz_seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+      -artifact_prefix="$dir/fuzz-work/$name-" "$work" >"$dir/fuzz-work/$name.log" 2>&1; then
+      echo "fuzz: $name ok ($(grep -m1 -o 'stat::number_of_executed_units: [0-9]*' "$dir/fuzz-work/$name.log"))"
+    else
+      echo "fuzz: $name FAILED"
+      tail -40 "$dir/fuzz-work/$name.log"
+      failed=$((failed + 1))
+    fi
+    ran=$((ran + 1))
+  done
+  echo "fuzz: $ran targets, $failed failed"
+  [ "$ran" -gt 0 ] && [ "$failed" -eq 0 ]
+}
+
+run_tests() {
+  local status=0
+  echo "== build and all tests (unit, e2e, replay, qemu)"
+  configure_build build -DCMAKE_BUILD_TYPE=RelWithDebInfo
+  ctest --test-dir build --output-on-failure -j "$jobs" --timeout 600 || status=1
+
+  echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer"
+  configure_build build-asan -DCMAKE_BUILD_TYPE=Debug -DCANDP2_SANITIZE=ON -DCANDP2_BENCH=OFF
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
+    ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit --timeout 600 || status=1
+
+  echo "== libFuzzer targets, ${fuzz_seconds}s each"
+  run_fuzzers || status=1
+
+  if [ $status -eq 0 ]; then echo "setup: ALL TESTS PASSED"; else echo "setup: SOME TESTS FAILED"; fi
+  return $status
+}
+
+case "${1:-}" in
+  deps) install_deps ;;
+  run) install_deps; shift; run_daemon "$@" ;;
+  test) install_deps; run_tests ;;
+  *)
+    echo "usage: $0 run|test|deps" >&2
+    exit 2
+    ;;
+esac
