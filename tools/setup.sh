@@ -25,7 +25,7 @@ packages=(
   libspdlog-dev libfmt-dev                              # logging
   can-utils mbpoll                                      # independent CAN and Modbus peers
   python3-can python3-pymodbus python3-serial-asyncio   # independent python peers (/usr/bin/python3)
-  qemu-system-x86 linux-image-amd64 busybox-static      # the SocketCAN guest (vcan)
+  qemu-system-x86 linux-image-amd64 busybox-static python3 # the SocketCAN guest (vcan)
 )
 
 as_root() {
