@@ -1,0 +1,19 @@
+// Consistency check of a parsed GSD model: what a configuration tool would reject or
+// misinterpret. Usable by `candp2 gsd FILE` next to the parse diagnostics.
+#pragma once
+
+#include <vector>
+
+#include "gsd/gsd.hpp"
+
+namespace candp2::gsd {
+
+// Findings in line order. Errors: mandatory keywords missing, references to undefined
+// ExtUserPrmData/PrmText/modules, defaults outside their range, parameter offsets beyond
+// User_Prm_Data_Len / Max_User_Prm_Data_Len, malformed module configuration bytes, limits
+// exceeded. Warnings: doubtful but workable entries (e.g. User_Prm_Data disagreeing with the
+// Ext_User_Prm_Data defaults). For the CAN-DP/2 (Ident_Number 0x04A4) module entries are also
+// checked against the gateway's slot rules (manual §7, emulator-spec §2).
+std::vector<Diagnostic> check(const Model& model);
+
+}  // namespace candp2::gsd

@@ -1,0 +1,153 @@
+// Model accessors.
+#include <algorithm>
+
+#include "gsd/gsd.hpp"
+#include "gsd/text.hpp"
+
+namespace candp2::gsd {
+
+std::string_view to_string(PrmType t) {
+  switch (t) {
+    case PrmType::Unsigned8:
+      return "Unsigned8";
+    case PrmType::Unsigned16:
+      return "Unsigned16";
+    case PrmType::Unsigned32:
+      return "Unsigned32";
+    case PrmType::Signed8:
+      return "Signed8";
+    case PrmType::Signed16:
+      return "Signed16";
+    case PrmType::Signed32:
+      return "Signed32";
+    case PrmType::Bit:
+      return "Bit";
+    case PrmType::BitArea:
+      return "BitArea";
+  }
+  return "?";
+}
+
+const std::string* PrmText::text_for(std::int64_t value) const {
+  for (const auto& [v, t] : texts)
+    if (v == value) return &t;
+  return nullptr;
+}
+
+std::optional<std::int64_t> PrmText::value_for(std::string_view text) const {
+  text = detail::trim(text);
+  for (const auto& [v, t] : texts)
+    if (iequals(detail::trim(t), text)) return v;
+  return std::nullopt;
+}
+
+std::size_t ExtUserPrmData::size() const {
+  switch (type) {
+    case PrmType::Unsigned16:
+    case PrmType::Signed16:
+      return 2;
+    case PrmType::Unsigned32:
+    case PrmType::Signed32:
+      return 4;
+    default:
+      return 1;
+  }
+}
+
+bool ExtUserPrmData::allows(std::int64_t v) const {
+  if (min && max) return *min <= v && v <= *max;
+  if (!allowed.empty()) return std::find(allowed.begin(), allowed.end(), v) != allowed.end();
+  return true;
+}
+
+std::string ExtUserPrmData::range_text() const {
+  if (min && max) return std::to_string(*min) + "-" + std::to_string(*max);
+  std::string out;
+  for (auto v : allowed) out += (out.empty() ? "" : ",") + std::to_string(v);
+  return out;
+}
+
+const Setting* Model::find(std::string_view key) const {
+  for (const auto& s : settings)
+    if (!s.index && iequals(s.key, key)) return &s;
+  return nullptr;
+}
+
+const Setting* Model::find(std::string_view key, std::int64_t index) const {
+  for (const auto& s : settings)
+    if (s.index && *s.index == index && iequals(s.key, key)) return &s;
+  return nullptr;
+}
+
+std::optional<std::int64_t> Model::number(std::string_view key) const {
+  const Setting* s = find(key);
+  if (s && s->value.kind == Value::Kind::Number) return s->value.number;
+  return std::nullopt;
+}
+
+std::optional<std::string> Model::string(std::string_view key) const {
+  const Setting* s = find(key);
+  if (s && (s->value.kind == Value::Kind::String || s->value.kind == Value::Kind::Text))
+    return s->value.text;
+  return std::nullopt;
+}
+
+std::string Model::vendor_name() const {
+  return string("Vendor_Name").value_or("");
+}
+std::string Model::model_name() const {
+  return string("Model_Name").value_or("");
+}
+std::optional<std::int64_t> Model::ident_number() const {
+  return number("Ident_Number");
+}
+std::optional<std::int64_t> Model::gsd_revision() const {
+  return number("GSD_Revision");
+}
+
+Limits Model::limits() const {
+  Limits l;
+  l.max_module = number("Max_Module");
+  l.max_input_len = number("Max_Input_Len");
+  l.max_output_len = number("Max_Output_Len");
+  l.max_data_len = number("Max_Data_Len");
+  l.max_user_prm_data_len = number("Max_User_Prm_Data_Len");
+  l.user_prm_data_len = number("User_Prm_Data_Len");
+  l.max_diag_data_len = number("Max_Diag_Data_Len");
+  l.min_slave_intervall = number("Min_Slave_Intervall");
+  l.modul_offset = number("Modul_Offset");
+  l.modular_station = number("Modular_Station").value_or(0) != 0;
+  return l;
+}
+
+std::optional<std::vector<std::uint8_t>> Model::user_prm_data() const {
+  const Setting* s = find("User_Prm_Data");
+  if (!s) return std::nullopt;
+  std::vector<std::uint8_t> out;
+  if (s->value.kind == Value::Kind::Number && s->value.number >= 0 && s->value.number <= 0xFF)
+    out.push_back(static_cast<std::uint8_t>(s->value.number));
+  for (auto n : s->value.numbers)
+    if (n >= 0 && n <= 0xFF) out.push_back(static_cast<std::uint8_t>(n));
+  return out;
+}
+
+const PrmText* Model::prm_text(std::int64_t ref) const {
+  for (const auto& t : prm_texts)
+    if (t.ref == ref) return &t;
+  return nullptr;
+}
+
+const ExtUserPrmData* Model::ext_user_prm(std::int64_t ref) const {
+  for (const auto& d : ext_user_prm_data)
+    if (d.ref == ref) return &d;
+  return nullptr;
+}
+
+const Module* Model::module(std::string_view name) const {
+  name = detail::trim(name);
+  for (const auto& m : modules)
+    if (iequals(detail::trim(m.name), name)) return &m;
+  return nullptr;
+}
+
+}  // namespace candp2::gsd
