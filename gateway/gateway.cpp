@@ -76,7 +76,8 @@ Gateway::Gateway(GatewayOptions options, can::FrameSink& can_tx, Time power_on)
   if (address_ != options.address)
     log_.warn("station address " + std::to_string(options.address) + " clamped to " +
               std::to_string(address_) + " (manual §2.1: 3..124)");
-  cw_.reset();
+  cw_.set_logger(Logger(options.log, "gw" + std::to_string(address_) + ".cw"));
+  page_.set_logger(Logger(options.log, "gw" + std::to_string(address_) + ".page"));
 }
 
 // ---------------------------------------------------------------- DP slave application
@@ -85,7 +86,9 @@ std::optional<dp::PrmFault> Gateway::on_set_prm(std::span<const std::uint8_t> te
   auto decoded = decode_user_prm(telegram);
   if (auto* fault = std::get_if<dp::PrmFault>(&decoded)) return *fault;
   const UserPrm& p = std::get<UserPrm>(decoded);
-  const bool role_changed = !prm_ || prm_->role() != p.role() || prm_->module_id != p.module_id;
+  // The ModuleID matters to the CANopen slave only (boot frame, NMT addressing).
+  const bool role_changed = !prm_ || prm_->role() != p.role() ||
+                            (p.role() == CanopenRole::Slave && prm_->module_id != p.module_id);
   prm_ = p;
   // manual table 5.1.2: without a CANopen role, wake-up, RTR, Start-Frame and SYNC are ignored.
   if (p.role() != CanopenRole::None) {
@@ -94,14 +97,18 @@ std::optional<dp::PrmFault> Gateway::on_set_prm(std::span<const std::uint8_t> te
   }
   sync_ms_ = p.role() == CanopenRole::Master ? stored_sync_ms_ : 0;
   if (role_changed) {
-    released_ = false;
+    // The new role's release rules start from scratch (emulator-spec §7).
+    halt("CANopen role or ModuleID changed");
     boot_sent_ = false;
     nmt_ = NmtState::Initialising;
   }
+  schedule_sync(now);  // manual §5.1.2 note: the SYNC time written last is valid from now on
   log_.info(std::string("parameters: ") + std::to_string(kBitrates[p.bitrate_index] / 1000) +
             " kbit/s, CANopen " + std::string(to_string(p.role())) +
             (p.page_mode ? ", Page-Mode" : "") + (p.comm_window ? ", Communication Window" : ""));
-  update_release(now);
+  // Only the boot frame here: the DP slave still is in its old state (Data_Exch, maybe) until this
+  // Set_Prm is accepted; release waits for the new Chk_Cfg.
+  boot_if_due(now);
   return std::nullopt;
 }
 
@@ -131,7 +138,9 @@ std::optional<dp::CfgFault> Gateway::on_chk_cfg(std::span<const std::uint8_t> cf
     const Slot& cw_out = cfg_->slots[*cfg_->cw_out];
     // manual §5.1.2 note: CW comment bytes 4-5 are an equal SYNC source (00 00 = not given).
     for (const Slot* s : {&cw, &cw_out})
-      if (s->cw_sync_ms != 0) set_sync_time(s->cw_sync_ms, now);
+      if (s->cw_sync_ms != 0 && !set_sync_time(s->cw_sync_ms, now))
+        log_.info("CW comment bytes 4-5: SYNC time " + std::to_string(s->cw_sync_ms) +
+                  " ms ignored (not a CANopen master, manual table 5.1.2)");
   }
   log_.info("configuration: " + std::to_string(cfg_->slots.size()) + " slots, " +
             std::to_string(cfg_->input_len) + " input / " + std::to_string(cfg_->output_len) +
@@ -140,14 +149,16 @@ std::optional<dp::CfgFault> Gateway::on_chk_cfg(std::span<const std::uint8_t> cf
 }
 
 void Gateway::on_enter_data_exchange(Time now) {
-  update_release(now);
-  // Slot traffic resumes (after a watchdog drop, too): every Tx slot once, cycle timers restart.
-  if (released_) {
-    if (cfg_ && cfg_->page_mode)
-      page_.on_release(now, *this);
-    else
-      slots_.on_release(now, *this);
+  if (!released_) {
+    update_release(now);  // the first release: start frame, every Tx slot once, RTR frames
+    return;
   }
+  // Slot traffic resumes after a watchdog drop or a re-parameterization: every Tx slot once, cycle
+  // timers restart (emulator-spec §1, §4).
+  if (cfg_->page_mode)
+    page_.on_release(now, *this);
+  else
+    slots_.on_release(now, *this);
 }
 
 void Gateway::on_leave_data_exchange(Time) {
@@ -157,6 +168,7 @@ void Gateway::on_leave_data_exchange(Time) {
 void Gateway::on_data_exchange(std::span<const std::uint8_t> outputs,
                                std::span<std::uint8_t> inputs, Time now) {
   ++data_exchanges_;
+  fire_sync(now);  // a SYNC already due goes out before this exchange's frames
   const std::uint32_t tx_before = tx_frames_;
   burst_bits_ = 0;
   if (cfg_->page_mode) {
@@ -173,8 +185,12 @@ void Gateway::on_data_exchange(std::span<const std::uint8_t> outputs,
   if (tx_frames_ != tx_before && prm_) {
     const std::uint64_t bitrate = kBitrates[prm_->bitrate_index];
     const auto busy = microseconds((std::uint64_t{burst_bits_} * 1000000u + bitrate - 1) / bitrate);
-    bus_busy_until_ = now + busy;
-    busy_from_ = now;
+    if (now >= bus_busy_until_) {
+      busy_from_ = now;
+      bus_busy_until_ = now + busy;
+    } else {
+      bus_busy_until_ += busy;  // queued behind the previous burst still on the wire
+    }
   }
   std::copy(input_image_.begin(), input_image_.end(), inputs.begin());
   if (cfg_->page_mode) page_.write_input_page(inputs.first(page_.input_page_len()));
@@ -236,24 +252,31 @@ void Gateway::set_controller_status(can::BusState state, std::uint32_t rx_lost_t
 // ---------------------------------------------------------------- release, CANopen (emulator-spec
 // §7)
 
+void Gateway::boot_if_due(Time now) {
+  // CANopen slave: the boot frame once the wake-up time is over, then pre-operational (manual
+  // table 5.1.2 "nach Wake-Up-Time sendet das Modul automatisch 128 dez + Module-No.").
+  if (role() == CanopenRole::Slave && !boot_sent_ && now >= wake_time()) {
+    send_boot_frame();
+    boot_sent_ = true;
+    nmt_ = NmtState::PreOperational;
+    log_.info("CANopen slave: boot frame sent, NMT pre-operational");
+  }
+}
+
 void Gateway::update_release(Time now) {
-  if (released_) return;
-  const bool configured = cfg_.has_value() && slave_.state() == dp::SlaveState::DataExch;
-  const Time wake = power_on_ + seconds(stored_wakeup_s_);
+  boot_if_due(now);
+  // Every role needs the whole configuration (Set_Prm, Chk_Cfg) and Data_Exch: the Tx slots and
+  // the Rx identifiers for the RTR frames come from it.
+  if (released_ || !cfg_ || slave_.state() != dp::SlaveState::DataExch) return;
   switch (role()) {
     case CanopenRole::None:
-      // Layer-2 mode: released when Data_Exch is first entered.
-      if (configured) release(now, "Data_Exch entered (layer-2 mode)");
+      release(now, "Data_Exch entered (layer-2 mode)");
       break;
     case CanopenRole::Master:
-      if (configured && now >= wake) release(now, "wake-up time elapsed (CANopen master)");
+      if (now >= wake_time()) release(now, "CANopen master: wake-up time over, Data_Exch");
       break;
     case CanopenRole::Slave:
-      if (!boot_sent_ && prm_ && now >= wake) {
-        send_boot_frame();
-        boot_sent_ = true;
-        nmt_ = NmtState::PreOperational;
-      }
+      if (nmt_ == NmtState::Operational) release(now, "CANopen slave: NMT start, Data_Exch");
       break;
   }
 }
@@ -262,28 +285,36 @@ void Gateway::release(Time now, std::string_view why) {
   released_ = true;
   log_.info("CAN transmission released: " + std::string(why));
   if (role() == CanopenRole::Master && prm_->start_frame) {
-    // emulator-spec §7: NMT start-all, ID 0, DLC 2, 01 00.
+    // emulator-spec §7: NMT start-all, ID 0, DLC 2, 01 00 (manual §9).
     const std::uint8_t start[] = {kNmtStart, 0x00};
     transmit(can::Frame::std_data(kNmtId, start));
   }
-  if (cfg_ && tx_active()) {
-    if (cfg_->page_mode)
-      page_.on_release(now, *this);
-    else
-      slots_.on_release(now, *this);
-  }
-  if (role() != CanopenRole::None && prm_->send_rtr) {
-    // One remote frame per Rx identifier (manual table 5.1.2 "RTR-Frames auf RxId senden").
-    const auto ids = cfg_ && cfg_->page_mode ? page_.rx_idents() : slots_.rx_idents();
-    for (const auto& id : ids) {
-      std::uint8_t dlc = 0;
-      if (cfg_)
-        for (const auto& s : cfg_->slots)
-          if (s.kind == SlotKind::Rx && s.id == id) dlc = static_cast<std::uint8_t>(s.data_len);
-      transmit(can::Frame::rtr(id.id, id.extended, dlc));
-    }
-  }
+  // Then every Tx slot once (emulator-spec §7).
+  if (cfg_->page_mode)
+    page_.on_release(now, *this);
+  else
+    slots_.on_release(now, *this);
+  // manual table 5.1.2: RTR-Frames only with a CANopen role (ignored in layer-2 mode).
+  if (role() != CanopenRole::None && prm_->send_rtr) send_rtr_frames();
   schedule_sync(now);
+}
+
+void Gateway::send_rtr_frames() {
+  // manual table 5.1.2 "RTR-Frames auf RxId senden": one remote frame per Rx identifier, in slot
+  // order. DLC = the data length the slot expects (CiA 301: a remote frame carries the DLC of the
+  // requested data frame); with one identifier on two slots the later slot wins (manual §5.2.1).
+  // Page-Mode never combines with a CANopen role (table 5.1.2), so only slots have Rx identifiers.
+  std::vector<std::pair<can::Ident, std::uint8_t>> rtr;
+  for (const Slot& s : cfg_->slots) {
+    if (s.kind != SlotKind::Rx || !s.id) continue;
+    const auto dlc = static_cast<std::uint8_t>(s.data_len);
+    auto it = std::find_if(rtr.begin(), rtr.end(), [&](const auto& e) { return e.first == *s.id; });
+    if (it != rtr.end())
+      it->second = dlc;
+    else
+      rtr.emplace_back(*s.id, dlc);
+  }
+  for (const auto& [id, dlc] : rtr) transmit(can::Frame::rtr(id.id, id.extended, dlc));
 }
 
 void Gateway::halt(std::string_view why) {
@@ -303,15 +334,23 @@ void Gateway::send_boot_frame() {
 }
 
 void Gateway::handle_nmt(const can::Frame& frame, Time now) {
-  if (frame.dlc < 2) return;
+  // manual §9: NMT on identifier 0, DLC 2: command, node (0 = all).
+  if (frame.dlc < 2) {
+    log_.info("NMT frame " + can::format_candump(frame) + " ignored: DLC below 2");
+    return;
+  }
   const std::uint8_t cmd = frame.data[0];
   const std::uint8_t node = frame.data[1];
-  if (node != 0 && node != prm_->module_id) return;
-  if (!boot_sent_) return;  // still initialising (wake-up time)
+  if (node != 0 && node != prm_->module_id) return;  // addressed to another node
+  if (!boot_sent_) {
+    log_.info("NMT frame " + can::format_candump(frame) + " ignored: still in the wake-up time");
+    return;
+  }
+  const NmtState before = nmt_;
   switch (cmd) {
     case kNmtStart:
       nmt_ = NmtState::Operational;
-      if (!released_) release(now, "NMT start (CANopen slave)");
+      update_release(now);  // now when in Data_Exch, else when Data_Exch is entered
       break;
     case kNmtStop:
       nmt_ = NmtState::Stopped;
@@ -323,22 +362,32 @@ void Gateway::handle_nmt(const can::Frame& frame, Time now) {
       break;
     case kNmtResetNode:
     case kNmtResetComm:
+      // emulator-spec §7: a reset repeats the boot frame; the node is pre-operational again.
       halt("NMT reset");
       send_boot_frame();
       nmt_ = NmtState::PreOperational;
       break;
     default:
-      log_.debug("NMT command " + hex_bytes(std::array{cmd}) + " ignored");
+      log_.info("NMT command " + hex_bytes(std::array{cmd}) + " ignored (manual §9: 01 80 81 82)");
+      return;
   }
+  log_.info("NMT " + hex_bytes(std::array{cmd}) + ": " + std::string(to_string(before)) + " -> " +
+            std::string(to_string(nmt_)));
 }
 
 bool Gateway::set_sync_time(std::uint16_t ms, Time now) {
   if (role() != CanopenRole::Master) return false;
+  if (ms == kSyncKeep) {
+    // Outside the range 0..FFFE (manual §5.3.3 command 20); read as Prm bytes 14-15 read it.
+    log_.info("SYNC time FFFF: the stored value " + std::to_string(stored_sync_ms_) +
+              " ms is kept");
+    return true;
+  }
   // manual §5.1.2 note: Prm bytes 14-15, CW comment bytes 4-5 and command 20 are equal sources;
-  // the last one written wins.
+  // the last one written wins, and it is the gateway's stored value (emulator-spec §1.1).
   sync_ms_ = ms;
   stored_sync_ms_ = ms;
-  log_.info("SYNC time " + std::to_string(ms) + " ms");
+  log_.info("SYNC time " + std::to_string(ms) + " ms" + (ms == 0 ? " (off)" : ""));
   schedule_sync(now);
   return true;
 }
@@ -356,15 +405,28 @@ void Gateway::advance(Time now) {
   slave_.advance(now);
   update_release(now);
   slots_.advance(now, *this);
-  if (next_sync_) {
-    Time due = *next_sync_;
-    if (due >= busy_from_ && due < bus_busy_until_) due = bus_busy_until_;
-    if (due <= now) {
-      if (tx_active()) transmit(can::Frame::std_data(kSyncId, {}));
-      const auto period = milliseconds(sync_ms_);
-      while (*next_sync_ <= now) *next_sync_ += period;
-    }
-  }
+  fire_sync(now);
+}
+
+std::optional<Time> Gateway::sync_due() const {
+  if (!next_sync_) return std::nullopt;
+  Time due = *next_sync_;
+  // manual §5.3.3 command 20 note: the SYNC cannot interrupt the frames of a Data_Exchange; one
+  // falling due meanwhile waits until they are out.
+  if (due >= busy_from_ && due < bus_busy_until_) due = bus_busy_until_;
+  return due;
+}
+
+void Gateway::fire_sync(Time now) {
+  const auto due = sync_due();
+  if (!due || *due > now) return;
+  // emulator-spec §7: SYNC ID 0x080, DLC 0. Like every cyclic send, only in Data_Exch (spec §1).
+  if (tx_active()) transmit(can::Frame::std_data(kSyncId, {}));
+  // The grid keeps its phase: a deferred SYNC does not move the next one, and grid points passed
+  // meanwhile are not sent late (manual: "geringe Zeitverschiebungen").
+  const auto period = milliseconds(sync_ms_);
+  const auto behind = (now - *next_sync_) / period;
+  *next_sync_ += period * (behind + 1);
 }
 
 std::optional<Time> Gateway::next_deadline() const {
@@ -373,14 +435,13 @@ std::optional<Time> Gateway::next_deadline() const {
     if (t && (!next || *t < *next)) next = t;
   };
   consider(slots_.next_deadline());
-  if (next_sync_) {
-    Time due = *next_sync_;
-    if (due >= busy_from_ && due < bus_busy_until_) due = bus_busy_until_;
-    consider(due);
-  }
-  const Time wake = power_on_ + seconds(stored_wakeup_s_);
-  if (!released_ && role() == CanopenRole::Master && cfg_) consider(wake);
-  if (!boot_sent_ && role() == CanopenRole::Slave) consider(wake);
+  consider(sync_due());
+  // Only deadlines that will act: the master releases at the wake-up time only in Data_Exch (it is
+  // released at once when Data_Exch comes later); the slave's boot frame needs Set_Prm.
+  if (!released_ && role() == CanopenRole::Master && cfg_ &&
+      slave_.state() == dp::SlaveState::DataExch)
+    consider(wake_time());
+  if (!boot_sent_ && role() == CanopenRole::Slave) consider(wake_time());
   return next;
 }
 
@@ -402,6 +463,7 @@ void Gateway::power_cycle(Time now) {
   sync_ms_ = 0;
   next_sync_.reset();
   bus_busy_until_ = busy_from_ = Time{0};
+  burst_bits_ = 0;
   rx_frames_ = tx_frames_ = data_exchanges_ = 0;
 }
 

@@ -100,12 +100,17 @@ class Gateway final : private dp::SlaveApplication, private CwHost {
   bool set_sync_time(std::uint16_t ms, Time now) override;
 
   CanopenRole role() const { return prm_ ? prm_->role() : CanopenRole::None; }
+  Time wake_time() const { return power_on_ + seconds(stored_wakeup_s_); }
+  void boot_if_due(Time now);
   void update_release(Time now);
   void release(Time now, std::string_view why);
+  void send_rtr_frames();
   void halt(std::string_view why);
   void send_boot_frame();
   void handle_nmt(const can::Frame& frame, Time now);
   void schedule_sync(Time now);
+  std::optional<Time> sync_due() const;  // next SYNC, deferred behind a Data_Exchange burst
+  void fire_sync(Time now);
 
   Logger log_;
   std::uint8_t address_;
@@ -129,10 +134,12 @@ class Gateway final : private dp::SlaveApplication, private CwHost {
   bool boot_sent_ = false;
   std::uint8_t stored_wakeup_s_ = 0;
   std::uint16_t stored_sync_ms_ = 0;
-  std::uint16_t sync_ms_ = 0;  // effective SYNC time (last written source wins)
-  std::optional<Time> next_sync_;
-  Time bus_busy_until_{0};  // end of the last Data_Exchange burst on the bus
-  Time busy_from_{0};       // start of that burst
+  std::uint16_t sync_ms_ = 0;      // effective SYNC time (last written source wins)
+  std::optional<Time> next_sync_;  // SYNC grid point (a deferred SYNC does not move the grid)
+  // The frames of Data_Exchanges occupy the bus in [busy_from_, bus_busy_until_); bursts that
+  // overlap merge into one window (manual §5.3.3 command 20 note).
+  Time bus_busy_until_{0};
+  Time busy_from_{0};
   std::uint32_t burst_bits_ = 0;
 
   // Counters.
