@@ -1,44 +1,640 @@
-// STUB: completed by the Page-Mode work (issue 4). Answers nothing yet.
 #include "gateway/page_mode.hpp"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstring>
+
+#include "common/hex.hpp"
+#include "gateway/form.hpp"
 
 namespace candp2::gw {
 
-void PageMode::configure(const SlotConfig& cfg) {
-  out_segments_.clear();
-  in_segments_.clear();
-  out_len_ = in_len_ = 0;
-  for (const auto& s : cfg.slots) {
-    if (s.kind == SlotKind::SegmentOut) {
-      out_segments_.push_back(s.length);
-      out_len_ += s.length;
-    } else if (s.kind == SlotKind::SegmentIn) {
-      in_segments_.push_back(s.length);
-      in_len_ += s.length;
+namespace page {
+
+std::string_view to_string(Status s) {
+  switch (s) {
+    case Status::Ok:
+      return "OK";
+    case Status::Unexpected:
+      return "page unexpected here";
+    case Status::BadEntry:
+      return "bad entry";
+    case Status::TooMany:
+      return "too many identifiers";
+    case Status::NotConfigured:
+      return "data page before the configuration is complete";
+  }
+  return "unknown status";
+}
+
+// ---------------------------------------------------------------- layout (emulator-spec §6.1)
+
+Layout::Layout(std::vector<std::size_t> segment_lengths) : segments_(std::move(segment_lengths)) {
+  for (std::size_t i = 0; i < segments_.size(); ++i) {
+    const std::size_t len = segments_[i];
+    offsets_.push_back(size_);
+    // First segment: payload from byte 8; every further segment: from byte 2.
+    const std::size_t skip = i == 0 ? kHeaderLen : kPageNumberLen;
+    const std::size_t payload = len > skip ? len - skip : 0;
+    regions_.push_back({size_ + std::min(skip, len), payload});
+    max_entry_ = std::max(max_entry_, payload);
+    size_ += len;
+  }
+}
+
+std::optional<Layout> Layout::from_sizes(std::size_t page_len, std::size_t segments) {
+  if (segments == 0) return page_len == 0 ? std::optional<Layout>(Layout{}) : std::nullopt;
+  const std::size_t full = kSegmentLen * (segments - 1);
+  if (page_len <= full || page_len - full > kSegmentLen) return std::nullopt;
+  std::vector<std::size_t> lengths(segments - 1, kSegmentLen);
+  lengths.push_back(page_len - full);
+  return Layout(std::move(lengths));
+}
+
+std::optional<std::size_t> Packer::place(std::size_t len) {
+  const auto& regions = layout_->regions();
+  while (region_ < regions.size()) {
+    const Region& r = regions[region_];
+    if (r.length - used_ >= len) {
+      const std::size_t at = r.offset + used_;
+      used_ += len;
+      return at;
+    }
+    ++region_;  // an entry never straddles two segments: the rest of this one stays unused
+    used_ = 0;
+  }
+  return std::nullopt;
+}
+
+bool Packer::fits(std::size_t len) const {
+  Packer trial = *this;
+  return trial.place(len).has_value();
+}
+
+std::optional<std::uint16_t> page_number(const Layout& layout, std::span<const std::uint8_t> page) {
+  if (layout.empty() || page.size() < layout.size()) return std::nullopt;
+  const auto& segs = layout.segments();
+  const auto& offs = layout.segment_offsets();
+  // A segment shorter than 2 bytes carries what fits of the number (spec §6.1 allows 1..32 bytes).
+  std::uint16_t number =
+      segs[0] >= 2 ? get_be16(page, 0) : static_cast<std::uint16_t>(page[0] << 8);
+  for (std::size_t i = 1; i < segs.size(); ++i) {
+    if (segs[i] >= 2) {
+      if (get_be16(page, offs[i]) != number) return std::nullopt;
+    } else if (page[offs[i]] != (number >> 8)) {
+      return std::nullopt;
     }
   }
+  return number;
+}
+
+void put_page_number(const Layout& layout, std::span<std::uint8_t> page, std::uint16_t number) {
+  const auto& segs = layout.segments();
+  const auto& offs = layout.segment_offsets();
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    if (segs[i] >= 2)
+      put_be16(page, offs[i], number);
+    else
+      page[offs[i]] = static_cast<std::uint8_t>(number >> 8);
+  }
+}
+
+// ---------------------------------------------------------------- entries (manual table 6.4.4)
+
+std::array<std::uint8_t, kEntryLen> encode_entry(const IdEntry& e) {
+  const std::uint32_t v = e.id.extended ? (e.id.id & can::kMaxExtId) | kIdFlag29 : e.id.id;
+  return {static_cast<std::uint8_t>(v >> 24),
+          static_cast<std::uint8_t>(v >> 16),
+          static_cast<std::uint8_t>(v >> 8),
+          static_cast<std::uint8_t>(v),
+          e.form,
+          e.length};
+}
+
+std::optional<IdEntry> decode_entry(std::span<const std::uint8_t> b, std::string* why) {
+  auto bad = [&](std::string text) -> std::optional<IdEntry> {
+    if (why) *why = std::move(text);
+    return std::nullopt;
+  };
+  const std::uint32_t v =
+      (std::uint32_t{b[0]} << 24) | (std::uint32_t{b[1]} << 16) | (std::uint32_t{b[2]} << 8) | b[3];
+  IdEntry e;
+  if (v & 0xC0000000u) return bad("identifier " + hex_bytes(b.first(4)) + ": bits 30/31 set");
+  if (v & kIdFlag29) {
+    e.id = {v & can::kMaxExtId, true};  // emulator-spec §6.3: bit 29 flags a 29-bit identifier
+  } else {
+    if (v > can::kMaxStdId)
+      return bad("identifier " + hex_bytes(b.first(4)) +
+                 ": above 7FF without bit 29 (29-bit identifiers need bit 29 set)");
+    e.id = {v, false};
+  }
+  e.form = b[4];
+  e.length = b[5];
+  if (e.length < kMinDataLen || e.length > kMaxDataLen)
+    return bad("length " + std::to_string(e.length) + " (1..8 allowed, manual §6.4.5)");
+  return e;
+}
+
+Marker marker_at(std::span<const std::uint8_t> b) {
+  if (b.size() < kMarkerLen) return Marker::None;
+  auto all = [&](std::uint8_t v) {
+    return std::all_of(b.begin(), b.begin() + kMarkerLen, [v](std::uint8_t x) { return x == v; });
+  };
+  if (all(kMarkerMore)) return Marker::More;
+  if (all(kMarkerEnd)) return Marker::End;
+  return Marker::None;
+}
+
+std::optional<ConfigPage> decode_config_page(const Layout& layout,
+                                             std::span<const std::uint8_t> page,
+                                             ConfigPageFault* fault) {
+  ConfigPage out;
+  for (const Region& r : layout.regions()) {
+    std::size_t pos = r.offset;
+    const std::size_t end = r.offset + r.length;
+    while (end - pos >= kMarkerLen) {
+      const Marker m = marker_at(page.subspan(pos, kMarkerLen));
+      if (m != Marker::None) {
+        out.complete = m == Marker::End;
+        return out;
+      }
+      if (end - pos < kEntryLen) break;  // padding: the next entry starts the next segment
+      std::string why;
+      auto e = decode_entry(page.subspan(pos, kEntryLen), &why);
+      if (!e) {
+        if (fault) *fault = {pos, "entry " + std::to_string(out.entries.size() + 1) + ": " + why};
+        return std::nullopt;
+      }
+      out.entries.push_back(*e);
+      pos += kEntryLen;
+    }
+  }
+  if (fault) *fault = {layout.size(), "no end marker (DD DD DD DD or EE EE EE EE)"};
+  return std::nullopt;
+}
+
+std::size_t encode_config_page(const Layout& layout, std::span<const RawEntry> entries,
+                               std::span<std::uint8_t> page) {
+  for (const Region& r : layout.regions())
+    std::fill_n(page.begin() + static_cast<std::ptrdiff_t>(r.offset), r.length, 0);
+  Packer packer(layout);
+  std::size_t n = 0;
+  while (n < entries.size()) {
+    // Place the next entry only when the end marker still fits after it.
+    Packer trial = packer;
+    if (!trial.place(kEntryLen) || !trial.fits(kMarkerLen)) break;
+    const std::size_t at = *packer.place(kEntryLen);
+    std::copy(entries[n].begin(), entries[n].end(), page.begin() + static_cast<std::ptrdiff_t>(at));
+    ++n;
+  }
+  if (auto at = packer.place(kMarkerLen)) {
+    const std::uint8_t m = n == entries.size() ? kMarkerEnd : kMarkerMore;
+    std::fill_n(page.begin() + static_cast<std::ptrdiff_t>(*at), kMarkerLen, m);
+  }
+  return n;
+}
+
+std::size_t encode_config_page(const Layout& layout, std::span<const IdEntry> entries,
+                               std::span<std::uint8_t> page) {
+  std::vector<RawEntry> raw;
+  raw.reserve(entries.size());
+  for (const auto& e : entries) raw.push_back(encode_entry(e));
+  return encode_config_page(layout, std::span<const RawEntry>(raw), page);
+}
+
+std::vector<DataPlace> pack_data(const Layout& layout, std::span<const IdEntry> entries) {
+  std::vector<DataPlace> out;
+  out.reserve(entries.size());
+  Packer packer(layout);
+  std::uint16_t page_index = 0;
+  for (const IdEntry& e : entries) {
+    const std::size_t len = 1u + e.length;  // force / count_in + data
+    if (len > layout.max_entry()) break;
+    auto at = packer.place(len);
+    if (!at) {
+      packer = Packer(layout);
+      ++page_index;
+      at = packer.place(len);
+    }
+    out.push_back({page_index, static_cast<std::uint16_t>(*at)});
+  }
+  return out;
+}
+
+std::size_t pages_used(std::span<const DataPlace> places) {
+  return places.empty() ? 0 : places.back().page + 1u;
+}
+
+}  // namespace page
+
+using page::Status;
+
+std::string_view to_string(PageMode::State s) {
+  switch (s) {
+    case PageMode::State::WaitInit:
+      return "waiting for page 0";
+    case PageMode::State::TxConfig:
+      return "Tx configuration";
+    case PageMode::State::RxConfig:
+      return "Rx configuration";
+    case PageMode::State::Data:
+      return "data exchange";
+  }
+  return "?";
+}
+
+// ---------------------------------------------------------------- configuration
+
+void PageMode::configure(const SlotConfig& cfg) {
+  std::vector<std::size_t> out, in;
+  for (const auto& s : cfg.slots) {
+    if (s.kind == SlotKind::SegmentOut) out.push_back(s.length);
+    if (s.kind == SlotKind::SegmentIn) in.push_back(s.length);
+  }
+  out_ = page::Layout(std::move(out));
+  in_ = page::Layout(std::move(in));
+  comm_window_ = cfg.cw_in.has_value();
   reset();
 }
 
-void PageMode::reset() {
-  input_page_.assign(in_len_, 0);
+void PageMode::clear_configuration() {
+  tx_.clear();
+  tx_idents_.clear();
+  tx_index_.clear();
+  rx_.clear();
+  rx_index_.clear();
+  tx_by_page_.clear();
+  rx_by_page_.clear();
+  data_pages_ = 0;
+  next_config_page_ = page::kTxConfigFirst;
+  last_data_fault_.clear();
 }
 
-void PageMode::on_output_page(std::span<const std::uint8_t>, Time, TxPort&) {}
+void PageMode::reset() {
+  clear_configuration();
+  state_ = State::WaitInit;
+  last_seq_.reset();
+  torn_ = false;
+  last_status_.reset();
+  input_page_.assign(in_.size(), 0);
+}
+
+// ---------------------------------------------------------------- answers (emulator-spec §6.2)
+
+void PageMode::answer(std::uint16_t number, std::uint8_t seq, Status status, std::uint16_t w4,
+                      std::uint16_t w6) {
+  std::fill(input_page_.begin(), input_page_.end(), 0);
+  if (in_.empty() || !in_.has_header()) return;  // decode_slots guarantees >= 32 input bytes
+  std::span<std::uint8_t> p(input_page_);
+  page::put_page_number(in_, p, number);
+  p[page::kSeqByte] = seq;
+  p[page::kStatusByte] = static_cast<std::uint8_t>(status);
+  page::put_be16(p, page::kWord4, w4);
+  page::put_be16(p, page::kWord6, w6);
+  last_status_ = status;
+}
+
+void PageMode::fail(std::uint16_t number, std::uint8_t seq, Status status, std::uint16_t w6,
+                    const std::string& why) {
+  answer(number, seq, status, 0, w6);
+  log_.warn("page " + std::to_string(number) + " (sequence " + std::to_string(seq) + "): status " +
+            std::to_string(static_cast<int>(status)) + " " + std::string(page::to_string(status)) +
+            ": " + why);
+}
+
+// ---------------------------------------------------------------- output pages
+
+void PageMode::on_output_page(std::span<const std::uint8_t> page, Time now, TxPort& tx) {
+  if (!out_.has_header() || page.size() < out_.size()) return;
+  const auto number = page::page_number(out_, page);
+  if (!number) {
+    // emulator-spec §6.2: a torn page is ignored until it is consistent.
+    if (!torn_) {
+      std::string numbers;
+      for (std::size_t i = 0; i < out_.segments().size(); ++i) {
+        const auto seg = page.subspan(out_.segment_offsets()[i], out_.segments()[i]);
+        numbers += (i ? ", " : "") + hex_bytes(seg.first(std::min<std::size_t>(2, seg.size())));
+      }
+      log_.info("torn output page ignored: its segments start with different page numbers (" +
+                numbers + ")");
+    }
+    torn_ = true;
+    return;
+  }
+  torn_ = false;
+  const std::uint8_t seq = page[page::kSeqByte];
+  // emulator-spec §6.2: each output page is processed once per sequence number.
+  if (last_seq_ && *last_seq_ == seq) return;
+  last_seq_ = seq;
+  ++pages_processed_;
+  if (log_.enabled(LogLevel::Debug))
+    log_.debug("page " + std::to_string(*number) + " sequence " + std::to_string(seq) + ": " +
+               hex_bytes(page.first(out_.size())));
+  const std::uint16_t n = *number;
+  if (n == page::kInitRequest) {
+    on_init(seq);
+  } else if (n >= page::kTxConfigFirst && n <= page::kTxConfigLast) {
+    on_tx_config(n, seq, page);
+  } else if (n >= page::kRxConfigFirst && n <= page::kRxConfigLast) {
+    on_rx_config(n, seq, page);
+  } else if (n >= page::kDataFirst) {
+    on_data(n, seq, page, tx);
+  } else {
+    fail(n, seq, Status::Unexpected, 0, "pages 1..50 are not sent by the PLC (manual table 6.4.3)");
+  }
+  (void)now;
+}
+
+void PageMode::on_init(std::uint8_t seq) {
+  // emulator-spec §6.3: page 0 resets; answer page 1 with the page sizes.
+  clear_configuration();
+  state_ = State::TxConfig;
+  answer(page::kInitAnswer, seq, Status::Ok, static_cast<std::uint16_t>(out_.size()),
+         static_cast<std::uint16_t>(in_.size()));
+  std::span<std::uint8_t> p(input_page_);
+  p[page::kInitOutSegments] = static_cast<std::uint8_t>(out_.segments().size());
+  p[page::kInitInSegments] = static_cast<std::uint8_t>(in_.segments().size());
+  p[page::kInitCommWindow] = comm_window_ ? 1 : 0;
+  log_.info("page 0: Page-Mode reset; page 1: output page " + std::to_string(out_.size()) +
+            " bytes in " + std::to_string(out_.segments().size()) + " segments, input page " +
+            std::to_string(in_.size()) + " bytes in " + std::to_string(in_.segments().size()) +
+            " segments" + (comm_window_ ? ", Communication Window" : ""));
+}
+
+namespace {
+
+std::string describe(const can::Ident& id) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, id.extended ? "%08X" : "%03X", id.id);
+  return buf;
+}
+
+}  // namespace
+
+void PageMode::on_tx_config(std::uint16_t n, std::uint8_t seq, std::span<const std::uint8_t> page) {
+  const auto count = static_cast<std::uint16_t>(tx_.size());
+  if (state_ != State::TxConfig || n != next_config_page_) {
+    const std::string expected =
+        state_ == State::TxConfig
+            ? "expecting Tx configuration page " + std::to_string(next_config_page_)
+            : "state is " + std::string(to_string(state_));
+    return fail(n, seq, Status::Unexpected, count, expected);
+  }
+  page::ConfigPageFault fault;
+  auto decoded = page::decode_config_page(out_, page, &fault);
+  if (!decoded)
+    return fail(n, seq, Status::BadEntry, count,
+                fault.why + " (page byte " + std::to_string(fault.offset) + ")");
+  for (std::size_t i = 0; i < decoded->entries.size(); ++i) {
+    const auto& e = decoded->entries[i];
+    // A data-page entry (force + data) must fit into one output segment.
+    if (1u + e.length > out_.max_entry())
+      return fail(n, seq, Status::BadEntry, count,
+                  "entry " + std::to_string(i + 1) + " (" + describe(e.id) + "): force + " +
+                      std::to_string(e.length) + " data bytes exceed the largest output segment (" +
+                      std::to_string(out_.max_entry()) + " payload bytes)");
+  }
+  if (tx_.size() + decoded->entries.size() > page::kMaxIdentifiers)
+    return fail(n, seq, Status::TooMany, count,
+                "more than " + std::to_string(page::kMaxIdentifiers) + " Tx identifiers");
+  if (!decoded->complete && n == page::kTxConfigLast)
+    return fail(n, seq, Status::TooMany, count,
+                "DD marker on page 150: no further Tx configuration page exists");
+  for (const auto& e : decoded->entries) {
+    TxEntry t;
+    t.def = e;
+    const std::uint32_t key = ident_key(e.id);
+    auto it = std::lower_bound(tx_index_.begin(), tx_index_.end(), std::make_pair(key, 0u));
+    if (it == tx_index_.end() || it->first != key) {
+      it = tx_index_.insert(it, {key, static_cast<std::uint32_t>(tx_idents_.size())});
+      tx_idents_.emplace_back();
+    }
+    t.ident = it->second;
+    tx_.push_back(t);
+  }
+  const auto total = static_cast<std::uint16_t>(tx_.size());
+  answer(n, seq, Status::Ok, 0, total);
+  if (decoded->complete) {
+    state_ = State::RxConfig;
+    next_config_page_ = page::kRxConfigFirst;
+    log_.info("Tx configuration complete: " + std::to_string(total) + " identifiers on " +
+              std::to_string(n - page::kTxConfigFirst + 1) + " page(s)");
+  } else {
+    ++next_config_page_;
+    log_.debug("page " + std::to_string(n) + ": " + std::to_string(decoded->entries.size()) +
+               " Tx identifiers, more pages follow");
+  }
+}
+
+void PageMode::on_rx_config(std::uint16_t n, std::uint8_t seq, std::span<const std::uint8_t> page) {
+  const auto count = static_cast<std::uint16_t>(rx_.size());
+  if (state_ != State::RxConfig || n != next_config_page_) {
+    const std::string expected =
+        state_ == State::RxConfig
+            ? "expecting Rx configuration page " + std::to_string(next_config_page_)
+            : "state is " + std::string(to_string(state_));
+    return fail(n, seq, Status::Unexpected, count, expected);
+  }
+  page::ConfigPageFault fault;
+  auto decoded = page::decode_config_page(out_, page, &fault);
+  if (!decoded)
+    return fail(n, seq, Status::BadEntry, count,
+                fault.why + " (page byte " + std::to_string(fault.offset) + ")");
+  for (std::size_t i = 0; i < decoded->entries.size(); ++i) {
+    const auto& e = decoded->entries[i];
+    const std::string what = "entry " + std::to_string(i + 1) + " (" + describe(e.id) + ")";
+    if (1u + e.length > in_.max_entry())
+      return fail(n, seq, Status::BadEntry, count,
+                  what + ": count_in + data exceed the largest input segment");
+    // manual §2.2: one identifier cannot be used for both Tx and Rx.
+    const std::uint32_t key = ident_key(e.id);
+    auto it = std::lower_bound(tx_index_.begin(), tx_index_.end(), std::make_pair(key, 0u));
+    if (it != tx_index_.end() && it->first == key)
+      return fail(n, seq, Status::BadEntry, count,
+                  what + ": already configured as Tx identifier (manual §2.2)");
+  }
+  if (rx_.size() + decoded->entries.size() > page::kMaxIdentifiers)
+    return fail(n, seq, Status::TooMany, count,
+                "more than " + std::to_string(page::kMaxIdentifiers) + " Rx identifiers");
+  if (!decoded->complete && n == page::kRxConfigLast)
+    return fail(n, seq, Status::TooMany, count,
+                "DD marker on page 250: no further Rx configuration page exists");
+  for (const auto& e : decoded->entries) {
+    RxEntry r;
+    r.def = e;
+    rx_.push_back(r);
+  }
+  if (!decoded->complete) {
+    answer(n, seq, Status::Ok, 0, static_cast<std::uint16_t>(rx_.size()));
+    ++next_config_page_;
+    log_.debug("page " + std::to_string(n) + ": " + std::to_string(decoded->entries.size()) +
+               " Rx identifiers, more pages follow");
+    return;
+  }
+  finish_configuration(n, seq);
+}
+
+void PageMode::finish_configuration(std::uint16_t n, std::uint8_t seq) {
+  std::vector<page::IdEntry> defs;
+  defs.reserve(std::max(tx_.size(), rx_.size()));
+  for (const auto& t : tx_) defs.push_back(t.def);
+  const auto tx_places = page::pack_data(out_, defs);
+  defs.clear();
+  for (const auto& r : rx_) defs.push_back(r.def);
+  const auto rx_places = page::pack_data(in_, defs);
+  // emulator-spec §6.3: N = max(Tx pages, Rx pages); at least one (empty) data page.
+  const std::size_t pages =
+      std::max<std::size_t>({1, page::pages_used(tx_places), page::pages_used(rx_places)});
+  const auto count = static_cast<std::uint16_t>(rx_.size());
+  if (pages > page::kMaxDataPages) {
+    rx_.clear();
+    next_config_page_ = page::kRxConfigFirst;
+    return fail(n, seq, Status::TooMany, 0,
+                std::to_string(pages) + " data pages needed, at most 65285 exist");
+  }
+  data_pages_ = pages;
+  tx_by_page_.assign(pages, {});
+  rx_by_page_.assign(pages, {});
+  for (std::size_t i = 0; i < tx_.size(); ++i) {
+    tx_[i].place = tx_places[i];
+    tx_by_page_[tx_places[i].page].push_back(static_cast<std::uint32_t>(i));
+  }
+  rx_index_.clear();
+  for (std::size_t i = 0; i < rx_.size(); ++i) {
+    rx_[i].place = rx_places[i];
+    rx_by_page_[rx_places[i].page].push_back(static_cast<std::uint32_t>(i));
+    // manual §5.2.1 (emulator-spec §6.3: the same Rx rules as slots): the later entry wins.
+    const std::uint32_t key = ident_key(rx_[i].def.id);
+    auto it = std::lower_bound(rx_index_.begin(), rx_index_.end(), std::make_pair(key, 0u));
+    if (it != rx_index_.end() && it->first == key) {
+      log_.warn("Rx identifier " + describe(rx_[i].def.id) + " configured twice: entry " +
+                std::to_string(i + 1) + " wins, entry " + std::to_string(it->second + 1) +
+                " is never updated (manual §5.2.1)");
+      it->second = static_cast<std::uint32_t>(i);
+    } else {
+      rx_index_.insert(it, {key, static_cast<std::uint32_t>(i)});
+    }
+  }
+  state_ = State::Data;
+  answer(n, seq, Status::Ok, 0, count);
+  log_.info("Rx configuration complete: " + std::to_string(count) +
+            " identifiers; data exchange on " + std::to_string(pages) + " page(s) " +
+            std::to_string(page::kDataFirst) + ".." + std::to_string(page::kDataFirst + pages - 1));
+}
+
+// ---------------------------------------------------------------- data pages
+
+bool PageMode::send_due(TxEntry& e, std::uint8_t force, std::span<const std::uint8_t> data) const {
+  // manual table 6.4.7 (emulator-spec §6.3).
+  switch (force) {
+    case page::kForceNever:
+      return false;
+    case page::kForceAlways:
+      return true;
+    case page::kForceOnChange: {
+      const TxIdent& id = tx_idents_[e.ident];
+      return !id.sent || id.len != data.size() ||
+             !std::equal(data.begin(), data.end(), id.last.begin());
+    }
+    case page::kForceToggleA:
+    case page::kForceToggleB:
+      // Once on every change into 3 or into 4; the state before the first page counts as neither.
+      return e.last_force != force;
+  }
+  return false;
+}
+
+void PageMode::send(TxEntry& e, TxPort& tx) {
+  if (!tx.tx_active()) {
+    e.held = true;  // emulator-spec §7: held until release, the latest data goes out then
+    return;
+  }
+  e.held = false;
+  TxIdent& id = tx_idents_[e.ident];
+  id.sent = true;
+  id.len = e.def.length;
+  id.last = e.data;
+  can::Frame f;
+  f.id = e.def.id.id;
+  f.extended = e.def.id.extended;
+  f.dlc = e.def.length;
+  std::copy_n(e.data.begin(), e.def.length, f.data.begin());
+  form_swap(std::span(f.data.data(), f.dlc), e.def.form);  // PLC (Motorola) -> CAN (Intel)
+  tx.transmit(f);
+}
+
+void PageMode::on_data(std::uint16_t n, std::uint8_t seq, std::span<const std::uint8_t> page,
+                       TxPort& tx) {
+  if (state_ != State::Data)
+    return fail(n, seq, Status::NotConfigured, 0,
+                "state is " + std::string(to_string(state_)) + "; start again with page 0");
+  const std::size_t index = n - page::kDataFirst;
+  const auto pages = static_cast<std::uint16_t>(data_pages_);
+  if (index >= data_pages_)
+    return fail(n, seq, Status::Unexpected, pages,
+                "data pages are 251.." + std::to_string(page::kDataFirst + data_pages_ - 1));
+  Status status = Status::Ok;
+  std::string bad;
+  for (const std::uint32_t i : tx_by_page_[index]) {
+    TxEntry& e = tx_[i];
+    const std::uint8_t force = page[e.place.offset];
+    const auto data = page.subspan(e.place.offset + 1u, e.def.length);
+    std::copy(data.begin(), data.end(), e.data.begin());
+    if (force > page::kForceMax) {
+      // Not sent; the rest of the page is processed (status 2 tells the PLC).
+      status = Status::BadEntry;
+      if (bad.empty())
+        bad = "Tx identifier " + describe(e.def.id) + ": force " + std::to_string(force) +
+              " (0..4 allowed, manual table 6.4.7); not sent";
+    } else if (send_due(e, force, data)) {
+      send(e, tx);
+    }
+    e.last_force = force;
+  }
+  const auto& on_page = rx_by_page_[index];
+  answer(n, seq, status, static_cast<std::uint16_t>(on_page.size()), pages);
+  for (const std::uint32_t i : on_page) {
+    const RxEntry& r = rx_[i];
+    input_page_[r.place.offset] = r.count;
+    std::copy_n(r.data.begin(), r.def.length, input_page_.begin() + r.place.offset + 1);
+  }
+  // One line per new fault, not one per page (a PLC repeating it would flood the log).
+  if (status != Status::Ok && bad != last_data_fault_)
+    log_.warn("page " + std::to_string(n) + " (sequence " + std::to_string(seq) + "): status 2 " +
+              std::string(page::to_string(status)) + ": " + bad);
+  last_data_fault_ = bad;
+}
 
 void PageMode::write_input_page(std::span<std::uint8_t> page) const {
   std::copy_n(input_page_.begin(), std::min(page.size(), input_page_.size()), page.begin());
 }
 
-bool PageMode::on_frame(const can::Frame&, Time) {
-  return false;
+bool PageMode::on_frame(const can::Frame& frame, Time) {
+  if (frame.remote || state_ != State::Data) return false;  // emulator-spec §4: no remote frames
+  const std::uint32_t key = ident_key(frame);
+  auto it = std::lower_bound(rx_index_.begin(), rx_index_.end(), std::make_pair(key, 0u));
+  if (it == rx_index_.end() || it->first != key) return false;
+  RxEntry& r = rx_[it->second];
+  // emulator-spec §4: min(DLC, n) bytes, the rest zero, form swap (CAN Intel -> PLC Motorola).
+  const std::size_t n = std::min<std::size_t>(frame.dlc, r.def.length);
+  r.data.fill(0);
+  std::copy_n(frame.data.begin(), n, r.data.begin());
+  form_swap(std::span(r.data.data(), r.def.length), r.def.form);
+  ++r.count;  // count_in modulo 256 (manual §6.4.7)
+  return true;
 }
 
-void PageMode::on_release(Time, TxPort&) {}
+void PageMode::on_release(Time, TxPort& tx) {
+  for (TxEntry& e : tx_)
+    if (e.held) send(e, tx);
+}
 
 std::vector<can::Ident> PageMode::rx_idents() const {
-  return {};
+  std::vector<can::Ident> out;
+  if (state_ != State::Data) return out;
+  for (const auto& r : rx_)
+    if (std::find(out.begin(), out.end(), r.def.id) == out.end()) out.push_back(r.def.id);
+  return out;
 }
 
 }  // namespace candp2::gw

@@ -215,6 +215,13 @@ std::variant<SlotConfig, dp::CfgFault> decode_slots(std::span<const std::uint8_t
     // manual table 6.4.1 rule 1: at least 32 input bytes.
     if (in_total < kSegmentLen) return fault(last_in.value_or(0), kCfgPageLayout);
     if (!any_out) return fault(0, kCfgNoOutput);
+    // emulator-spec §6.1: the first output segment carries the page number and header bytes 2-7
+    // (sequence number), so it needs at least 8 bytes.
+    constexpr std::size_t kPageHeaderLen = 8;
+    const auto first_out = std::find_if(out.slots.begin(), out.slots.end(), [](const Slot& s) {
+      return s.kind == SlotKind::SegmentOut;
+    });
+    if (first_out->length < kPageHeaderLen) return fault(first_out->index, kCfgPageLayout);
   } else {
     const bool any_output = std::any_of(out.slots.begin(), out.slots.end(),
                                         [](const Slot& s) { return !s.is_input(); });
