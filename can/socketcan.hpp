@@ -43,7 +43,8 @@ struct RawFrame {
 };
 
 RawFrame encode(const Frame& frame);
-// nullopt for error frames (CAN_ERR_FLAG); lengths above 8 are clamped, remote frames carry no data.
+// nullopt for error frames (CAN_ERR_FLAG); lengths above 8 are clamped, remote frames carry no
+// data.
 std::optional<Frame> decode(const RawFrame& raw);
 
 // What one error frame (linux/can/error.h) means for the channel.

@@ -56,8 +56,8 @@ class ElementSplitter {
   enum class Kind { Element, Stray, Overflow };
   struct Item {
     Kind kind;
-    std::string text;    // Element: the whole "< ... >"; Stray/Overflow: the first 64 bytes
-    std::size_t bytes;   // how many input bytes the item covers
+    std::string text;   // Element: the whole "< ... >"; Stray/Overflow: the first 64 bytes
+    std::size_t bytes;  // how many input bytes the item covers
   };
   explicit ElementSplitter(std::size_t max_element = kMaxElementBytes) : max_(max_element) {}
   // Consumes all of `bytes`, appending the items it completes to `out` in stream order.
@@ -96,10 +96,10 @@ std::optional<socketcan::RawFrame> parse_error_frame(std::string_view element);
 class SocketcandServer {
  public:
   struct Options {
-    std::string host = "127.0.0.1";  // numeric address to bind
+    std::string host = "127.0.0.1";                 // numeric address to bind
     std::uint16_t port = socketcand::kDefaultPort;  // 0 = pick a free one (tests)
-    std::string channel = "vcan0";  // the bus name clients must open
-    std::size_t max_clients = 32;   // further connections get `< error too many clients >`
+    std::string channel = "vcan0";                  // the bus name clients must open
+    std::size_t max_clients = 32;  // further connections get `< error too many clients >`
     // A client is dropped (after a log line) when one command exceeds max_command_bytes, when it
     // sent more than max_stray_bytes outside `< >` in total, or when more than max_output_bytes
     // wait in its output buffer (it does not read: slow clients never block the loop).
@@ -108,11 +108,11 @@ class SocketcandServer {
     std::size_t max_output_bytes = 1 << 20;
   };
   struct Stats {
-    std::uint64_t frames_to_clients = 0;     // bus frames published (counted once per frame)
-    std::uint64_t frames_from_clients = 0;   // valid `< send >` put onto the bus
-    std::uint64_t remote_frames_skipped = 0; // RTR frames the protocol cannot carry
+    std::uint64_t frames_to_clients = 0;      // bus frames published (counted once per frame)
+    std::uint64_t frames_from_clients = 0;    // valid `< send >` put onto the bus
+    std::uint64_t remote_frames_skipped = 0;  // RTR frames the protocol cannot carry
     std::uint64_t clients_accepted = 0;
-    std::uint64_t clients_dropped = 0;       // for misbehaviour or slowness (not normal closes)
+    std::uint64_t clients_dropped = 0;  // for misbehaviour or slowness (not normal closes)
   };
   // `bus` is where frames sent by clients go; the owner feeds bus traffic with publish().
   static std::unique_ptr<SocketcandServer> listen(Options options, FrameSink& bus, LogSink* log,
@@ -137,7 +137,8 @@ class SocketcandServer {
   virtual Stats stats() const = 0;
 };
 
-// Connects (blocking, bounded by timeout) and completes the hi/open/rawmode handshake. On failure
+// Connects (blocking, bounded by timeout) and completes the hi/open/rawmode handshake. `host` is an
+// address or a name (name resolution itself is not bounded by the timeout). On failure
 // returns nullptr and sets *error ("cannot connect to 127.0.0.1:29536: Connection refused",
 // "socketcand server refused bus vcan0: could not open bus", "... timed out ...").
 // The channel: poll_fd() is an epoll descriptor that becomes readable when data arrived or queued

@@ -1,0 +1,303 @@
+#include "can/socketcan.hpp"
+
+#include <errno.h>
+#include <linux/can.h>
+#include <linux/can/error.h>
+#include <linux/can/raw.h>
+#include <net/if.h>
+#include <net/if_arp.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+
+#include "common/hex.hpp"
+
+namespace candp2::can {
+
+namespace socketcan {
+
+static_assert(sizeof(can_frame) == 16, "classic CAN_MTU");
+
+RawFrame encode(const Frame& frame) {
+  RawFrame raw;
+  raw.can_id =
+      frame.extended ? ((frame.id & CAN_EFF_MASK) | CAN_EFF_FLAG) : (frame.id & CAN_SFF_MASK);
+  if (frame.remote) raw.can_id |= CAN_RTR_FLAG;
+  raw.len = std::min(frame.dlc, kMaxDlc);
+  if (!frame.remote) std::copy_n(frame.data.begin(), raw.len, raw.data.begin());
+  return raw;
+}
+
+std::optional<Frame> decode(const RawFrame& raw) {
+  if (raw.can_id & CAN_ERR_FLAG) return std::nullopt;
+  Frame f;
+  f.extended = (raw.can_id & CAN_EFF_FLAG) != 0;
+  f.id = raw.can_id & (f.extended ? CAN_EFF_MASK : CAN_SFF_MASK);
+  f.remote = (raw.can_id & CAN_RTR_FLAG) != 0;
+  f.dlc = std::min(raw.len, kMaxDlc);
+  if (!f.remote) std::copy_n(raw.data.begin(), f.dlc, f.data.begin());
+  return f;
+}
+
+ErrorEffect decode_error(const RawFrame& raw) {
+  ErrorEffect e;
+  const std::uint32_t cls = raw.can_id & CAN_ERR_MASK;
+  auto describe = [&](const char* what) {
+    if (!e.description.empty()) e.description += ' ';
+    e.description += what;
+  };
+  // linux/can/error.h: the class bits in can_id, details in data[]. Applied from least to most
+  // severe so that a frame reporting several conditions ends in the worst state.
+  if (cls & CAN_ERR_RESTARTED) {
+    describe("restarted");
+    e.state = BusState::Ok;
+  }
+  if (cls & CAN_ERR_CRTL) {
+    const std::uint8_t c = raw.data[1];
+    describe("controller:");
+    if (c & CAN_ERR_CRTL_ACTIVE) {
+      describe("error-active");
+      e.state = BusState::Ok;
+    }
+    if (c & (CAN_ERR_CRTL_RX_WARNING | CAN_ERR_CRTL_TX_WARNING)) {
+      describe((c & CAN_ERR_CRTL_TX_WARNING) ? "tx-warning" : "rx-warning");
+      e.state = BusState::Warning;
+    }
+    if (c & (CAN_ERR_CRTL_RX_PASSIVE | CAN_ERR_CRTL_TX_PASSIVE)) {
+      describe((c & CAN_ERR_CRTL_TX_PASSIVE) ? "tx-passive" : "rx-passive");
+      e.state = BusState::ErrorPassive;
+    }
+    if (c & CAN_ERR_CRTL_RX_OVERFLOW) {
+      describe("rx-overflow");
+      e.rx_lost = 1;  // the controller does not say how many; at least one frame is gone
+    }
+    if (c & CAN_ERR_CRTL_TX_OVERFLOW) describe("tx-overflow");
+    if (c == CAN_ERR_CRTL_UNSPEC) describe("unspecified");
+  }
+  if (cls & CAN_ERR_BUSOFF) {
+    describe("bus-off");
+    e.state = BusState::BusOff;
+  }
+  if (cls & CAN_ERR_TX_TIMEOUT) describe("tx-timeout");
+  if (cls & CAN_ERR_LOSTARB) describe("lost-arbitration");
+  if (cls & CAN_ERR_PROT) describe("protocol-violation");
+  if (cls & CAN_ERR_TRX) describe("transceiver");
+  if (cls & CAN_ERR_ACK) describe("no-ack");
+  if (cls & CAN_ERR_BUSERROR) describe("bus-error");
+  if (e.description.empty()) describe("unknown error class");
+  return e;
+}
+
+}  // namespace socketcan
+
+namespace {
+
+// Error classes that change what bus_state() and rx_lost() report; bus errors (CAN_ERR_BUSERROR,
+// CAN_ERR_PROT, CAN_ERR_ACK) are left out on purpose: they can flood and carry no state.
+constexpr can_err_mask_t kErrorMask = CAN_ERR_CRTL | CAN_ERR_BUSOFF | CAN_ERR_RESTARTED;
+
+std::string errno_text(int err) {
+  return std::string(std::strerror(err));
+}
+
+class SocketCanChannel final : public Channel {
+ public:
+  SocketCanChannel(int fd, std::string interface, LogSink* log)
+      : fd_(fd), name_("socketcan:" + interface), log_(log, "socketcan " + interface) {}
+  ~SocketCanChannel() override { ::close(fd_); }
+  SocketCanChannel(const SocketCanChannel&) = delete;
+  SocketCanChannel& operator=(const SocketCanChannel&) = delete;
+
+  void send(const Frame& frame) override {
+    const socketcan::RawFrame raw = socketcan::encode(frame);
+    can_frame cf{};
+    cf.can_id = raw.can_id;
+    cf.len = raw.len;
+    std::copy(raw.data.begin(), raw.data.end(), cf.data);
+    const ssize_t n = ::send(fd_, &cf, sizeof cf, MSG_DONTWAIT | MSG_NOSIGNAL);
+    if (n == static_cast<ssize_t>(sizeof cf)) {
+      if (tx_failing_) {
+        log_.info("transmit works again after " + std::to_string(tx_failing_) + " dropped frames");
+        tx_failing_ = 0;
+      }
+      link_down_ = false;
+      return;
+    }
+    const int err = n < 0 ? errno : EIO;
+    ++tx_dropped_;
+    // ENOBUFS: the interface transmit queue is full (SocketCAN does not block for it);
+    // ENETDOWN: the interface went down. Log the first drop of a run, then every 1000th.
+    if (err == ENETDOWN) link_down_ = true;
+    if (tx_failing_++ % 1000 == 0)
+      log_.warn("frame " + format_candump(frame) + " dropped: " +
+                (err == ENOBUFS ? std::string("transmit queue full (ENOBUFS)") : errno_text(err)) +
+                " (" + std::to_string(tx_dropped_) + " dropped so far)");
+  }
+
+  std::optional<Frame> receive() override {
+    // Error frames are consumed here and never returned; read on until a data frame or EAGAIN.
+    for (;;) {
+      can_frame cf{};
+      iovec iov{&cf, sizeof cf};
+      alignas(cmsghdr) char control[CMSG_SPACE(sizeof(std::uint32_t))];
+      msghdr msg{};
+      msg.msg_iov = &iov;
+      msg.msg_iovlen = 1;
+      msg.msg_control = control;
+      msg.msg_controllen = sizeof control;
+      const ssize_t n = ::recvmsg(fd_, &msg, MSG_DONTWAIT);
+      if (n < 0) {
+        const int err = errno;
+        if (err == EAGAIN || err == EWOULDBLOCK) return std::nullopt;
+        if (err == EINTR) continue;
+        if (err == ENETDOWN) {
+          if (!link_down_) log_.error("interface went down; bus state reported as bus-off");
+          link_down_ = true;
+        } else {
+          log_.error("receive failed: " + errno_text(err));
+        }
+        return std::nullopt;
+      }
+      for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c; c = CMSG_NXTHDR(&msg, c)) {
+        if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL &&
+            c->cmsg_len >= CMSG_LEN(sizeof(std::uint32_t))) {
+          std::uint32_t cumulative = 0;
+          std::memcpy(&cumulative, CMSG_DATA(c), sizeof cumulative);
+          if (const std::uint32_t lost = overflow_.observe(cumulative)) {
+            rx_lost_ += lost;
+            log_.warn("socket receive queue overflowed: " + std::to_string(lost) +
+                      " frames lost (SO_RXQ_OVFL)");
+          }
+        }
+      }
+      if (n != static_cast<ssize_t>(sizeof cf)) {
+        log_.warn("ignored a " + std::to_string(n) + "-byte read (not a classic CAN frame)");
+        continue;
+      }
+      if (link_down_) {
+        log_.info("interface is up again");
+        link_down_ = false;
+      }
+      socketcan::RawFrame raw;
+      raw.can_id = cf.can_id;
+      raw.len = cf.len;
+      std::copy(std::begin(cf.data), std::end(cf.data), raw.data.begin());
+      if (raw.can_id & CAN_ERR_FLAG) {
+        handle_error(raw);
+        continue;
+      }
+      return socketcan::decode(raw);
+    }
+  }
+
+  BusState bus_state() const override { return link_down_ ? BusState::BusOff : state_; }
+  std::uint32_t rx_lost() const override { return rx_lost_; }
+  std::uint32_t tx_dropped() const override { return tx_dropped_; }
+  int poll_fd() const override { return fd_; }
+  std::string_view name() const override { return name_; }
+
+ private:
+  void handle_error(const socketcan::RawFrame& raw) {
+    const auto e = socketcan::decode_error(raw);
+    rx_lost_ += e.rx_lost;
+    const std::string text = "error frame " + format_hex_id(raw.can_id) + " [" +
+                             candp2::hex_bytes(raw.data) + "]: " + e.description;
+    if (e.state && *e.state != state_) {
+      log_.warn(text + "; bus state " + std::string(to_string(state_)) + " -> " +
+                std::string(to_string(*e.state)));
+      state_ = *e.state;
+    } else {
+      log_.log(e.rx_lost ? LogLevel::Warn : LogLevel::Debug, text);
+    }
+  }
+
+  static std::string format_hex_id(std::uint32_t id) {
+    char buf[16];
+    std::snprintf(buf, sizeof buf, "%08X", static_cast<unsigned>(id));
+    return buf;
+  }
+
+  int fd_;
+  std::string name_;
+  Logger log_;
+  BusState state_ = BusState::Ok;
+  bool link_down_ = false;
+  std::uint32_t rx_lost_ = 0;
+  std::uint32_t tx_dropped_ = 0;
+  std::uint32_t tx_failing_ = 0;  // drops since the last successful send, for log rate limiting
+  socketcan::OverflowCounter overflow_;
+};
+
+bool fail(std::string* error, std::string message) {
+  if (error) *error = std::move(message);
+  return false;
+}
+
+}  // namespace
+
+std::unique_ptr<Channel> open_socketcan(const std::string& interface, std::string* error,
+                                        SocketCanOptions options) {
+  const std::string who = "interface " + interface;
+  if (interface.empty() || interface.size() >= IFNAMSIZ) {
+    fail(error, "invalid CAN interface name '" + interface + "' (1.." +
+                    std::to_string(IFNAMSIZ - 1) + " characters)");
+    return nullptr;
+  }
+  // 1. The interface must exist (if_nametoindex works without kernel CAN support).
+  const unsigned index = ::if_nametoindex(interface.c_str());
+  if (index == 0) {
+    fail(error, who + " does not exist (for a virtual bus: modprobe vcan; ip link add dev " +
+                    interface + " type vcan; ip link set " + interface + " up)");
+    return nullptr;
+  }
+  // 2. The kernel must speak CAN.
+  const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
+  if (fd < 0) {
+    fail(error, "cannot open " + who + ": this kernel has no CAN support (socket(AF_CAN) failed: " +
+                    errno_text(errno) + "; modprobe can_raw)");
+    return nullptr;
+  }
+  auto close_and_fail = [&](std::string message) {
+    ::close(fd);
+    fail(error, std::move(message));
+    return nullptr;
+  };
+  // 3. It must be a CAN interface, and up.
+  ifreq ifr{};
+  std::memcpy(ifr.ifr_name, interface.c_str(), interface.size() + 1);
+  if (::ioctl(fd, SIOCGIFHWADDR, &ifr) == 0 && ifr.ifr_hwaddr.sa_family != ARPHRD_CAN)
+    return close_and_fail(who + " is not a CAN interface");
+  if (::ioctl(fd, SIOCGIFFLAGS, &ifr) < 0)
+    return close_and_fail("cannot read the flags of " + who + ": " + errno_text(errno));
+  if (!(ifr.ifr_flags & IFF_UP))
+    return close_and_fail(who + " is down (ip link set " + interface + " up)");
+
+  auto set = [&](int level, int name, const void* value, socklen_t size, const char* what) {
+    if (::setsockopt(fd, level, name, value, size) == 0) return true;
+    fail(error, "cannot open " + who + ": setsockopt(" + what + ") failed: " + errno_text(errno));
+    return false;
+  };
+  const int on = 1;
+  const can_err_mask_t err_mask = kErrorMask;
+  if (!set(SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask, "CAN_RAW_ERR_FILTER") ||
+      !set(SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on, "SO_RXQ_OVFL") ||
+      (options.receive_own &&
+       !set(SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, &on, sizeof on, "CAN_RAW_RECV_OWN_MSGS"))) {
+    ::close(fd);
+    return nullptr;
+  }
+  sockaddr_can addr{};
+  addr.can_family = AF_CAN;
+  addr.can_ifindex = static_cast<int>(index);
+  if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) < 0)
+    return close_and_fail("cannot bind to " + who + ": " + errno_text(errno));
+
+  Logger(options.log, "socketcan " + interface).info("opened (raw socket, error frames on)");
+  return std::make_unique<SocketCanChannel>(fd, interface, options.log);
+}
+
+}  // namespace candp2::can
