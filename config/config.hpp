@@ -1,11 +1,16 @@
 // The daemon's JSON configuration (docs/configuration.md), as a user writes it from the SIMATIC
 // HW Config dialogs. Parsing is strict: every error names the file, the JSON path and what was
 // expected ("demo.json: $.gateways[0].slots[2].comment: expected hex bytes like \"02,89,B8\"").
-// Numbers may be JSON numbers or "0x…" strings.
+// Numbers may be JSON numbers or "0x…" strings. Unknown keys are errors (typos must not be
+// silently ignored); keys starting with '_' are comments and skipped.
+//
+// Parsing never touches the network or the CAN side: it turns text into the model below and
+// checks what can be checked offline. What the emulated gateway itself would reject (a Set_Prm or
+// Chk_Cfg fault, emulator-spec §1.1/§2) is reported as a warning, not an error, because
+// configuring a faulty slave on purpose is a legitimate test (the master then shows the fault).
 #pragma once
 
 #include <cstdint>
-#include <map>
 #include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
@@ -18,19 +23,24 @@
 namespace candp2::config {
 
 struct Endpoint {
-  std::string host = "127.0.0.1";
-  std::uint16_t port = 0;
+  std::string host = "127.0.0.1";  // numeric IPv4 address
+  std::uint16_t port = 0;          // 0 = any free port (the daemon logs the one it got)
+  std::string to_string() const { return host + ":" + std::to_string(port); }
 };
 
 enum class BusType { Virtual, SocketCan, Socketcand };
+std::string_view to_string(BusType t);
 
 struct BusConfig {
   std::string name;
   BusType type = BusType::Virtual;
-  std::string interface;                      // socketcan
-  Endpoint remote;                            // socketcand client: host, port
-  std::string channel = "vcan0";              // socketcand client channel / server export name
+  std::string interface;  // socketcan: the network interface ("can0", "vcan0")
+  Endpoint remote;        // socketcand client: the server's host and port
+  // socketcand client: the bus to open on the server; virtual bus export: the bus name clients
+  // open (defaults to the bus's own name).
+  std::string channel;
   std::optional<Endpoint> socketcand_listen;  // virtual: export the bus over socketcand
+  std::string json_path;
 };
 
 enum class SlotIo { Input, Output };
@@ -38,25 +48,38 @@ enum class SlotIo { Input, Output };
 struct SlotEntry {
   SlotIo io = SlotIo::Output;
   std::uint16_t address = 0;                     // PLC byte address (I or Q)
-  std::uint8_t length = 1;                       // bytes (unit byte)
+  std::uint8_t length = 1;                       // bytes (unit byte), 1..64
   bool consistent = true;                        // consistency over the whole length
   std::vector<std::uint8_t> comment;             // manufacturer bytes as typed in SIMATIC
   std::optional<std::vector<std::uint8_t>> cfg;  // raw Chk_Cfg bytes of this slot (cfg_hex)
   std::string json_path;                         // "$.gateways[0].slots[3]" for messages
 };
 
+struct ConfigError {
+  std::string file;
+  std::string json_path;  // "$.gateways[0].slots[2].comment"; empty for file-level errors
+  std::string message;    // what was expected
+  std::string to_string() const {
+    return file + ": " + (json_path.empty() ? "" : json_path + ": ") + message;
+  }
+};
+
 struct GatewayConfig {
   std::string name;
-  std::uint8_t address = 3;
+  std::uint8_t address = 3;  // as configured; the gateway clamps to 3..124 (manual §2.1)
   std::string bus;
   gw::UserPrm parameters;                            // named parameters (emulator-spec §1.1)
-  std::optional<std::vector<std::uint8_t>> prm_hex;  // raw Set_Prm (16 bytes) overrides parameters
+  std::optional<std::vector<std::uint8_t>> prm_hex;  // raw Set_Prm telegram overrides parameters
   std::uint16_t watchdog_ms = 0;                     // 0 = WD off
   bool cia301_bootup = false;
   std::uint8_t stored_wakeup_s = 0;  // the gateway's stored values at power-on
   std::uint16_t stored_sync_ms = 0;
   std::vector<SlotEntry> slots;
   std::string json_path;
+  std::vector<ConfigError> warnings;  // what the gateway would reject, overlapping addresses
+
+  // The DP address the emulated gateway answers to (manual §2.1: clamped to 3..124).
+  std::uint8_t dp_address() const;
 };
 
 struct DriveConfig {
@@ -66,6 +89,7 @@ struct DriveConfig {
   std::uint32_t rx_id = 0x201;
   std::uint32_t tx_id = 0x181;
   std::optional<std::string> state_file;
+  std::string json_path;
 };
 
 struct DaemonConfig {
@@ -73,19 +97,17 @@ struct DaemonConfig {
   Endpoint modbus_listen{"127.0.0.1", 1502};
   std::uint8_t master_address = 1;
   std::uint32_t cycle_ms = 10;
-  std::vector<BusConfig> buses;
+  std::uint32_t retry_ms = 1000;  // between parameterization attempts after a fault
+  std::vector<BusConfig> buses;   // sorted by name
   std::vector<GatewayConfig> gateways;
   std::vector<DriveConfig> drives;
   std::string log_level = "info";
-  std::optional<std::string> can_log;
+  std::optional<std::string> can_log;     // candump -l file (relative paths: to the config file)
   std::optional<std::string> state_file;  // stored wake-up/SYNC values across restarts
-};
+  std::vector<ConfigError> warnings;      // from every part of the file
 
-struct ConfigError {
-  std::string file;
-  std::string json_path;  // "$.gateways[0].slots[2].comment"
-  std::string message;    // what was expected
-  std::string to_string() const { return file + ": " + json_path + ": " + message; }
+  const BusConfig* bus(const std::string& name) const;
+  const GatewayConfig* gateway_by_dp_address(std::uint8_t dp_address) const;
 };
 
 template <typename T>
@@ -94,7 +116,7 @@ using Result = std::variant<T, ConfigError>;
 Result<DaemonConfig> parse_daemon(const std::string& text, const std::string& file);
 Result<DaemonConfig> load_daemon(const std::string& path);
 // One gateway entry (same shape as in the daemon's "gateways" array), for the replay runner and
-// the validator. `path` prefixes JSON paths in messages.
+// the validator. `path` prefixes JSON paths in messages. The bus name is not checked here.
 Result<GatewayConfig> parse_gateway(const nlohmann::json& j, const std::string& file,
                                     const std::string& path = "$");
 
@@ -102,5 +124,12 @@ Result<GatewayConfig> parse_gateway(const nlohmann::json& j, const std::string& 
 std::vector<std::uint8_t> set_prm_bytes(const GatewayConfig& g);
 std::vector<std::uint8_t> chk_cfg_bytes(const GatewayConfig& g);
 dp::SlaveParameters slave_parameters(const GatewayConfig& g);
+
+// "88 80 C4" / "8880C4" / "88,80,C4" → bytes. nullopt and *error for anything else.
+std::optional<std::vector<std::uint8_t>> parse_hex(std::string_view text, std::string* error);
+// "127.0.0.1:1502" → endpoint. The host must be a numeric IPv4 address.
+std::optional<Endpoint> parse_endpoint(std::string_view text, std::string* error);
+// Bit rates as the GSD's PrmText 1 names them (manual table 5.1.1): "125k", "666.6k", "1000k".
+std::string bitrate_name(std::uint8_t index);
 
 }  // namespace candp2::config

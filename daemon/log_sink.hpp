@@ -1,0 +1,36 @@
+// The daemon's log sink: candp2::LogSink (common/log.hpp) written through spdlog, one line per
+// message with time, level and component ("2024-05-01 12:00:00.123 info  [gw5] Set_Prm accepted").
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string_view>
+
+#include "common/log.hpp"
+
+namespace spdlog {
+class logger;
+}
+
+namespace candp2::daemon {
+
+// "trace", "debug", "info", "warn" (or "warning"), "error".
+std::optional<LogLevel> parse_level(std::string_view name);
+
+class SpdlogSink final : public LogSink {
+ public:
+  // Writes to `logger`; a null logger writes to standard error.
+  explicit SpdlogSink(LogLevel level, std::shared_ptr<spdlog::logger> logger = nullptr);
+  ~SpdlogSink() override;
+  bool enabled(LogLevel level) const override { return level >= level_; }
+  void write(LogLevel level, std::string_view component, std::string_view message) override;
+  void set_level(LogLevel level);
+  LogLevel level() const { return level_; }
+  void flush();
+
+ private:
+  LogLevel level_;
+  std::shared_ptr<spdlog::logger> logger_;
+};
+
+}  // namespace candp2::daemon

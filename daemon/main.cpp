@@ -1,0 +1,122 @@
+// candp2d: the CAN-DP/2 emulator daemon (docs/daemon.md).
+//
+//   candp2d --config FILE              run
+//   candp2d --config FILE --check      validate the configuration and exit
+//   candp2d --config FILE --print-modbus-map
+//   candp2d                            run the built-in default (config/default.json)
+//
+// Exit status: 0 success, 1 the daemon could not start (port in use, CAN interface missing),
+// 2 bad command line or configuration.
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <iostream>
+
+#include "config/config.hpp"
+#include "daemon/daemon.hpp"
+#include "daemon/default_config.hpp"
+#include "daemon/event_loop.hpp"
+#include "daemon/log_sink.hpp"
+
+namespace {
+
+constexpr int kExitStart = 1;
+constexpr int kExitUsage = 2;
+
+int run(const candp2::config::DaemonConfig& config, candp2::LogLevel level) {
+  using namespace candp2;
+  daemon::SpdlogSink sink(level);
+  Logger log(&sink, "candp2d");
+  // Sockets are written with MSG_NOSIGNAL; a stray SIGPIPE must still never end the daemon.
+  ::signal(SIGPIPE, SIG_IGN);
+  EventLoop loop(&sink);
+  std::string error;
+  for (int signo : {SIGTERM, SIGINT})
+    if (!loop.add_signal(
+            signo, [&](int) { loop.stop(); }, &error)) {
+      log.error(error);
+      return kExitStart;
+    }
+  std::unique_ptr<daemon::Daemon> d;
+  if (!loop.add_signal(
+          SIGHUP,
+          [&](int) {
+            if (d) d->reopen_can_log();
+          },
+          &error)) {
+    log.error(error);
+    return kExitStart;
+  }
+  log.info("candp2d " CANDP2_VERSION " starting with " + config.file);
+  d = daemon::Daemon::start(config, loop, &sink, &error);
+  if (!d) {
+    log.error("cannot start: " + error);
+    return kExitStart;
+  }
+  log.info("ready: " + d->listening());
+  loop.run();
+  d->shutdown();
+  d.reset();
+  log.info("stopped");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "candp2d - emulator of the esd CAN-DP/2 PROFIBUS-DP/CAN gateway: a simulated DP master "
+      "cycles the emulated gateways, serves the PLC process image over Modbus/TCP and connects "
+      "each gateway to a CAN bus (virtual, SocketCAN or socketcand)."};
+  app.set_version_flag("--version", std::string("candp2d ") + CANDP2_VERSION);
+  std::string file;
+  bool check = false;
+  bool print_map = false;
+  std::string level_override;
+  app.add_option("-c,--config", file,
+                 "JSON configuration file (docs/configuration.md); without it the built-in "
+                 "default runs: a gateway and two simulated drives on a virtual bus "
+                 "(config/default.json), Modbus on 127.0.0.1:1502, socketcand on "
+                 "127.0.0.1:29536");
+  app.add_flag("--check", check, "validate the configuration, print warnings, and exit");
+  app.add_flag("--print-modbus-map", print_map,
+               "print the Modbus register map of the configuration and exit");
+  app.add_option("--log-level", level_override,
+                 "override log.level: trace, debug, info, warn, error");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : kExitUsage;
+  }
+
+  const auto loaded = file.empty()
+                          ? candp2::config::parse_daemon(candp2::daemon::kDefaultConfig,
+                                                         candp2::daemon::kDefaultConfigName)
+                          : candp2::config::load_daemon(file);
+  if (const auto* err = std::get_if<candp2::config::ConfigError>(&loaded)) {
+    std::cerr << "candp2d: error: " << err->to_string() << "\n";
+    return kExitUsage;
+  }
+  const auto& config = std::get<candp2::config::DaemonConfig>(loaded);
+  for (const auto& w : config.warnings) std::cerr << "candp2d: warning: " << w.to_string() << "\n";
+
+  const std::string level_name = level_override.empty() ? config.log_level : level_override;
+  const auto level = candp2::daemon::parse_level(level_name);
+  if (!level) {
+    std::cerr << "candp2d: error: --log-level: expected trace, debug, info, warn or error, got \""
+              << level_name << "\"\n";
+    return kExitUsage;
+  }
+  if (check) {
+    std::cout << config.file << ": configuration OK (" << config.gateways.size() << " gateway(s), "
+              << config.buses.size() << " bus(es), " << config.warnings.size() << " warning(s))\n";
+    return 0;
+  }
+  if (print_map) {
+    std::cout << candp2::daemon::modbus_map_text(config);
+    return 0;
+  }
+  return run(config, *level);
+}

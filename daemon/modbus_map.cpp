@@ -1,0 +1,424 @@
+#include "daemon/modbus_map.hpp"
+
+#include <algorithm>
+
+namespace candp2::modbus {
+
+std::string_view to_string(Exception e) {
+  switch (e) {
+    case Exception::IllegalFunction:
+      return "illegal function";
+    case Exception::IllegalDataAddress:
+      return "illegal data address";
+    case Exception::IllegalDataValue:
+      return "illegal data value";
+    case Exception::GatewayTargetFailed:
+      return "gateway target device failed to respond";
+  }
+  return "?";
+}
+
+std::string_view to_string(Table t) {
+  switch (t) {
+    case Table::Coils:
+      return "coils";
+    case Table::DiscreteInputs:
+      return "discrete inputs";
+    case Table::HoldingRegisters:
+      return "holding registers";
+    case Table::InputRegisters:
+      return "input registers";
+  }
+  return "?";
+}
+
+// ------------------------------------------------------------------------------------- framing
+
+void MbapFramer::append(std::span<const std::uint8_t> bytes) {
+  if (start_ > 0 && start_ == buffer_.size()) {
+    buffer_.clear();
+    start_ = 0;
+  } else if (start_ > 4096) {
+    buffer_.erase(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(start_));
+    start_ = 0;
+  }
+  buffer_.insert(buffer_.end(), bytes.begin(), bytes.end());
+}
+
+MbapFramer::Next MbapFramer::next() {
+  Next n;
+  const std::size_t avail = buffer_.size() - start_;
+  if (avail < kMbapLen) return n;
+  const std::uint8_t* h = buffer_.data() + start_;
+  const unsigned protocol = (h[2] << 8) | h[3];
+  const unsigned length = (h[4] << 8) | h[5];  // unit id + PDU
+  if (protocol != 0) {
+    n.status = Status::Garbage;
+    n.why = "MBAP protocol identifier " + std::to_string(protocol) + " (Modbus is 0)";
+    return n;
+  }
+  // TCP guide §3.1.3: the length counts the unit id and the PDU (function code + data, 1..253).
+  if (length < 2 || length > 1 + kMaxPduLen) {
+    n.status = Status::Garbage;
+    n.why =
+        "MBAP length " + std::to_string(length) + " outside 2.." + std::to_string(1 + kMaxPduLen);
+    return n;
+  }
+  const std::size_t total = 6 + length;
+  if (avail < total) return n;
+  n.status = Status::Frame;
+  n.adu = std::span<const std::uint8_t>(h, total);
+  start_ += total;
+  return n;
+}
+
+// -------------------------------------------------------------------------------------- decode
+
+bool Request::writes() const {
+  switch (function) {
+    case Function::WriteSingleCoil:
+    case Function::WriteSingleRegister:
+    case Function::WriteMultipleCoils:
+    case Function::WriteMultipleRegisters:
+    case Function::MaskWriteRegister:
+    case Function::ReadWriteMultipleRegisters:
+      return true;
+    default:
+      return false;
+  }
+}
+
+namespace {
+
+std::uint16_t be16(std::span<const std::uint8_t> p, std::size_t at) {
+  return static_cast<std::uint16_t>((p[at] << 8) | p[at + 1]);
+}
+
+DecodeFailure value_error(std::string why) {
+  return {Exception::IllegalDataValue, std::move(why)};
+}
+
+std::string count_text(std::uint16_t n, std::uint16_t max) {
+  return "quantity " + std::to_string(n) + " outside 1.." + std::to_string(max);
+}
+
+}  // namespace
+
+std::variant<Request, DecodeFailure> decode_request(std::span<const std::uint8_t> adu) {
+  Request r;
+  r.transaction = be16(adu, 0);
+  r.unit = adu[6];
+  const std::span<const std::uint8_t> pdu = adu.subspan(kMbapLen);  // function code + data
+  const std::uint8_t fc = pdu[0];
+  auto need = [&](std::size_t len) -> std::optional<DecodeFailure> {
+    if (pdu.size() == len) return std::nullopt;
+    return value_error("PDU of function 0x" + std::string(1, "0123456789ABCDEF"[fc >> 4]) +
+                       std::string(1, "0123456789ABCDEF"[fc & 15]) + " has " +
+                       std::to_string(pdu.size()) + " bytes, expected " + std::to_string(len));
+  };
+  switch (fc) {
+    case 0x01:
+    case 0x02:
+    case 0x03:
+    case 0x04: {
+      r.function = static_cast<Function>(fc);
+      r.table = fc == 0x01   ? Table::Coils
+                : fc == 0x02 ? Table::DiscreteInputs
+                : fc == 0x03 ? Table::HoldingRegisters
+                             : Table::InputRegisters;
+      if (auto f = need(5)) return *f;
+      r.address = be16(pdu, 1);
+      r.count = be16(pdu, 3);
+      const std::uint16_t max = fc <= 0x02 ? kMaxReadBits : kMaxReadRegisters;
+      if (r.count < 1 || r.count > max) return value_error(count_text(r.count, max));
+      return r;
+    }
+    case 0x05:
+    case 0x06: {
+      r.function = static_cast<Function>(fc);
+      r.table = fc == 0x05 ? Table::Coils : Table::HoldingRegisters;
+      if (auto f = need(5)) return *f;
+      r.address = r.write_address = be16(pdu, 1);
+      r.count = r.write_count = 1;
+      r.values = pdu.subspan(3, 2);
+      // MB spec §6.5: a coil value other than FF00 or 0000 is illegal.
+      if (fc == 0x05 && be16(pdu, 3) != kCoilOn && be16(pdu, 3) != kCoilOff)
+        return value_error("coil value must be FF00 or 0000");
+      return r;
+    }
+    case 0x0F:
+    case 0x10: {
+      r.function = static_cast<Function>(fc);
+      r.table = fc == 0x0F ? Table::Coils : Table::HoldingRegisters;
+      if (pdu.size() < 6) return *need(6);
+      r.address = r.write_address = be16(pdu, 1);
+      r.count = r.write_count = be16(pdu, 3);
+      const std::uint16_t max = fc == 0x0F ? kMaxWriteBits : kMaxWriteRegisters;
+      if (r.count < 1 || r.count > max) return value_error(count_text(r.count, max));
+      const std::size_t bytes = fc == 0x0F ? (r.count + 7u) / 8u : 2u * r.count;
+      if (pdu[5] != bytes)
+        return value_error("byte count " + std::to_string(pdu[5]) + ", expected " +
+                           std::to_string(bytes));
+      if (auto f = need(6 + bytes)) return *f;
+      r.values = pdu.subspan(6, bytes);
+      return r;
+    }
+    case 0x16: {
+      r.function = Function::MaskWriteRegister;
+      r.table = Table::HoldingRegisters;
+      if (auto f = need(7)) return *f;
+      r.address = r.write_address = be16(pdu, 1);
+      r.count = r.write_count = 1;
+      r.and_mask = be16(pdu, 3);
+      r.or_mask = be16(pdu, 5);
+      return r;
+    }
+    case 0x17: {
+      r.function = Function::ReadWriteMultipleRegisters;
+      r.table = Table::HoldingRegisters;
+      if (pdu.size() < 10) return *need(10);
+      r.address = be16(pdu, 1);
+      r.count = be16(pdu, 3);
+      r.write_address = be16(pdu, 5);
+      r.write_count = be16(pdu, 7);
+      if (r.count < 1 || r.count > kMaxReadRegisters)
+        return value_error("read " + count_text(r.count, kMaxReadRegisters));
+      if (r.write_count < 1 || r.write_count > kMaxReadWriteWriteRegs)
+        return value_error("write " + count_text(r.write_count, kMaxReadWriteWriteRegs));
+      const std::size_t bytes = 2u * r.write_count;
+      if (pdu[9] != bytes)
+        return value_error("byte count " + std::to_string(pdu[9]) + ", expected " +
+                           std::to_string(bytes));
+      if (auto f = need(10 + bytes)) return *f;
+      r.values = pdu.subspan(10, bytes);
+      return r;
+    }
+    default:
+      return DecodeFailure{Exception::IllegalFunction,
+                           "function code " + std::to_string(fc) + " not supported"};
+  }
+}
+
+// ---------------------------------------------------------------------------------- status
+
+std::span<const StatusField> status_fields() {
+  using namespace status;
+  static constexpr StatusField kFields[] = {
+      {kDpState, 1, "dp_state", "DP slave state: 0 Wait_Prm, 1 Wait_Cfg, 2 Data_Exch"},
+      {kDiag, 11, "diag", "Slave_Diag bytes 0..10, one per register (emulator-spec §3)"},
+      {kMasterState, 1, "master_state",
+       "master's view: 0 Init, 1 Set_Prm, 2 Chk_Cfg, 3 Check_Diag, 4 Data_Exch, 5 Retry"},
+      {kBusState, 1, "bus_state", "CAN controller: 0 ok, 1 warning, 2 error-passive, 3 bus-off"},
+      {kReleased, 1, "released", "CAN transmission released: 0 no, 1 yes (emulator-spec §7)"},
+      {kNmtState, 1, "nmt_state",
+       "CANopen NMT state: 0 initialising, 1 pre-operational, 2 operational, 3 stopped"},
+      {kRxFrames, 2, "rx_frames", "CAN frames received since power-on"},
+      {kTxFrames, 2, "tx_frames", "CAN frames sent since power-on"},
+      {kIrqLost, 2, "irq_lost", "frames lost before the gateway saw them (IRQ_LOST)"},
+      {kMsgLost, 2, "msg_lost", "frames dropped at the full CW FIFO (MSG_LOST)"},
+      {kFifoLevel, 1, "fifo_level", "frames waiting in the Communication Window FIFO"},
+      {kFifoHighWater, 1, "fifo_high_water", "highest FIFO level since power-on"},
+      {kSyncMs, 1, "sync_ms", "effective SYNC time, ms (0 = off)"},
+      {kWakeupS, 1, "wakeup_s", "stored wake-up time, s"},
+      {kDataExchanges, 2, "data_exchanges", "Data_Exchange telegrams the gateway answered"},
+      {kLedD, 1, "led_d", "LED D (Data Exchange): 0 off, 1 on"},
+      {kLedE, 1, "led_e",
+       "LED E (DP status): 0 off, 3 = 3 flashes (waiting for Set_Prm), 4 = 4 flashes (Chk_Cfg)"},
+      {kLedP, 1, "led_p", "LED P (power): 1 on"},
+      {kLedC, 1, "led_c",
+       "LED C (CAN): 1 on (ok), 0x45 Morse E (error passive), 0x57 W (warning), 0x4F O (bus off)"},
+      {kDpAddress, 1, "dp_address", "the gateway's DP station address"},
+      {kParameterizations, 2, "parameterizations", "Set_Prm telegrams the master sent"},
+  };
+  return kFields;
+}
+
+StatusBlock encode_status(const StatusInputs& in) {
+  using namespace status;
+  StatusBlock b{};
+  auto put32 = [&](std::uint16_t at, std::uint32_t v) {
+    b[at] = static_cast<std::uint16_t>(v >> 16);
+    b[at + 1] = static_cast<std::uint16_t>(v & 0xFFFF);
+  };
+  const auto& g = in.gateway;
+  b[kDpState] = static_cast<std::uint16_t>(g.dp_state);
+  for (std::size_t i = 0; i < in.diag.size(); ++i) b[kDiag + i] = in.diag[i];
+  b[kMasterState] = in.master_state ? static_cast<std::uint16_t>(*in.master_state) : 0;
+  b[kBusState] = static_cast<std::uint16_t>(g.bus_state);
+  b[kReleased] = g.released ? 1 : 0;
+  b[kNmtState] = static_cast<std::uint16_t>(g.nmt);
+  put32(kRxFrames, g.rx_frames);
+  put32(kTxFrames, g.tx_frames);
+  put32(kIrqLost, g.irq_lost);
+  put32(kMsgLost, g.msg_lost);
+  b[kFifoLevel] = static_cast<std::uint16_t>(std::min<std::uint32_t>(g.fifo_level, 0xFFFF));
+  b[kFifoHighWater] =
+      static_cast<std::uint16_t>(std::min<std::uint32_t>(g.fifo_high_water, 0xFFFF));
+  b[kSyncMs] = g.sync_ms;
+  b[kWakeupS] = g.wakeup_s;
+  put32(kDataExchanges, g.data_exchanges);
+  // manual table 3.3.1.
+  b[kLedD] = g.dp_state == dp::SlaveState::DataExch ? led::kOn : led::kOff;
+  b[kLedE] = g.dp_state == dp::SlaveState::WaitPrm   ? 3
+             : g.dp_state == dp::SlaveState::WaitCfg ? 4
+                                                     : led::kOff;
+  b[kLedP] = led::kOn;
+  switch (g.bus_state) {
+    case can::BusState::Ok:
+      b[kLedC] = led::kOn;
+      break;
+    case can::BusState::Warning:
+      b[kLedC] = led::kMorseW;
+      break;
+    case can::BusState::ErrorPassive:
+      b[kLedC] = led::kMorseE;
+      break;
+    case can::BusState::BusOff:
+      b[kLedC] = led::kMorseO;
+      break;
+  }
+  b[kDpAddress] = in.dp_address;
+  put32(kParameterizations, in.parameterizations);
+  return b;
+}
+
+// -------------------------------------------------------------------------------------- map
+
+ProcessImageMap::ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways)
+    : image_(image), gateways_(std::move(gateways)), last_control_(gateways_.size(), 0) {}
+
+GatewayFace* ProcessImageMap::resolve(std::uint8_t unit) const {
+  if (gateways_.empty()) return nullptr;
+  // emulator-spec §8: unit IDs 0 and 255 address the first configured gateway.
+  if (unit == 0 || unit == 255) return gateways_.front();
+  for (auto* g : gateways_)
+    if (g->dp_address() == unit) return g;
+  return nullptr;
+}
+
+std::uint16_t ProcessImageMap::last_control(std::uint8_t dp_address) const {
+  for (std::size_t i = 0; i < gateways_.size(); ++i)
+    if (gateways_[i]->dp_address() == dp_address) return last_control_[i];
+  return 0;
+}
+
+namespace {
+
+DecodeFailure address_error(Table t, std::uint32_t address, std::uint32_t count) {
+  return {Exception::IllegalDataAddress, std::string(to_string(t)) + " " + std::to_string(address) +
+                                             ".." + std::to_string(address + count - 1) +
+                                             " outside the map"};
+}
+
+bool within(std::uint32_t address, std::uint32_t count, std::uint32_t begin, std::uint32_t size) {
+  return address >= begin && address + count <= begin + size;
+}
+
+std::uint16_t image_register(const std::array<std::uint8_t, dp::kImageSize>& bytes,
+                             std::uint32_t r) {
+  // emulator-spec §8: register r = byte 2r (high) and 2r+1 (low).
+  return static_cast<std::uint16_t>((bytes[2 * r] << 8) | bytes[2 * r + 1]);
+}
+
+}  // namespace
+
+std::optional<DecodeFailure> ProcessImageMap::read_registers(Table t, GatewayFace& g,
+                                                             std::uint16_t address,
+                                                             std::uint16_t count, ReadResult& out,
+                                                             Time now) {
+  const auto& bytes = t == Table::InputRegisters ? image_.inputs : image_.outputs;
+  if (within(address, count, 0, kImageRegisters)) {
+    for (std::uint32_t i = 0; i < count; ++i) out.registers[i] = image_register(bytes, address + i);
+    return std::nullopt;
+  }
+  if (t == Table::InputRegisters && within(address, count, kStatusBase, status::kCount)) {
+    const StatusBlock block = g.status(now);
+    std::copy_n(block.begin() + (address - kStatusBase), count, out.registers.begin());
+    return std::nullopt;
+  }
+  if (t == Table::HoldingRegisters && within(address, count, kControlRegister, 1)) {
+    out.registers[0] = last_control(g.dp_address());
+    return std::nullopt;
+  }
+  return address_error(t, address, count);
+}
+
+std::optional<DecodeFailure> ProcessImageMap::handle(const Request& r, ReadResult& out, Time now) {
+  GatewayFace* g = resolve(r.unit);
+  if (!g)
+    return DecodeFailure{Exception::GatewayTargetFailed,
+                         "unit ID " + std::to_string(r.unit) + " addresses no configured gateway"};
+  auto& in = image_.inputs;
+  auto& q = image_.outputs;
+  switch (r.function) {
+    case Function::ReadCoils:
+    case Function::ReadDiscreteInputs: {
+      if (!within(r.address, r.count, 0, kImageBits))
+        return address_error(r.table, r.address, r.count);
+      const auto& bytes = r.function == Function::ReadCoils ? q : in;
+      for (std::uint32_t i = 0; i < r.count; ++i) {
+        const std::uint32_t b = r.address + i;  // emulator-spec §8: byte b/8, bit b%8
+        out.bits[i] = (bytes[b / 8] >> (b % 8)) & 1;
+      }
+      return std::nullopt;
+    }
+    case Function::ReadHoldingRegisters:
+    case Function::ReadInputRegisters:
+      return read_registers(r.table, *g, r.address, r.count, out, now);
+    case Function::WriteSingleCoil:
+    case Function::WriteMultipleCoils: {
+      if (!within(r.address, r.count, 0, kImageBits))
+        return address_error(r.table, r.address, r.count);
+      for (std::uint32_t i = 0; i < r.count; ++i) {
+        const std::uint32_t b = r.address + i;
+        const bool on = r.function == Function::WriteSingleCoil ? r.register_value(0) == kCoilOn
+                                                                : r.coil_value(i);
+        const auto mask = static_cast<std::uint8_t>(1u << (b % 8));
+        q[b / 8] = static_cast<std::uint8_t>(on ? (q[b / 8] | mask) : (q[b / 8] & ~mask));
+      }
+      return std::nullopt;
+    }
+    case Function::WriteSingleRegister:
+    case Function::WriteMultipleRegisters:
+    case Function::MaskWriteRegister:
+    case Function::ReadWriteMultipleRegisters: {
+      const std::uint16_t wa = r.write_address, wc = r.write_count;
+      const bool image = within(wa, wc, 0, kImageRegisters);
+      const bool control = within(wa, wc, kControlRegister, 1);
+      if (!image && !control) return address_error(Table::HoldingRegisters, wa, wc);
+      // FC 23: both ranges are checked before anything is written (all or nothing).
+      if (r.function == Function::ReadWriteMultipleRegisters &&
+          !within(r.address, r.count, 0, kImageRegisters) &&
+          !within(r.address, r.count, kControlRegister, 1))
+        return address_error(Table::HoldingRegisters, r.address, r.count);
+      auto value = [&](std::size_t i) -> std::uint16_t {
+        if (r.function != Function::MaskWriteRegister) return r.register_value(i);
+        // MB spec §6.16: (current AND and_mask) OR (or_mask AND NOT and_mask).
+        const std::uint16_t current = image ? image_register(q, wa) : last_control(g->dp_address());
+        return static_cast<std::uint16_t>((current & r.and_mask) | (r.or_mask & ~r.and_mask));
+      };
+      if (control) {
+        const std::uint16_t command = value(0);
+        if (command > static_cast<std::uint16_t>(Control::Reparameterize))
+          return DecodeFailure{Exception::IllegalDataValue,
+                               "control command " + std::to_string(command) +
+                                   " (1 = power cycle, 2 = re-parameterize)"};
+        for (std::size_t i = 0; i < gateways_.size(); ++i)
+          if (gateways_[i] == g) last_control_[i] = command;
+        g->control(static_cast<Control>(command), now);
+      } else {
+        for (std::uint32_t i = 0; i < wc; ++i) {
+          const std::uint16_t v = value(i);
+          q[2 * (wa + i)] = static_cast<std::uint8_t>(v >> 8);
+          q[2 * (wa + i) + 1] = static_cast<std::uint8_t>(v & 0xFF);
+        }
+      }
+      if (r.function == Function::ReadWriteMultipleRegisters)
+        return read_registers(Table::HoldingRegisters, *g, r.address, r.count, out, now);
+      return std::nullopt;
+    }
+  }
+  return DecodeFailure{Exception::IllegalFunction, "function not supported"};
+}
+
+}  // namespace candp2::modbus

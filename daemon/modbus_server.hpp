@@ -1,0 +1,52 @@
+// Modbus/TCP server inside the daemon's one event loop (emulator-spec §8), on libmodbus.
+//
+// libmodbus's own receive path (modbus_receive) blocks in select() until a whole request has
+// arrived and frames by function code rather than by the MBAP length, so one slow or broken client
+// would stall the loop and every other client. This server therefore reads each client's socket
+// itself (non-blocking) and frames by the MBAP header (modbus_map.hpp, MbapFramer); libmodbus
+// creates the listening socket and builds and sends every answer (modbus_reply with a mapping
+// filled for that one request, modbus_reply_exception). Requests are validated before they reach
+// libmodbus, so its own exception paths — which sleep and flush the socket on bad quantities —
+// are never taken.
+//
+// A client that sends garbage (not Modbus/TCP framing) or does not read its answers is dropped
+// with a log line; the server serves on. Many clients at once; each request is handled completely
+// inside one callback, so it never interleaves with a master cycle.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "common/log.hpp"
+#include "daemon/event_loop.hpp"
+#include "daemon/modbus_map.hpp"
+
+namespace candp2::modbus {
+
+class ModbusServer {
+ public:
+  struct Options {
+    std::string host = "127.0.0.1";  // numeric IPv4; "0.0.0.0" = every interface
+    std::uint16_t port = 1502;       // 0 = any free port (see port())
+    std::size_t max_clients = 64;    // further connections are accepted and closed at once
+    int backlog = 16;
+  };
+  struct Stats {
+    std::uint64_t requests = 0;    // answered normally
+    std::uint64_t exceptions = 0;  // answered with an exception
+    std::uint64_t clients_accepted = 0;
+    std::uint64_t clients_refused = 0;  // over max_clients
+    std::uint64_t clients_dropped = 0;  // for garbage or not reading
+  };
+
+  // nullptr and *error ("cannot listen on 127.0.0.1:1502: Address already in use") on failure.
+  static std::unique_ptr<ModbusServer> listen(Options options, EventLoop& loop, Handler& handler,
+                                              LogSink* log, std::string* error);
+  virtual ~ModbusServer() = default;
+  virtual std::uint16_t port() const = 0;
+  virtual std::size_t client_count() const = 0;
+  virtual const Stats& stats() const = 0;
+};
+
+}  // namespace candp2::modbus

@@ -1,0 +1,477 @@
+// The daemon's configuration (docs/configuration.md): what valid files turn into, and that every
+// bad file is rejected with the file name, the JSON path and what was expected.
+#include "config/config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "common/hex.hpp"
+
+namespace candp2::config {
+namespace {
+
+using json = nlohmann::json;
+
+// The manual §5.1.4 slot example as a configuration; tests patch it with JSON merge patches.
+json base() {
+  return json::parse(R"({
+    "modbus": {"listen": "127.0.0.1:1502"},
+    "master": {"address": 1, "cycle_ms": 10},
+    "buses": {"can0": {"type": "virtual", "socketcand": "127.0.0.1:29536"}},
+    "gateways": [{
+      "name": "gw5", "address": 5, "bus": "can0",
+      "slots": [
+        {"io": "input",  "address": 172, "length": 6, "comment": "02,89,B8"},
+        {"io": "output", "address": 172, "length": 6, "comment": "03,09,B8"}
+      ]
+    }]
+  })");
+}
+
+DaemonConfig ok(const json& j) {
+  auto r = parse_daemon(j.dump(), "test.json");
+  if (auto* e = std::get_if<ConfigError>(&r)) {
+    ADD_FAILURE() << e->to_string();
+    return {};
+  }
+  return std::get<DaemonConfig>(r);
+}
+
+ConfigError bad_text(const std::string& text) {
+  auto r = parse_daemon(text, "test.json");
+  if (!std::holds_alternative<ConfigError>(r)) {
+    ADD_FAILURE() << "accepted: " << text;
+    return {};
+  }
+  return std::get<ConfigError>(r);
+}
+ConfigError bad(const json& j) {
+  return bad_text(j.dump());
+}
+
+// Applies `patch` to the first gateway of base().
+json with_gateway(const json& patch) {
+  json j = base();
+  j["gateways"][0].merge_patch(patch);
+  return j;
+}
+
+std::string hex(const std::vector<std::uint8_t>& b) {
+  return hex_bytes(b);
+}
+
+// ------------------------------------------------------------------------------ valid files
+
+TEST(Config, Manual514SlotExample) {
+  const auto c = ok(base());
+  EXPECT_EQ(c.file, "test.json");
+  EXPECT_EQ(c.modbus_listen.host, "127.0.0.1");
+  EXPECT_EQ(c.modbus_listen.port, 1502);
+  ASSERT_EQ(c.buses.size(), 1u);
+  EXPECT_EQ(c.buses[0].type, BusType::Virtual);
+  ASSERT_TRUE(c.buses[0].socketcand_listen);
+  EXPECT_EQ(c.buses[0].socketcand_listen->port, 29536);
+  EXPECT_EQ(c.buses[0].channel, "can0");  // export name defaults to the bus name
+  ASSERT_EQ(c.gateways.size(), 1u);
+  const auto& g = c.gateways[0];
+  EXPECT_TRUE(c.warnings.empty()) << c.warnings.front().to_string();
+  // Special identifier format (emulator-spec §2): input 0x43 (m=3), length 0x85 (consistent, 6),
+  // comment 02 89 B8; output 0x83 0x85 03 09 B8 (manual §5.1.4, §7).
+  EXPECT_EQ(hex(chk_cfg_bytes(g)), "43 85 02 89 B8 83 85 03 09 B8");
+  // GSD defaults (manual §5.1.2): 125 kbit/s (6), flags 0, ModuleID 1, wake-up 255, SYNC 65535.
+  EXPECT_EQ(hex(set_prm_bytes(g)), "00 01 01 00 04 A4 00 00 06 00 01 00 00 FF FF FF");
+  const auto p = slave_parameters(g);
+  ASSERT_EQ(p.addresses.size(), 2u);
+  EXPECT_EQ(p.addresses[0].input, 172);
+  EXPECT_FALSE(p.addresses[0].output);
+  EXPECT_EQ(p.addresses[1].output, 172);
+  EXPECT_EQ(p.name, "gw5");
+}
+
+TEST(Config, Defaults) {
+  json j = base();
+  j.erase("modbus");
+  j.erase("master");
+  j["gateways"][0].erase("name");
+  const auto c = ok(j);
+  EXPECT_EQ(c.modbus_listen.to_string(), "127.0.0.1:1502");  // issue 5: default listen address
+  EXPECT_EQ(c.master_address, 1);
+  EXPECT_EQ(c.cycle_ms, 10u);
+  EXPECT_EQ(c.log_level, "info");
+  EXPECT_EQ(c.gateways[0].name, "gw5");
+  EXPECT_TRUE(c.gateways[0].slots[0].consistent);
+}
+
+TEST(Config, NamedParameters) {
+  const auto c = ok(with_gateway(
+      {{"parameters",
+        {{"can_bitrate", 500000},
+         {"communication_window", false},
+         {"rtr_frames", false},
+         {"canopen", "master"},
+         {"start_frame", true},
+         {"module_id", "0x7F"},
+         {"wakeup_s", 3},
+         {"sync_ms", 1000},
+         {"can_diagnosis", true},
+         {"rx_counter", true},
+         {"tx_counter", false},
+         {"watchdog_ms", 100}}},
+       {"slots",
+        json::array(
+            {{{"io", "output"}, {"address", 0}, {"length", 1}, {"comment", "07,F8,00"}}})}}));
+  const auto& p = c.gateways[0].parameters;
+  EXPECT_EQ(p.bitrate_index, 2);  // manual table 5.1.1: 500 kbit/s
+  EXPECT_FALSE(p.send_rtr);
+  EXPECT_TRUE(p.canopen_master);
+  EXPECT_TRUE(p.start_frame);
+  EXPECT_EQ(p.module_id, 127);
+  // Set_Prm (emulator-spec §1.1): WD on (10 ms x 10 x 1), byte 8 = 2, flags 0x10|0x04|0x02 = 16,
+  // ModuleID 7F, diag 0x03, wake-up 3, SYNC 03 E8.
+  EXPECT_EQ(hex(set_prm_bytes(c.gateways[0])), "08 0A 01 00 04 A4 00 00 02 16 7F 03 00 03 03 E8");
+}
+
+TEST(Config, BitrateNames) {
+  for (const auto& [given, index] : std::vector<std::pair<json, int>>{{"1000k", 0},
+                                                                      {"666.6k", 1},
+                                                                      {"125 kbit/s", 6},
+                                                                      {"10k", 13},
+                                                                      {125000, 6},
+                                                                      {"0x1E848", 6}}) {
+    const auto c = ok(with_gateway({{"parameters", {{"can_bitrate", given}}}}));
+    EXPECT_EQ(c.gateways[0].parameters.bitrate_index, index) << given;
+  }
+  const auto e = bad(with_gateway({{"parameters", {{"can_bitrate", 123456}}}}));
+  EXPECT_EQ(e.json_path, "$.gateways[0].parameters.can_bitrate");
+  EXPECT_NE(e.message.find("125k"), std::string::npos) << e.message;
+}
+
+TEST(Config, NumbersAsHexStrings) {
+  const auto c = ok(with_gateway({{"address", "0x05"}}));
+  EXPECT_EQ(c.gateways[0].address, 5);
+  const auto e = bad(with_gateway({{"address", "5"}}));  // decimal strings are not numbers
+  EXPECT_EQ(e.json_path, "$.gateways[0].address");
+  EXPECT_NE(e.message.find("\"0x…\""), std::string::npos);
+}
+
+TEST(Config, BusTypes) {
+  json j = base();
+  j["buses"]["hw"] = {{"type", "socketcan"}, {"interface", "vcan0"}};
+  j["buses"]["far"] = {{"type", "socketcand"}, {"host", "10.0.0.9"}, {"channel", "can1"}};
+  j["buses"]["can0"]["channel"] = "vcan7";
+  const auto c = ok(j);
+  ASSERT_EQ(c.buses.size(), 3u);
+  const auto* hw = c.bus("hw");
+  ASSERT_TRUE(hw);
+  EXPECT_EQ(hw->type, BusType::SocketCan);
+  EXPECT_EQ(hw->interface, "vcan0");
+  const auto* far = c.bus("far");
+  ASSERT_TRUE(far);
+  EXPECT_EQ(far->type, BusType::Socketcand);
+  EXPECT_EQ(far->remote.to_string(), "10.0.0.9:29536");  // socketcand.h default port
+  EXPECT_EQ(far->channel, "can1");
+  EXPECT_EQ(c.bus("can0")->channel, "vcan7");
+}
+
+TEST(Config, RawPrmAndCfgHex) {
+  const auto c =
+      ok(with_gateway({{"prm_hex", "00 01 01 00 04 A4 00 00 06 80 01 00 00 FF FF FF"},
+                       {"slots", json::array({{{"cfg_hex", "83 85 03 09 B8"}, {"address", 10}},
+                                              {{"cfg_hex", "00"}}})}}));
+  const auto& g = c.gateways[0];
+  EXPECT_EQ(hex(set_prm_bytes(g)), "00 01 01 00 04 A4 00 00 06 80 01 00 00 FF FF FF");
+  EXPECT_EQ(hex(chk_cfg_bytes(g)), "83 85 03 09 B8 00");
+  const auto p = slave_parameters(g);
+  EXPECT_EQ(p.addresses[0].output, 10);
+  EXPECT_FALSE(p.addresses[1].input || p.addresses[1].output);
+}
+
+TEST(Config, RelativeFilesFollowTheConfigFile) {
+  json j = base();
+  j["log"] = {{"level", "debug"}, {"can_log", "can.log"}};
+  j["state_file"] = "/var/lib/candp2/state.json";
+  auto r = parse_daemon(j.dump(), "/etc/candp2/candp2d.json");
+  ASSERT_TRUE(std::holds_alternative<DaemonConfig>(r));
+  const auto& c = std::get<DaemonConfig>(r);
+  EXPECT_EQ(c.can_log, "/etc/candp2/can.log");
+  EXPECT_EQ(c.state_file, "/var/lib/candp2/state.json");
+  EXPECT_EQ(c.log_level, "debug");
+}
+
+TEST(Config, CommentKeysAreIgnored) {
+  json j = base();
+  j["_comment"] = "anything";
+  j["gateways"][0]["slots"][0]["_note"] = 42;
+  ok(j);
+}
+
+TEST(Config, ExampleFilesInTheRepositoryAreValid) {
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(CANDP2_SOURCE_DIR "/config")) {
+    if (entry.path().extension() != ".json") continue;
+    ++files;
+    auto r = load_daemon(entry.path().string());
+    if (auto* e = std::get_if<ConfigError>(&r)) {
+      ADD_FAILURE() << e->to_string();
+      continue;
+    }
+    for (const auto& w : std::get<DaemonConfig>(r).warnings)
+      ADD_FAILURE() << "warning in an example: " << w.to_string();
+  }
+  EXPECT_GE(files, 3);
+}
+
+// ------------------------------------------------------------------------------ bad files
+// issue 5: missing key, wrong type, unknown bus, slot comment with odd hex — file + JSON path.
+
+TEST(ConfigErrors, MissingKey) {
+  json j = base();
+  j["gateways"][0].erase("slots");
+  const auto e = bad(j);
+  EXPECT_EQ(e.to_string(), "test.json: $.gateways[0]: missing key \"slots\"");
+  j = base();
+  j["gateways"][0]["slots"][1].erase("length");
+  EXPECT_EQ(bad(j).json_path, "$.gateways[0].slots[1]");
+  j = base();
+  j.erase("buses");
+  EXPECT_EQ(bad(j).to_string(), "test.json: $: missing key \"buses\"");
+}
+
+TEST(ConfigErrors, WrongType) {
+  auto e = bad(with_gateway({{"address", true}}));
+  EXPECT_EQ(e.json_path, "$.gateways[0].address");
+  EXPECT_NE(e.message.find("expected a number from 0 to 126"), std::string::npos) << e.message;
+  EXPECT_NE(e.message.find("got true"), std::string::npos) << e.message;
+
+  json j = base();
+  j["gateways"][0]["slots"][0]["consistent"] = "yes";
+  e = bad(j);
+  EXPECT_EQ(e.to_string(),
+            "test.json: $.gateways[0].slots[0].consistent: expected true or false, got the string "
+            "\"yes\"");
+
+  j = base();
+  j["gateways"] = json::object();
+  EXPECT_EQ(bad(j).json_path, "$.gateways");
+
+  j = base();
+  j["gateways"][0]["slots"][0]["length"] = 2.5;
+  e = bad(j);
+  EXPECT_NE(e.message.find("not a whole number"), std::string::npos);
+  j["gateways"][0]["slots"][0]["length"] = -1;
+  EXPECT_EQ(bad(j).json_path, "$.gateways[0].slots[0].length");
+}
+
+TEST(ConfigErrors, UnknownBus) {
+  const auto e = bad(with_gateway({{"bus", "can9"}}));
+  EXPECT_EQ(e.to_string(),
+            "test.json: $.gateways[0].bus: unknown bus \"can9\" (defined in $.buses: can0)");
+}
+
+TEST(ConfigErrors, SlotCommentWithOddHex) {
+  json j = base();
+  j["gateways"][0]["slots"][1]["comment"] = "03,9,B8";
+  auto e = bad(j);
+  EXPECT_EQ(e.json_path, "$.gateways[0].slots[1].comment");
+  EXPECT_NE(e.message.find("expected hex bytes like \"02,89,B8\""), std::string::npos);
+  EXPECT_NE(e.message.find("'9' is not one byte"), std::string::npos) << e.message;
+  j["gateways"][0]["slots"][1]["comment"] = "03,0G,B8";
+  EXPECT_NE(bad(j).message.find("'G' is not a hex digit"), std::string::npos);
+  j["gateways"][0]["slots"][1]["comment"] = 30980;
+  EXPECT_EQ(bad(j).json_path, "$.gateways[0].slots[1].comment");
+}
+
+TEST(ConfigErrors, OddHexInRawBytes) {
+  auto e = bad(with_gateway({{"prm_hex", "00 01 0"}}));
+  EXPECT_EQ(e.json_path, "$.gateways[0].prm_hex");
+  EXPECT_NE(e.message.find("odd number of hex digits"), std::string::npos) << e.message;
+  e = bad(with_gateway({{"slots", json::array({{{"cfg_hex", "83 85 03"}, {"address", 0}}})}}));
+  EXPECT_EQ(e.json_path, "$.gateways[0].slots[0].cfg_hex");  // manufacturer bytes missing
+  e = bad(with_gateway(
+      {{"slots",
+        json::array({{{"cfg_hex", "83 85 03 09 B8"}, {"io", "output"}, {"address", 0}}})}}));
+  EXPECT_EQ(e.json_path, "$.gateways[0].slots[0].io");
+}
+
+TEST(ConfigErrors, UnknownKeyNamesTheAllowedOnes) {
+  json j = base();
+  j["gateways"][0]["slots"][0]["lenght"] = 6;
+  const auto e = bad(j);
+  EXPECT_EQ(e.json_path, "$.gateways[0].slots[0].lenght");
+  EXPECT_NE(e.message.find("unknown key (expected one of: io, address, length"), std::string::npos)
+      << e.message;
+  j = base();
+  j["gateways"][0]["parameters"] = {{"canopen_master", true}};
+  EXPECT_EQ(bad(j).json_path, "$.gateways[0].parameters.canopen_master");
+}
+
+TEST(ConfigErrors, EnumValues) {
+  auto e = bad(with_gateway({{"parameters", {{"canopen", "both"}}}}));
+  EXPECT_EQ(e.to_string(),
+            "test.json: $.gateways[0].parameters.canopen: expected one of \"none\", \"master\", "
+            "\"slave\", got the string \"both\"");
+  json j = base();
+  j["buses"]["can0"]["type"] = "vcan";
+  e = bad(j);
+  EXPECT_EQ(e.json_path, "$.buses.can0.type");
+  j = base();
+  j["log"] = {{"level", "verbose"}};
+  EXPECT_EQ(bad(j).json_path, "$.log.level");
+}
+
+TEST(ConfigErrors, DuplicateKeyWithItsPath) {
+  const auto e = bad_text(R"({"buses": {"can0": {"type": "virtual"}},
+    "gateways": [{"address": 5, "bus": "can0", "slots": [
+       {"io": "output", "address": 1, "address": 2, "length": 1}]}]})");
+  EXPECT_EQ(e.to_string(),
+            "test.json: $.gateways[0].slots[0].address: duplicate key (each key may appear once)");
+}
+
+TEST(ConfigErrors, SyntaxErrorNamesLineAndColumn) {
+  const auto e = bad_text("{\n  \"buses\": {\n    \"can0\": {\"type\": \"virtual\",}\n  }\n}");
+  EXPECT_EQ(e.file, "test.json");
+  EXPECT_NE(e.message.find("invalid JSON"), std::string::npos);
+  EXPECT_NE(e.message.find("line 3"), std::string::npos) << e.message;
+}
+
+TEST(ConfigErrors, NumberBeyondWhatJsonNumbersHold) {
+  // Found by config_fuzz: nlohmann reports it as out_of_range, not as a parse error.
+  const auto e = bad_text("{\"buses\": 661E76661}");
+  EXPECT_EQ(e.file, "test.json");
+  EXPECT_NE(e.message.find("invalid JSON"), std::string::npos) << e.message;
+  EXPECT_NE(e.message.find("number overflow"), std::string::npos) << e.message;
+  const auto big = bad(with_gateway({{"address", "0xFFFFFFFFFFFFFFFFFF"}}));
+  EXPECT_EQ(big.json_path, "$.gateways[0].address");
+}
+
+TEST(ConfigErrors, Endpoints) {
+  json j = base();
+  j["modbus"]["listen"] = "localhost:1502";
+  auto e = bad(j);
+  EXPECT_EQ(e.json_path, "$.modbus.listen");
+  EXPECT_NE(e.message.find("numeric IPv4"), std::string::npos);
+  j["modbus"]["listen"] = "127.0.0.1:99999";
+  EXPECT_NE(bad(j).message.find("0 to 65535"), std::string::npos);
+  j["modbus"]["listen"] = "1502";
+  EXPECT_NE(bad(j).message.find("HOST:PORT"), std::string::npos);
+  j = base();
+  j["modbus"]["listen"] = "127.0.0.1:29536";  // the socketcand export's port
+  EXPECT_EQ(bad(j).json_path, "$.buses.can0.socketcand");
+}
+
+TEST(ConfigErrors, AddressesAndRanges) {
+  json j = base();
+  j["gateways"].push_back(j["gateways"][0]);
+  j["gateways"][1]["name"] = "other";
+  auto e = bad(j);
+  EXPECT_EQ(e.to_string(),
+            "test.json: $.gateways[1].address: DP address 5 is already used by $.gateways[0]");
+  e = bad(with_gateway({{"address", 127}}));  // DP addresses 0..126 (127 = broadcast)
+  EXPECT_EQ(e.json_path, "$.gateways[0].address");
+}
+
+TEST(ConfigErrors, MasterAddressClash) {
+  json j = base();
+  j["master"]["address"] = 5;
+  EXPECT_EQ(bad(j).to_string(),
+            "test.json: $.gateways[0].address: DP address 5 is the master's address "
+            "($.master.address)");
+}
+
+TEST(ConfigErrors, SlotOutsideTheImage) {
+  json j = base();
+  j["gateways"][0]["slots"][1]["address"] = 8190;
+  const auto e = bad(j);
+  EXPECT_EQ(e.json_path, "$.gateways[0].slots[1].address");
+  EXPECT_NE(e.message.find("8190..8195 lie outside the 8192-byte PLC image"), std::string::npos);
+}
+
+TEST(ConfigErrors, FileErrors) {
+  auto r = load_daemon("/nonexistent/candp2d.json");
+  ASSERT_TRUE(std::holds_alternative<ConfigError>(r));
+  EXPECT_EQ(std::get<ConfigError>(r).file, "/nonexistent/candp2d.json");
+  EXPECT_NE(std::get<ConfigError>(r).message.find("cannot open"), std::string::npos);
+}
+
+// ------------------------------------------------------------------------------ warnings
+
+TEST(ConfigWarnings, WhatTheGatewayWouldRejectIsAWarning) {
+  json j = base();
+  j["gateways"][0]["slots"][1]["comment"] = "03,09";  // emulator-spec §2 code 5
+  const auto c = ok(j);
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_EQ(c.warnings[0].json_path, "$.gateways[0].slots[1]");
+  EXPECT_NE(c.warnings[0].message.find("diagnosis 3E 01 05"), std::string::npos)
+      << c.warnings[0].message;
+
+  const auto p = ok(with_gateway({{"parameters", {{"canopen", "master"}, {"page_mode", true}}}}));
+  ASSERT_FALSE(p.warnings.empty());
+  EXPECT_EQ(p.warnings[0].json_path, "$.gateways[0].parameters");
+  // emulator-spec §1.1: Page-Mode with a CANopen role: byte 9, Page-Mode bit cleared.
+  EXPECT_NE(p.warnings[0].message.find("diagnosis 3D 09 04"), std::string::npos)
+      << p.warnings[0].message;
+}
+
+TEST(ConfigWarnings, OverlappingSlotsAndClampedAddress) {
+  json j = base();
+  j["gateways"][0]["address"] = 2;  // manual §2.1: counts as 3
+  j["gateways"][0]["slots"].push_back(
+      {{"io", "input"}, {"address", 175}, {"length", 2}, {"comment", "02,8A,00"}});
+  const auto c = ok(j);
+  EXPECT_EQ(c.gateways[0].dp_address(), 3);
+  ASSERT_EQ(c.warnings.size(), 2u);
+  EXPECT_EQ(c.warnings[0].json_path, "$.gateways[0].address");
+  EXPECT_EQ(c.warnings[1].json_path, "$.gateways[0].slots[2]");
+  EXPECT_NE(c.warnings[1].message.find("I 175..176 overlap $.gateways[0].slots[0]"),
+            std::string::npos)
+      << c.warnings[1].message;
+}
+
+TEST(ConfigWarnings, SameRxIdentifierTwiceLaterWins) {
+  json j = base();
+  j["gateways"][0]["slots"].push_back(
+      {{"io", "input"}, {"address", 200}, {"length", 6}, {"comment", "02,89,00"}});
+  const auto c = ok(j);
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_EQ(c.warnings[0].json_path, "$.gateways[0].slots[0]");
+  EXPECT_NE(c.warnings[0].message.find("later slot wins"), std::string::npos);
+}
+
+TEST(ConfigWarnings, WatchdogShorterThanTwoMasterCycles) {
+  json j = with_gateway({{"parameters", {{"watchdog_ms", 30}}}});
+  j["master"]["cycle_ms"] = 20;
+  const auto c = ok(j);
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_EQ(c.warnings[0].json_path, "$.gateways[0].parameters.watchdog_ms");
+  j["master"]["cycle_ms"] = 15;
+  EXPECT_TRUE(ok(j).warnings.empty());
+}
+
+TEST(ParseGateway, StandaloneForTheReplayRunner) {
+  auto r = parse_gateway(base()["gateways"][0], "scenario.json", "$.gateway");
+  ASSERT_TRUE(std::holds_alternative<GatewayConfig>(r));
+  EXPECT_EQ(std::get<GatewayConfig>(r).json_path, "$.gateway");
+  json g = base()["gateways"][0];
+  g["slots"][0]["io"] = "in";
+  r = parse_gateway(g, "scenario.json", "$.gateway");
+  ASSERT_TRUE(std::holds_alternative<ConfigError>(r));
+  EXPECT_EQ(std::get<ConfigError>(r).to_string(),
+            "scenario.json: $.gateway.slots[0].io: expected one of \"input\", \"output\", got the "
+            "string \"in\"");
+}
+
+TEST(ParseHex, Forms) {
+  std::string error;
+  EXPECT_EQ(hex(*parse_hex("88 80,c4", &error)), "88 80 C4");
+  EXPECT_EQ(hex(*parse_hex("8880C4", &error)), "88 80 C4");
+  EXPECT_FALSE(parse_hex("888", &error));
+  EXPECT_FALSE(parse_hex("", &error));
+  EXPECT_EQ(error, "no bytes given");
+  EXPECT_FALSE(parse_hex("0x12", &error));
+}
+
+}  // namespace
+}  // namespace candp2::config

@@ -1,0 +1,329 @@
+// candp2d's wiring in-process: the daemon on an event loop thread, driven from the test thread by
+// the same kinds of clients the end-to-end test uses (libmodbus, socketcand on the wire).
+#include "daemon/daemon.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "can/socketcand.hpp"
+#include "daemon/modbus_map.hpp"
+#include "daemon_test_support.hpp"
+
+namespace candp2::daemon {
+namespace {
+
+using namespace candp2::test;
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+std::vector<std::uint16_t> regs(std::variant<std::vector<std::uint16_t>, int> r) {
+  if (auto* e = std::get_if<int>(&r)) {
+    ADD_FAILURE() << "Modbus error " << modbus_strerror(*e);
+    return {};
+  }
+  return std::get<0>(r);
+}
+
+struct TempDir {
+  TempDir() {
+    char tmpl[] = "/tmp/candp2-daemon-test-XXXXXX";
+    path = ::mkdtemp(tmpl);
+  }
+  ~TempDir() { fs::remove_all(path); }
+  std::string file(const std::string& name) const { return (fs::path(path) / name).string(); }
+  std::string path;
+};
+
+// The manual §5.1.4 slot example on a virtual bus exported over socketcand, master cycle 1 ms.
+json manual_514() {
+  return json::parse(R"({
+    "modbus": {"listen": "127.0.0.1:0"},
+    "master": {"address": 2, "cycle_ms": 1, "retry_ms": 50},
+    "buses": {"can0": {"type": "virtual", "socketcand": "127.0.0.1:0"}},
+    "gateways": [{
+      "name": "gw5", "address": 5, "bus": "can0",
+      "parameters": {"watchdog_ms": 200},
+      "slots": [
+        {"io": "input",  "address": 172, "length": 6, "comment": "02,89,B8"},
+        {"io": "output", "address": 172, "length": 6, "comment": "03,09,B8"}
+      ]
+    }]
+  })");
+}
+
+config::DaemonConfig load(const json& j, const std::string& file = "test.json") {
+  auto r = config::parse_daemon(j.dump(), file);
+  if (auto* e = std::get_if<config::ConfigError>(&r)) throw std::runtime_error(e->to_string());
+  return std::get<config::DaemonConfig>(r);
+}
+
+struct Running {
+  explicit Running(const config::DaemonConfig& c) {
+    std::string error;
+    daemon = Daemon::start(c, loop, &log, &error);
+    if (!daemon) throw std::runtime_error(error);
+    thread.start();
+  }
+  ~Running() {
+    thread.stop();
+    daemon.reset();
+  }
+  std::uint16_t modbus() const { return daemon->modbus_port(); }
+  std::uint16_t socketcand(const char* bus = "can0") const {
+    return daemon->socketcand_port(bus).value_or(0);
+  }
+  // Waits (over Modbus) until the gateway is in Data_Exch and the master has exchanged data with
+  // it (status block: DP state 2, master state 4, data exchanges > 0).
+  bool in_data_exchange(int unit = 5) {
+    ModbusClient c(modbus(), unit);
+    return eventually([&] {
+      auto r = c.read_input(modbus::kStatusBase, modbus::status::kCount);
+      if (!std::holds_alternative<std::vector<std::uint16_t>>(r)) return false;
+      const auto& s = std::get<0>(r);
+      return s[modbus::status::kDpState] == 2 && s[modbus::status::kMasterState] == 4 &&
+             s[modbus::status::kDataExchanges + 1] > 0;
+    });
+  }
+
+  MemoryLog log;
+  EventLoop loop{nullptr};
+  std::unique_ptr<Daemon> daemon;
+  LoopThread thread{loop};
+};
+
+TEST(Daemon, Manual514RoundTripOverModbusAndSocketcand) {
+  TempDir tmp;
+  json j = manual_514();
+  j["log"] = {{"can_log", tmp.file("can.log")}};
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange());
+  SocketcandClient observer(d.socketcand(), "can0");
+  ModbusClient plc(d.modbus(), 5);
+  // Q 172..177 = holding registers 86..88 (emulator-spec §8).
+  ASSERT_EQ(plc.write(86, {0x0A0B, 0x0C0D, 0x0E0F}), 0);
+  // form B8 on 6 bytes: a b c d e f → b a f e d c (emulator-spec §4, manual §5.2.2).
+  EXPECT_EQ(observer.frame(), "309#0B0A0F0E0D0C");
+  // The same bytes coming back on the input slot's identifier, swapped back.
+  observer.send(F("289#0B0A0F0E0D0C"));
+  EXPECT_TRUE(eventually([&] {
+    return regs(plc.read_input(86, 3)) == std::vector<std::uint16_t>{0x0A0B, 0x0C0D, 0x0E0F};
+  }));
+  // Status block: Data_Exch, diagnosis byte 3 = master 2, tx/rx counters, LEDs.
+  const auto s = regs(plc.read_input(modbus::kStatusBase, modbus::status::kCount));
+  ASSERT_EQ(s.size(), modbus::status::kCount);
+  EXPECT_EQ(s[modbus::status::kDiag + 3], 2);
+  EXPECT_EQ(s[modbus::status::kDiag + 4], 0x04);
+  EXPECT_EQ(s[modbus::status::kDiag + 5], 0xA4);
+  EXPECT_EQ(s[modbus::status::kMasterState], 4);
+  EXPECT_EQ(s[modbus::status::kReleased], 1);
+  EXPECT_GE(s[modbus::status::kTxFrames + 1], 2);  // release frame + the change
+  EXPECT_EQ(s[modbus::status::kRxFrames + 1], 1);
+  EXPECT_EQ(s[modbus::status::kLedD], 1);
+  EXPECT_EQ(s[modbus::status::kDpAddress], 5);
+  d.thread.stop();
+  // The CAN log holds both frames in candump -l notation.
+  std::ifstream in(tmp.file("can.log"));
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find(") can0 309#0B0A0F0E0D0C\n"), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find(") can0 289#0B0A0F0E0D0C\n"), std::string::npos) << text.str();
+}
+
+TEST(Daemon, ControlRegisterPowerCycleAndReparameterize) {
+  Running d(load(manual_514()));
+  ASSERT_TRUE(d.in_data_exchange());
+  ModbusClient plc(d.modbus(), 5);
+  auto parameterizations = [&] {
+    const auto r =
+        regs(plc.read_input(modbus::kStatusBase + modbus::status::kParameterizations, 2));
+    return r.size() == 2 ? (r[0] << 16) | r[1] : -1;
+  };
+  EXPECT_EQ(parameterizations(), 1);
+  ASSERT_EQ(plc.write_one(modbus::kControlRegister, 2), 0);  // re-parameterize
+  EXPECT_TRUE(eventually([&] { return parameterizations() == 2; }));
+  ASSERT_EQ(plc.write_one(modbus::kControlRegister, 1), 0);  // power cycle
+  // The gateway is back in Wait_Prm at once; the master notices and parameterizes it again.
+  EXPECT_EQ(regs(plc.read_input(modbus::kStatusBase, 1)), std::vector<std::uint16_t>{0});
+  EXPECT_EQ(regs(plc.read_holding(modbus::kControlRegister, 1)), std::vector<std::uint16_t>{1});
+  EXPECT_TRUE(eventually([&] { return parameterizations() == 3; }));
+  EXPECT_TRUE(d.in_data_exchange());
+  d.thread.stop();
+  EXPECT_TRUE(d.log.contains("power cycle requested over Modbus"));
+}
+
+TEST(Daemon, BadRequestsAreAnsweredAndTheDaemonServesOn) {
+  Running d(load(manual_514()));
+  ModbusClient plc(d.modbus(), 5);
+  EXPECT_EQ(std::get<int>(plc.read_holding(5000, 1)), EMBXILADD);
+  plc.unit(6);
+  EXPECT_EQ(std::get<int>(plc.read_input(8192, 1)), EMBXGTAR);
+  const int garbage = connect_tcp(d.modbus());
+  const char junk[] = "\x01\x02\x03\x04\x05\x06\x07\x08";
+  ::send(garbage, junk, 8, MSG_NOSIGNAL);
+  EXPECT_TRUE(closed_by_peer(garbage));
+  ::close(garbage);
+  plc.unit(0);  // the first gateway
+  EXPECT_EQ(regs(plc.read_input(modbus::kStatusBase + modbus::status::kDpAddress, 1)),
+            std::vector<std::uint16_t>{5});
+}
+
+TEST(Daemon, MissingSocketcanInterfaceIsAClearError) {
+  json j = manual_514();
+  j["buses"] = {{"hw", {{"type", "socketcan"}, {"interface", "candp2none0"}}}};
+  j["gateways"][0]["bus"] = "hw";
+  EventLoop loop;
+  MemoryLog log;
+  std::string error;
+  auto d = Daemon::start(load(j), loop, &log, &error);
+  EXPECT_FALSE(d);
+  EXPECT_NE(error.find("gateway \"gw5\" on bus \"hw\" ($.buses.hw)"), std::string::npos) << error;
+  EXPECT_NE(error.find("candp2none0"), std::string::npos) << error;
+}
+
+TEST(Daemon, ModbusPortInUseIsAClearError) {
+  Running first(load(manual_514()));
+  json j = manual_514();
+  j["modbus"]["listen"] = "127.0.0.1:" + std::to_string(first.modbus());
+  EventLoop loop;
+  std::string error;
+  EXPECT_FALSE(Daemon::start(load(j), loop, nullptr, &error));
+  EXPECT_NE(error.find("$.modbus.listen"), std::string::npos) << error;
+  EXPECT_NE(error.find("cannot listen"), std::string::npos) << error;
+}
+
+TEST(Daemon, StoredSyncTimeSurvivesARestartThroughTheStateFile) {
+  TempDir tmp;
+  json j = manual_514();
+  j["state_file"] = tmp.file("state.json");
+  // CANopen master: Set_Prm SYNC time 250 ms is stored (emulator-spec §1.1, manual table 5.1.4).
+  j["gateways"][0]["parameters"] = {{"canopen", "master"}, {"wakeup_s", 0}, {"sync_ms", 250}};
+  {
+    Running d(load(j));
+    ASSERT_TRUE(d.in_data_exchange());
+    d.thread.stop();
+    d.daemon->shutdown();
+  }
+  std::ifstream in(tmp.file("state.json"));
+  const auto state = json::parse(in);
+  EXPECT_EQ(state["gateways"]["5"]["sync_ms"], 250) << state.dump();
+  // 65535 = keep the stored value: after the restart the gateway uses 250 from the state file.
+  j["gateways"][0]["parameters"]["sync_ms"] = 65535;
+  Running again(load(j));
+  ASSERT_TRUE(again.in_data_exchange());
+  ModbusClient plc(again.modbus(), 5);
+  EXPECT_EQ(regs(plc.read_input(modbus::kStatusBase + modbus::status::kSyncMs, 1)),
+            std::vector<std::uint16_t>{250});
+}
+
+TEST(Daemon, SimulatedUnitekDriveAnswersThroughTheGateway) {
+  json j = manual_514();
+  j["gateways"][0]["slots"] = json::parse(R"([
+    {"io": "output", "address": 0, "length": 3, "comment": "02,01,00"},
+    {"io": "input",  "address": 0, "length": 4, "comment": "01,81,00"}
+  ])");
+  j["drives"] = json::parse(R"([{"type": "unitek", "name": "axis1", "bus": "can0"}])");
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange());
+  ModbusClient plc(d.modbus(), 5);
+  // Q0..2 = 3D 51 00: read register 0x51 (MODE) once (Unitek CAN manual, REGID 0x3D time 0).
+  ASSERT_EQ(plc.write(0, {0x3D51, 0x0000}), 0);
+  // The drive answers on 0x181 with 0x51 + 16-bit value + stuff byte: I0 = 0x51.
+  EXPECT_TRUE(eventually([&] {
+    const auto r = regs(plc.read_input(0, 1));
+    return !r.empty() && (r[0] >> 8) == 0x51;
+  }));
+}
+
+TEST(Daemon, BuiltInDefaultGatewayWithTwoDrives) {
+  // config/default.json (compiled into candp2d as its default) on free ports.
+  std::ifstream in(CANDP2_SOURCE_DIR "/config/default.json");
+  json j = json::parse(in);
+  j["modbus"]["listen"] = "127.0.0.1:0";
+  j["buses"]["can0"]["socketcand"] = "127.0.0.1:0";
+  Running d(load(j, CANDP2_SOURCE_DIR "/config/default.json"));
+  ASSERT_TRUE(d.in_data_exchange(3));
+  ModbusClient plc(d.modbus(), 3);
+  // Q0..4 → axis1 (0x201), Q8..12 → axis2 (0x202): 3D 51 00 = read MODE (0x51) once.
+  ASSERT_EQ(plc.write(0, {0x3D51, 0x0000, 0x0000, 0x0000, 0x3D51, 0x0000}), 0);
+  // I0..5 ← axis1 (0x181), I8..13 ← axis2 (0x182): the answers start with the REGID.
+  EXPECT_TRUE(eventually([&] {
+    const auto r = regs(plc.read_input(0, 5));
+    return r.size() == 5 && (r[0] >> 8) == 0x51 && (r[4] >> 8) == 0x51;
+  }));
+}
+
+TEST(Daemon, GatewaysOnARemoteSocketcandBus) {
+  // A socketcand server on its own loop thread stands in for a remote socketcand daemon.
+  EventLoop remote_loop;
+  can::VirtualBus remote_bus;
+  auto remote_ep = remote_bus.endpoint("server");
+  std::string error;
+  auto server = can::SocketcandServer::listen({.host = "127.0.0.1", .port = 0, .channel = "can1"},
+                                              *remote_ep, nullptr, &error);
+  ASSERT_TRUE(server) << error;
+  for (int fd : server->poll_fds())
+    remote_loop.add_fd(fd, EventLoop::kReadable,
+                       [&, fd](std::uint32_t) { server->on_readable(fd, EventLoop::wall_now()); });
+  LoopThread remote_thread(remote_loop);
+  remote_thread.start();
+
+  TempDir tmp;
+  json j = manual_514();
+  j["buses"] = {{"far",
+                 {{"type", "socketcand"},
+                  {"host", "127.0.0.1"},
+                  {"port", server->port()},
+                  {"channel", "can1"}}}};
+  j["gateways"][0]["bus"] = "far";
+  // A second gateway on the same remote bus listens to the first one's output identifier.
+  j["gateways"].push_back(json::parse(R"({"name": "gw6", "address": 6, "bus": "far", "slots": [
+      {"io": "input",  "address": 300, "length": 6, "comment": "03,09,B8"},
+      {"io": "output", "address": 400, "length": 1, "comment": "07,F8,00"}]})"));
+  j["log"] = {{"can_log", tmp.file("can.log")}};
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange(5));
+  ASSERT_TRUE(d.in_data_exchange(6));
+  // Another client of the remote server sees what the gateway sends and talks to it.
+  SocketcandClient peer(server->port(), "can1");
+  ModbusClient plc(d.modbus(), 5);
+  ASSERT_EQ(plc.write(86, {0x0102, 0x0304, 0x0506}), 0);
+  EXPECT_EQ(peer.frame(), "309#020106050403");  // form B8
+  peer.send(F("289#020106050403"));
+  EXPECT_TRUE(eventually([&] {
+    return regs(plc.read_input(86, 3)) == std::vector<std::uint16_t>{0x0102, 0x0304, 0x0506};
+  }));
+  // gw6 received gw5's frame over its own connection: I 300..305 = input registers 150..152.
+  EXPECT_TRUE(eventually([&] {
+    return regs(plc.read_input(150, 3)) == std::vector<std::uint16_t>{0x0102, 0x0304, 0x0506};
+  }));
+  d.thread.stop();
+  remote_thread.stop();
+  // Each frame once in the CAN log, although both gateways' connections carried it.
+  std::ifstream in(tmp.file("can.log"));
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  auto count = [&](const std::string& needle) {
+    std::size_t n = 0;
+    for (auto p = text.find(needle); p != std::string::npos; p = text.find(needle, p + 1)) ++n;
+    return n;
+  };
+  EXPECT_EQ(count(" far 309#020106050403\n"), 1u) << text;
+  EXPECT_EQ(count(" far 289#020106050403\n"), 1u) << text;
+}
+
+TEST(ModbusMapText, NamesSlotsRegistersAndUnits) {
+  const auto text = modbus_map_text(load(manual_514()));
+  EXPECT_NE(text.find("5, 0, 255  gw5"), std::string::npos) << text;
+  EXPECT_NE(text.find("I  172..177   input registers     86..88"), std::string::npos) << text;
+  EXPECT_NE(text.find("Q  172..177   holding registers   86..88"), std::string::npos) << text;
+  EXPECT_NE(text.find("coils            1376..1423"), std::string::npos) << text;
+  EXPECT_NE(text.find("8226        dp_address"), std::string::npos) << text;
+}
+
+}  // namespace
+}  // namespace candp2::daemon
