@@ -1,0 +1,127 @@
+// A replay scenario (docs/replay-format.md, format "candp2-replay" version 1): one emulated gateway
+// configured exactly like a daemon "gateways" entry, the simulated DP master's cycle time, an
+// optional Page-Mode driver (the FB2 equivalent) and timed steps — write PLC outputs, inject CAN
+// frames, advance time, expect frames / input bytes / diagnosis. Parsing is strict: every error
+// names the file and the JSON path.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "can/frame.hpp"
+#include "common/time.hpp"
+#include "config/config.hpp"
+#include "gateway/page_mode.hpp"
+#include "profibus_sim/dp_slave.hpp"
+#include "profibus_sim/page_driver.hpp"
+
+namespace candp2::replay {
+
+inline constexpr std::string_view kFormat = "candp2-replay";
+inline constexpr int kVersion = 1;
+
+// Hex bytes where "??" matches any byte: "00 33 ?? 00".
+struct BytePattern {
+  std::vector<std::uint8_t> bytes;
+  std::vector<bool> care;  // false = "??"
+  bool matches(std::span<const std::uint8_t> actual) const;
+  std::size_t size() const { return bytes.size(); }
+  std::string text() const;
+};
+
+// A frame in candump notation ("201#0102", "12345678#R"), "201#*" for any data frame on 201, "*"
+// for any frame.
+struct FramePattern {
+  bool any = false;
+  bool any_data = false;
+  can::Frame frame;
+  bool matches(const can::Frame& f) const;
+  std::string text() const;
+};
+
+// FB2's data blocks (manual §6.5.1).
+enum class Db : std::uint8_t { WriteConfig, ReadConfig, Write, Read };  // DB94, DB95, DB96, DB97
+std::string_view to_string(Db db);
+
+enum class Action : std::uint8_t {
+  Note,            // only a "note" line in the report
+  Advance,         // advance_ms
+  Cycles,          // cycles: run through the next n DP cycles
+  Write,           // write: PLC output bytes (Q) at an address
+  Inject,          // inject: CAN frame(s) from another node
+  ExpectFrame,     // expect_frame: a matching frame from the gateway within the window
+  ExpectFrames,    // expect_frames: exactly these next frames from the gateway, in order
+  ExpectNoFrame,   // expect_no_frame: no matching frame from the gateway for the window
+  ExpectInput,     // expect_input: PLC input bytes (I) at an address
+  ExpectOutput,    // expect_output: PLC output bytes (Q) at an address (what a driver wrote)
+  ExpectDiag,      // expect_diag: the 11 Slave_Diag bytes
+  ExpectDpState,   // expect_dp_state: wait_prm / wait_cfg / data_exch
+  Freigabe,        // freigabe: the page driver's FREIGABE bit
+  DbWrite,         // db_write: bytes into one of the driver's data blocks
+  ExpectDb,        // expect_db: bytes of one of the driver's data blocks
+  SetTx,           // set_tx: force and/or data of Tx identifier n in WRITE_DB
+  ExpectRx,        // expect_rx: count_in and/or data of Rx identifier n in READ_DB
+  ExpectRetValue,  // expect_ret_value: the driver's RET_VALUE (manual table 6.5.7)
+};
+std::string_view to_string(Action a);
+
+struct Step {
+  Action action = Action::Note;
+  std::string path;  // "$.steps[3]"
+  std::string note;
+  std::optional<Duration> at;      // at_ms: run the step at this absolute time
+  std::optional<Duration> window;  // within_ms (expectations) / for_ms (expect_no_frame)
+  Duration advance{0};
+  std::uint32_t cycles = 0;
+  std::uint16_t address = 0;
+  std::vector<std::uint8_t> bytes;  // write, db_write, set_tx data
+  BytePattern pattern;              // expect_input/output/diag/db, expect_rx data
+  std::vector<can::Frame> frames;   // inject
+  std::vector<FramePattern> frame_patterns;
+  dp::SlaveState dp_state = dp::SlaveState::DataExch;
+  bool on = true;
+  Db db = Db::Write;
+  std::size_t db_index = 0;  // which DB of the chain
+  std::size_t offset = 0;
+  std::size_t entry = 0;                 // set_tx / expect_rx: identifier number, 1-based
+  std::optional<std::uint8_t> force;     // set_tx
+  std::optional<std::uint8_t> count_in;  // expect_rx
+  bool has_data = false;                 // set_tx / expect_rx carry data
+  std::uint16_t ret_value = 0;
+
+  bool expectation() const;
+  std::string describe() const;  // one line for the report
+};
+
+// The Page-Mode driver of a scenario (key "page_driver").
+struct DriverSpec {
+  plc::PageDriverOptions options;
+  bool freigabe = true;
+  std::vector<gw::page::IdEntry> tx, rx;
+  std::vector<std::uint8_t> tx_force;              // initial force per Tx identifier
+  std::vector<std::vector<std::uint8_t>> tx_data;  // initial data per Tx identifier
+  std::size_t ids_per_db = 0;                      // split the DBs (DD chains); 0 = one DB each
+  // Raw data blocks replacing the ones built from tx/rx (hex per DB).
+  std::optional<plc::DbChain> write_config_db, read_config_db, write_db, read_db;
+};
+
+struct Scenario {
+  std::string file;
+  std::string name;
+  std::string description;
+  Duration cycle = milliseconds(10);
+  std::uint8_t master_address = 1;
+  config::GatewayConfig gateway;
+  std::optional<DriverSpec> driver;
+  std::vector<Step> steps;
+  std::vector<config::ConfigError> warnings;
+};
+
+config::Result<Scenario> parse_scenario(const std::string& text, const std::string& file);
+config::Result<Scenario> load_scenario(const std::string& path);
+
+}  // namespace candp2::replay

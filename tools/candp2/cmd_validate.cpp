@@ -1,0 +1,151 @@
+// candp2 validate CONFIG [--gsd FILE] [--json] [--strict]: what the emulated CAN-DP/2 makes of
+// every gateway of a daemon configuration (docs/validate.md). Exit status: 0 valid, 1 invalid (a
+// gateway rejects its Set_Prm or Chk_Cfg; with --strict also any warning), 2 unusable input (file
+// missing, JSON syntax, configuration error, unusable GSD).
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <variant>
+
+#include "common/hex.hpp"
+#include "config/config.hpp"
+#include "gsd/gsd.hpp"
+#include "tools/candp2/commands.hpp"
+#include "validate/params.hpp"
+#include "validate/report.hpp"
+#include "validate/validate.hpp"
+
+namespace candp2::cli {
+
+namespace {
+
+struct ValidateArgs {
+  std::string config;
+  std::string gsd;
+  bool json = false;
+  bool strict = false;
+};
+
+// Unusable input: the message on stderr; with --json also a JSON document on stdout.
+int unusable(const ValidateArgs& a, const std::string& file, const std::string& json_path,
+             const std::string& message) {
+  std::cerr << "candp2 validate: " << file << ": " << (json_path.empty() ? "" : json_path + ": ")
+            << message << "\n";
+  if (a.json) {
+    nlohmann::ordered_json j;
+    j["file"] = a.config;
+    j["valid"] = false;
+    j["exit_code"] = 2;
+    j["error"] = {{"file", file},
+                  {"json_path", json_path.empty() ? nlohmann::ordered_json(nullptr)
+                                                  : nlohmann::ordered_json(json_path)},
+                  {"message", message}};
+    std::cout << j.dump(2) << "\n";
+  }
+  return 2;
+}
+
+std::string device_name(const gsd::Model& m) {
+  char ident[16] = "?";
+  if (const auto id = m.ident_number())
+    std::snprintf(ident, sizeof ident, "0x%04llX", static_cast<unsigned long long>(*id));
+  return gsd::to_utf8(m.vendor_name()) + " " + gsd::to_utf8(m.model_name()) + ", Ident_Number " +
+         ident;
+}
+
+int run_validate(const ValidateArgs& a) {
+  auto loaded = config::load_daemon(a.config);
+  if (const auto* e = std::get_if<config::ConfigError>(&loaded))
+    return unusable(a, e->file, e->json_path, e->message);
+  const config::DaemonConfig& cfg = std::get<config::DaemonConfig>(loaded);
+
+  std::optional<gsd::ParseResult> gsd_file;
+  if (!a.gsd.empty()) {
+    if (!std::ifstream(a.gsd, std::ios::binary))
+      return unusable(a, a.gsd, "",
+                      "cannot open the GSD file: " + std::string(std::strerror(errno)));
+    gsd_file = gsd::parse_file(a.gsd);
+    if (!gsd_file->ok()) {
+      std::string first;
+      for (const auto& d : gsd_file->diagnostics)
+        if (d.severity == gsd::Severity::Error) {
+          first = gsd::format(d, a.gsd);
+          break;
+        }
+      return unusable(a, a.gsd, "",
+                      "the GSD has errors (see `candp2 gsd " + a.gsd + "`): " + first);
+    }
+  }
+
+  validate::Report report;
+  report.file = a.config;
+  if (gsd_file) {
+    report.gsd_file = a.gsd;
+    report.gsd_name = device_name(gsd_file->model);
+  }
+  for (const auto& g : cfg.gateways) {
+    validate::GatewayInput in;
+    in.name = g.name;
+    in.json_path = g.json_path;
+    in.bus = g.bus;
+    in.address = g.address;
+    in.master_address = cfg.master_address;
+    in.params = config::slave_parameters(g);
+    // config: one Chk_Cfg entry per slot (cfg_hex holds exactly one entry).
+    for (const auto& s : g.slots) in.entry_paths.push_back(s.json_path);
+    if (g.prm_hex) {
+      in.prm_source = g.json_path + ".prm_hex";
+      if (gsd_file) in.prm_source += " (raw telegram, the GSD is not used)";
+    } else if (!gsd_file) {
+      in.prm_source = g.json_path + ".parameters";
+    } else {
+      const auto enc = validate::encode_set_prm(gsd_file->model, g.parameters, g.watchdog_ms);
+      if (!enc.errors.empty())
+        return unusable(a, a.config, g.json_path + ".parameters",
+                        "cannot be encoded through the GSD " + a.gsd + ": " + enc.errors.front());
+      // (the first error is enough to act on; `candp2 gsd FILE` shows the GSD's problems)
+      in.params.prm = enc.telegram;
+      in.prm_source = g.json_path + ".parameters through the GSD";
+      const auto builtin = config::set_prm_bytes(g);
+      if (builtin != enc.telegram)
+        in.warnings.push_back({validate::WarningKind::GsdEncoding, g.json_path + ".parameters",
+                               "the GSD encodes Set_Prm as " + hex_bytes(enc.telegram) +
+                                   ", the built-in encoding (emulator-spec §1.1) gives " +
+                                   hex_bytes(builtin)});
+    }
+    report.gateways.push_back(validate::check_gateway(std::move(in)));
+  }
+  validate::check_overlaps(report.gateways);
+
+  const int rc = validate::exit_code(report, a.strict);
+  if (a.json)
+    std::cout << validate::to_json(report, rc).dump(2) << "\n";
+  else
+    std::cout << validate::format_text(report);
+  return rc;
+}
+
+}  // namespace
+
+void add_validate(CLI::App& app, int& exit_code) {
+  auto args = std::make_shared<ValidateArgs>();
+  auto* cmd = app.add_subcommand(
+      "validate",
+      "Show, per gateway of a daemon configuration, the Set_Prm and Chk_Cfg bytes the master "
+      "sends, the slot table, the diagnosis the emulated CAN-DP/2 answers and warnings; exit 0 "
+      "valid, 1 invalid, 2 unusable input");
+  cmd->add_option("CONFIG", args->config, "daemon configuration (docs/configuration.md)")
+      ->required();
+  cmd->add_option("--gsd", args->gsd,
+                  "encode the named parameters through this GSD's ExtUserPrmData "
+                  "(docs/validate.md has the name mapping)");
+  cmd->add_flag("--json", args->json, "print one JSON document instead of the text report");
+  cmd->add_flag("--strict", args->strict, "exit 1 when there are warnings");
+  cmd->callback([args, &exit_code] { exit_code = run_validate(*args); });
+}
+
+}  // namespace candp2::cli
