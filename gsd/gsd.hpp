@@ -9,7 +9,7 @@
 // becomes a line-numbered Diagnostic and parsing continues with the next line.
 //
 // Pure: parse() works on a string; parse_file() is the one helper that touches the file system.
-// See gsd/README.md for the model and what the parser accepts.
+// See docs/gsd.md for the model and what the parser accepts.
 #pragma once
 
 #include <cstdint>

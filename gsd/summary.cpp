@@ -140,9 +140,7 @@ std::string summary(const Model& m) {
       os << "      " << describe(e) << '\n';
       if (candp2) {
         const CanDp2Slot s = describe_candp2(e);
-        os << "      CAN-DP/2: " << s.text;
-        if (s.problem) os << " -- rejected: " << *s.problem;
-        os << '\n';
+        os << "      CAN-DP/2: " << (s.problem ? "rejected, " + *s.problem : s.text) << '\n';
       }
     }
     if (dec.error) os << "      ! malformed: " << *dec.error << '\n';

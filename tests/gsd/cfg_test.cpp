@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include "common/hex.hpp"
+
 namespace candp2::gsd {
 namespace {
 
@@ -43,14 +45,29 @@ TEST(GsdCfg, SpecialFormat) {
   EXPECT_EQ(d.entries[0].size, 5u);
 }
 
-TEST(GsdCfg, TruncatedOrReservedIsAnErrorNotACrash) {
+TEST(GsdCfg, TruncatedIsAnErrorNotACrash) {
+  // The message is dp::decode_chk_cfg's, prefixed with the truncated entry's first byte.
   EXPECT_EQ(*dec({0x10, 0x83, 0x05, 0x02}).error,
-            "byte 1 (0x83): special format needs 1 length byte(s) and 3 manufacturer byte(s), "
-            "only 2 follow");
+            "byte 1 (0x83): Chk_Cfg truncated: manufacturer bytes missing");
   EXPECT_EQ(dec({0x10, 0x83, 0x05, 0x02}).entries.size(), 1u);
-  EXPECT_TRUE(dec({0xC0, 0x83}).error);
-  EXPECT_TRUE(dec({0x0F}).error);
+  EXPECT_EQ(*dec({0x20, 0xC0, 0x83}).error,
+            "byte 1 (0xC0): Chk_Cfg truncated: length byte missing");
+  EXPECT_TRUE(dec({0x0F}).error);  // 15 manufacturer bytes announced, none follow
   EXPECT_FALSE(dec({}).error);
+  EXPECT_TRUE(dec({}).entries.empty());
+}
+
+TEST(GsdCfg, EntriesKeepTheirBytes) {
+  const CfgDecode d = dec({0x20, 0x83, 0x05, 0x02, 0x03, 0x00, 0x40, 0x9F});
+  ASSERT_FALSE(d.error);
+  ASSERT_EQ(d.entries.size(), 3u);
+  EXPECT_EQ(hex_bytes(d.entries[0].bytes), "20");
+  EXPECT_EQ(hex_bytes(d.entries[1].bytes), "83 05 02 03 00");
+  EXPECT_EQ(d.entries[1].offset, 1u);
+  EXPECT_EQ(hex_bytes(d.entries[2].bytes), "40 9F");
+  EXPECT_EQ(d.entries[2].offset, 6u);
+  EXPECT_EQ(d.input_len, 32u);
+  EXPECT_EQ(d.output_len, 7u);
 }
 
 struct SlotCase {
@@ -59,6 +76,8 @@ struct SlotCase {
   const char* problem;  // "" = accepted
 };
 
+// The meaning comes from gw::decode_slots (manual §5.2, §5.3.2, §7, table 6.4.1; emulator-spec §2
+// codes), so these cases also pin that the GSD view and the gateway agree.
 TEST(GsdCfg, CanDp2Meaning) {
   const SlotCase cases[] = {
       // manual §7 example
@@ -74,40 +93,45 @@ TEST(GsdCfg, CanDp2Meaning) {
       {{0x45, 0x03, 0x20, 0x12, 0x34, 0x56, 0x8E},
        "Rx 29-bit ID 0x00123456, 4 bytes, form 0x8E",
        ""},
+      // emulator-spec §2: cycle bytes on an input are ignored; 9 bytes only with the Rx-Counter
       {{0x45, 0x08, 0x01, 0x81, 0x00, 0x00, 0x10},
-       "Rx 11-bit ID 0x181, 9 bytes, form 0x00 (cycle bytes ignored on an input)",
+       "Rx 11-bit ID 0x181, 9 bytes (8 data + Rx-Counter), form 0x00, cycle 16 ms ignored on an "
+       "input (valid only with Rx-Counter on)",
        ""},
+      {{0x45, 0x07, 0x01, 0x81, 0x00, 0x00, 0x00}, "Rx 11-bit ID 0x181, 8 bytes, form 0x00", ""},
+      {{0x83, 0x08, 0x03, 0x01, 0x00},
+       "Tx 11-bit ID 0x301, 9 bytes (8 data + Tx-Counter), form 0x00 (valid only with Tx-Counter "
+       "on)",
+       ""},
+      // manual §5.1.4: 0x07F8 on an 11-bit output = no CAN assignment
       {{0x83, 0x00, 0x07, 0xF8, 0x00}, "Tx without CAN identifier (0x07F8 dummy), 1 byte", ""},
       // manual §5.3.2: Communication Window FF EF, SYNC time in comment bytes 4-5
       {{0x85, 0x8F, 0xFF, 0xEF, 0x00, 0x00, 0x64},
-       "Communication Window write (output), form 0x00, SYNC time 100 ms",
+       "Communication Window write (output), form 0x00, SYNC time 100 ms (valid only with "
+       "Communication Window on)",
        ""},
-      {{0x85, 0x0F, 0xFF, 0xEF, 0x00, 0x00, 0x00},
-       "Communication Window write (output), form 0x00, no SYNC time",
-       "Cfg fault code 8"},
-      {{0x43, 0x87, 0xFF, 0xEF, 0x00},
-       "Communication Window read (input), form 0x00",
-       "Cfg fault code 3"},
-      // manual table 6.4.1: Page-Mode segment
+      {{0x85, 0x0F, 0xFF, 0xEF, 0x00, 0x00, 0x00}, "", "Cfg fault code 8"},
+      {{0x43, 0x87, 0xFF, 0xEF, 0x00}, "", "Cfg fault code 3"},
+      // manual table 6.4.1: Page-Mode segment; a shorter one as the last of its direction
       {{0x40, 0x9F}, "Page-Mode input segment, 32 bytes (valid only with Page-Mode on)", ""},
-      {{0x40, 0x1F}, "Rx", "Cfg fault code 4"},
-      {{0x20}, "not a CAN-DP/2 slot", "Cfg fault code 1: general identifier format"},
-      {{0xC3, 0x00, 0x00, 0x01, 0x02, 0x00},
-       "not a CAN-DP/2 slot",
-       "Cfg fault code 1: input+output slot"},
-      {{0x43, 0x41, 0x01, 0x02, 0x00}, "input", "Cfg fault code 2"},
-      {{0x43, 0x09, 0x01, 0x02, 0x00},
-       "Rx 11-bit ID 0x102, 10 bytes, form 0x00",
-       "Cfg fault code 3"},
-      {{0x41, 0x00, 0x01}, "Rx", "Cfg fault code 4: only one identifier byte"},
-      {{0x42, 0x00, 0x01, 0x02}, "Rx", "Cfg fault code 5"},
-      {{0x44, 0x00, 0x20, 0x01, 0x02, 0x03}, "Rx", "Cfg fault code 5"},
-      {{0x46, 0x00, 1, 2, 3, 4, 5, 6}, "Rx", "Cfg fault code 6: 6 comment bytes"},
-      {{0x43, 0x00, 0x08, 0x00, 0x00},
-       "Rx 11-bit ID 0x800, 1 byte, form 0x00",
-       "Cfg fault code 6: 11-bit identifier 0x800 > 0x7FF"},
+      {{0x80, 0x87}, "Page-Mode output segment, 8 bytes (valid only with Page-Mode on)", ""},
+      // Not consistent, so not a segment; as a normal slot the gateway checks the length (code
+      // 3) before the identifier (code 4), in the order of emulator-spec §2.
+      {{0x40, 0x1F}, "", "Cfg fault code 3: wrong length"},
+      {{0x40, 0x07}, "", "Cfg fault code 4: identifier missing"},
+      {{0x20}, "", "Cfg fault code 1: wrong I/O type"},  // general format
+      {{0xC3, 0x00, 0x00, 0x01, 0x02, 0x00}, "", "Cfg fault code 1: wrong I/O type"},
+      {{0x00}, "", "Cfg fault code 1"},  // empty slot
+      {{0x43, 0x41, 0x01, 0x02, 0x00}, "", "Cfg fault code 2: wrong unit"},
+      {{0x43, 0x09, 0x01, 0x02, 0x00}, "", "Cfg fault code 3: wrong length"},
+      {{0x41, 0x00, 0x01}, "", "Cfg fault code 4"},
+      {{0x42, 0x00, 0x01, 0x02}, "", "Cfg fault code 5: format byte missing"},
+      {{0x44, 0x00, 0x20, 0x01, 0x02, 0x03}, "", "Cfg fault code 5"},
+      {{0x46, 0x00, 1, 2, 3, 4, 5, 6}, "", "Cfg fault code 6: wrong identifier"},
+      {{0x43, 0x00, 0x08, 0x00, 0x00}, "", "Cfg fault code 6"},  // 11-bit 0x800 > 0x7FF
   };
   for (const auto& c : cases) {
+    SCOPED_TRACE(hex_bytes(c.cfg));
     const CfgDecode d = decode_config(c.cfg);
     ASSERT_FALSE(d.error) << *d.error;
     ASSERT_EQ(d.entries.size(), 1u);
@@ -115,13 +139,37 @@ TEST(GsdCfg, CanDp2Meaning) {
     EXPECT_EQ(s.text, c.text);
     if (*c.problem == 0) {
       EXPECT_FALSE(s.problem) << *s.problem;
+      EXPECT_TRUE(s.slot.has_value());
     } else {
+      EXPECT_FALSE(s.slot.has_value());
       EXPECT_NE(s.problem.value_or("").find(c.problem), std::string::npos)
-          << c.text << ": " << s.problem.value_or("(none)");
+          << s.problem.value_or("(none)");
     }
   }
   EXPECT_TRUE(is_universal_module(std::vector<std::uint8_t>{0x00}));
   EXPECT_FALSE(is_universal_module(std::vector<std::uint8_t>{0x00, 0x00}));
+}
+
+// emulator-spec §2: the cycle an input slot's comment carries is read as the gateway reads an
+// output's; nothing for no cycle bytes, cycle 0 or outputs.
+TEST(GsdCfg, IgnoredInputCycle) {
+  gw::Slot rx;
+  rx.kind = gw::SlotKind::Rx;
+  rx.length = 2;
+  rx.comment = {0x01, 0x81, 0x00, 0x01, 0xF4};
+  EXPECT_EQ(ignored_input_cycle(rx, {}), 500);
+  rx.comment = {0x21, 0x00, 0x01, 0x81, 0x00, 0x00, 0x64};  // 29-bit, cycle 100 ms
+  EXPECT_EQ(ignored_input_cycle(rx, {}), 100);
+  rx.comment = {0x01, 0x81, 0x00};
+  EXPECT_FALSE(ignored_input_cycle(rx, {}));
+  rx.comment = {0x01, 0x81, 0x00, 0x00, 0x00};
+  EXPECT_FALSE(ignored_input_cycle(rx, {}));
+  rx.comment = {0x20, 0x00, 0x01, 0x81, 0x00};  // 29-bit with m = 5: no cycle bytes
+  EXPECT_FALSE(ignored_input_cycle(rx, {}));
+  gw::Slot tx = rx;
+  tx.kind = gw::SlotKind::Tx;
+  tx.comment = {0x01, 0x81, 0x00, 0x01, 0xF4};
+  EXPECT_FALSE(ignored_input_cycle(tx, {}));
 }
 
 }  // namespace

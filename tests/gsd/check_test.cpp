@@ -116,10 +116,11 @@ TEST(GsdCheck, Findings) {
        L + 8, Severity::Warning, "\"b\" overlaps \"a\" (line 27)"},
       {"malformed module", kBase + "Module=\"bad\" 0x45,0x8F,0xFF\nEndModule\n", L + 1,
        Severity::Error,
-       "Module \"bad\": malformed configuration: byte 0 (0x45): special format needs 1 length "
-       "byte(s) and 5 manufacturer byte(s), only 2 follow"},
-      {"reserved manufacturer length", kBase + "Module=\"r\" 0x4F,0x00\nEndModule\n", L + 1,
-       Severity::Error, "reserved manufacturer length 15"},
+       "Module \"bad\": malformed configuration: byte 0 (0x45): Chk_Cfg truncated: "
+       "manufacturer bytes missing"},
+      // dp::decode_chk_cfg reads m = 15 like any other count: 15 bytes are missing here.
+      {"manufacturer length 15", kBase + "Module=\"r\" 0x4F,0x00\nEndModule\n", L + 1,
+       Severity::Error, "byte 0 (0x4F): Chk_Cfg truncated: manufacturer bytes missing"},
       {"module too long", kBase + "Module=\"big\" 0x40,0x9F\nEndModule\n", L + 1, Severity::Error,
        "32 input bytes exceed Max_Input_Len 16"},
       {"module parameters beyond their length",

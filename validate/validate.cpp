@@ -1,0 +1,211 @@
+#include "validate/validate.hpp"
+
+#include <cstdio>
+
+#include "can/channel.hpp"
+#include "gateway/gateway.hpp"
+#include "gsd/cfg.hpp"
+
+namespace candp2::validate {
+
+std::string_view to_string(WarningKind k) {
+  switch (k) {
+    case WarningKind::AddressClamped:
+      return "address-clamped";
+    case WarningKind::DuplicateRx:
+      return "duplicate-rx";
+    case WarningKind::DuplicateTx:
+      return "duplicate-tx";
+    case WarningKind::InputCycle:
+      return "input-cycle";
+    case WarningKind::Overlap:
+      return "overlap";
+    case WarningKind::GsdEncoding:
+      return "gsd-encoding";
+  }
+  return "?";
+}
+
+std::string prm_byte_name(std::size_t b) {
+  // DP standard part (EN 50170 DDLM_Set_Prm) and emulator-spec §1.1 user bytes.
+  static constexpr const char* kNames[] = {
+      "Station_Status", "WD_Fact_1",         "WD_Fact_2",
+      "min_TSDR",       "Ident_Number high", "Ident_Number low",
+      "Group_Ident",    "reserved",          "CAN bit rate index",
+      "flags",          "ModuleID",          "diagnosis/counter flags",
+      "reserved",       "wake-up time",      "SYNC time high",
+      "SYNC time low"};
+  if (b < std::size(kNames)) return std::string(kNames[b]) + " (byte " + std::to_string(b) + ")";
+  return "byte " + std::to_string(b);
+}
+
+namespace {
+
+std::string ident_text(const can::Ident& id) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, id.extended ? "0x%08X" : "0x%03X", id.id);
+  return buf;
+}
+
+std::string slot_name(const GatewayReport& r, std::size_t i) {
+  std::string s = "slot " + std::to_string(i);
+  if (i < r.input.entry_paths.size() && !r.input.entry_paths[i].empty())
+    s += " (" + r.input.entry_paths[i] + ")";
+  return s;
+}
+
+std::string path_of(const GatewayReport& r, std::size_t i) {
+  if (i < r.input.entry_paths.size() && !r.input.entry_paths[i].empty())
+    return r.input.entry_paths[i];
+  return r.input.json_path;
+}
+
+void slot_warnings(GatewayReport& r) {
+  if (!r.cfg_accepted || !r.prm) return;
+  const auto& slots = r.slots;
+  for (std::size_t i = 0; i < slots.size(); ++i) {
+    if (!slots[i].slot) continue;
+    const gw::Slot& s = *slots[i].slot;
+    if (s.kind == gw::SlotKind::Rx && s.id) {
+      // manual §5.2.1: the same Rx identifier on two input slots - the later slot wins.
+      std::optional<std::size_t> winner;
+      for (std::size_t k = i + 1; k < slots.size(); ++k)
+        if (slots[k].slot && slots[k].slot->kind == gw::SlotKind::Rx && slots[k].slot->id == s.id)
+          winner = k;
+      if (winner)
+        r.warnings.push_back({WarningKind::DuplicateRx, path_of(r, i),
+                              "slot " + std::to_string(i) + " never receives: Rx identifier " +
+                                  ident_text(*s.id) + " is also configured in " +
+                                  slot_name(r, *winner) +
+                                  ", and the later slot wins (manual §5.2.1)"});
+      if (const auto cycle = gsd::ignored_input_cycle(s, *r.prm))
+        r.warnings.push_back({WarningKind::InputCycle, path_of(r, i),
+                              "cycle " + std::to_string(*cycle) +
+                                  " ms in the comment bytes of an input slot is ignored "
+                                  "(emulator-spec §2)"});
+    }
+    if (s.kind == gw::SlotKind::Tx && s.id) {
+      // emulator-spec §2: the same Tx identifier on two output slots is accepted.
+      for (std::size_t k = 0; k < i; ++k) {
+        if (!slots[k].slot || slots[k].slot->kind != gw::SlotKind::Tx || slots[k].slot->id != s.id)
+          continue;
+        r.warnings.push_back({WarningKind::DuplicateTx, path_of(r, i),
+                              "Tx identifier " + ident_text(*s.id) + " is also sent by " +
+                                  slot_name(r, k) +
+                                  ": two slots send frames with the same identifier (accepted, "
+                                  "emulator-spec §2)"});
+        break;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+GatewayReport check_gateway(GatewayInput input) {
+  GatewayReport r;
+  r.input = std::move(input);
+  const GatewayInput& in = r.input;
+  r.warnings = in.warnings;
+
+  struct Discard final : can::FrameSink {
+    void send(const can::Frame&) override {}
+  } discard;
+  const Time t0{0};
+  gw::Gateway gateway({.address = in.address}, discard, t0);
+  r.dp_address = gateway.address();
+  if (r.dp_address != in.address)
+    r.warnings.push_back({WarningKind::AddressClamped, in.json_path + ".address",
+                          "DP address " + std::to_string(in.address) + " is clamped to " +
+                              std::to_string(r.dp_address) + " (manual §2.1: 3..124)"});
+
+  // The master's start-up sequence (emulator-spec §8): Set_Prm, Chk_Cfg, Slave_Diag. The slave
+  // ignores Chk_Cfg after a rejected Set_Prm, as it would on the bus.
+  dp::DpSlave& slave = gateway.dp();
+  r.prm_accepted = slave.set_prm(in.master_address, in.params.prm, t0);
+  if (r.prm_accepted)
+    r.prm = gateway.user_prm();
+  else
+    r.prm_fault = slave.prm_fault();
+  r.cfg_accepted = slave.chk_cfg(in.master_address, in.params.cfg, t0);
+  if (r.prm_accepted && !r.cfg_accepted) r.cfg_fault = slave.cfg_fault();
+  r.diag = slave.slave_diag(t0);
+  r.state = slave.state();
+  r.not_supported = (r.diag[0] & dp::kDiag1NotSupported) != 0;
+
+  const gsd::CfgDecode decoded = gsd::decode_config(in.params.cfg);
+  r.cfg_decode_error = decoded.error;
+  const auto& accepted = gateway.slot_config();
+  for (std::size_t i = 0; i < decoded.entries.size(); ++i) {
+    const gsd::CfgEntry& e = decoded.entries[i];
+    SlotRow row;
+    row.index = i;
+    row.json_path = path_of(r, i);
+    row.io = e.decoded.io;
+    row.in_length = e.input_len();
+    row.out_length = e.output_len();
+    const dp::EntryAddress a =
+        i < in.params.addresses.size() ? in.params.addresses[i] : dp::EntryAddress{};
+    if (row.in_length) row.plc_input = a.input;
+    if (row.out_length) row.plc_output = a.output;
+    row.cfg_bytes = e.bytes;
+    if (r.cfg_accepted && accepted && i < accepted->slots.size()) row.slot = accepted->slots[i];
+    if (r.cfg_fault && r.cfg_fault->slot == i) row.fault_code = r.cfg_fault->code;
+    r.slots.push_back(std::move(row));
+  }
+  slot_warnings(r);
+  return r;
+}
+
+void check_overlaps(std::vector<GatewayReport>& reports) {
+  struct Span {
+    std::size_t begin, end;  // PLC byte addresses [begin, end)
+    std::string path;
+  };
+  std::vector<Span> in, out;
+  for (auto& r : reports) {
+    for (const auto& row : r.slots) {
+      for (const bool input : {true, false}) {
+        const std::size_t n = input ? row.in_length : row.out_length;
+        const auto addr = input ? row.plc_input : row.plc_output;
+        if (n == 0 || !addr) continue;
+        auto& list = input ? in : out;
+        const Span s{*addr, *addr + n, row.json_path};
+        const std::string area = input ? "I " : "Q ";
+        auto text = [&](const Span& x) {
+          return area + std::to_string(x.begin) +
+                 (x.end - x.begin > 1 ? ".." + std::to_string(x.end - 1) : "");
+        };
+        for (const auto& o : list) {
+          if (s.begin >= o.end || o.begin >= s.end) continue;
+          r.warnings.push_back(
+              {WarningKind::Overlap, s.path,
+               "PLC bytes " + text(s) + " overlap " + text(o) + " of " + o.path +
+                   (input ? ": the later slot's bytes win in the PLC image (emulator-spec §8)"
+                          : ": both slots send the same PLC bytes (emulator-spec §8)")});
+        }
+        list.push_back(s);
+      }
+    }
+  }
+}
+
+bool Report::valid() const {
+  for (const auto& g : gateways)
+    if (!g.valid()) return false;
+  return true;
+}
+
+std::size_t Report::warning_count() const {
+  std::size_t n = 0;
+  for (const auto& g : gateways) n += g.warnings.size();
+  return n;
+}
+
+int exit_code(const Report& r, bool strict) {
+  if (!r.valid()) return 1;
+  if (strict && r.warning_count() > 0) return 1;
+  return 0;
+}
+
+}  // namespace candp2::validate

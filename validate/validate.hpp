@@ -1,0 +1,108 @@
+// What the emulated CAN-DP/2 makes of a gateway configuration, for `candp2 validate`
+// (docs/validate.md). The Set_Prm and Chk_Cfg telegrams go through a real gw::Gateway via its DP
+// services (Set_Prm, Chk_Cfg, Slave_Diag), so the reported diagnosis is the gateway's own answer,
+// never re-derived. On top come the warnings the manual and emulator-spec §2/§8 ask for:
+// behaviour the gateway accepts but a user rarely wants.
+//
+// Pure: no files, no JSON parsing, no clock. The input is what the simulated master would send
+// (dp::SlaveParameters); cmd_validate.cpp builds it from the daemon configuration.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "gateway/slot_config.hpp"
+#include "gateway/user_prm.hpp"
+#include "profibus_sim/dp_master.hpp"
+#include "profibus_sim/dp_slave.hpp"
+
+namespace candp2::validate {
+
+enum class WarningKind {
+  AddressClamped,  // manual §2.1: DP address outside 3..124
+  DuplicateRx,     // manual §5.2.1: the later input slot wins, the earlier never receives
+  DuplicateTx,     // emulator-spec §2: accepted, two slots send the same identifier
+  InputCycle,      // emulator-spec §2: cycle bytes on an input slot are ignored
+  Overlap,         // emulator-spec §8: PLC addresses overlap (one PLC image for all gateways)
+  GsdEncoding,     // --gsd: the GSD encodes the parameters differently from the built-in encoding
+};
+std::string_view to_string(WarningKind k);  // "duplicate-rx", ...
+
+struct Warning {
+  WarningKind kind;
+  std::string json_path;  // where in the configuration ("$.gateways[0].slots[2]")
+  std::string message;
+};
+
+struct GatewayInput {
+  std::string name;
+  std::string json_path;  // "$.gateways[0]"
+  std::string bus;
+  std::uint8_t address = 3;              // as configured (the gateway clamps to 3..124)
+  std::uint8_t master_address = 1;       // the DP master sending Set_Prm
+  dp::SlaveParameters params;            // Set_Prm, Chk_Cfg, PLC address per Chk_Cfg entry
+  std::vector<std::string> entry_paths;  // JSON path per Chk_Cfg entry
+  std::string prm_source;                // "$.gateways[0].parameters (built-in encoding)", ...
+  std::vector<Warning> warnings;  // found while building the input (GSD encoding); reported first
+};
+
+// One Chk_Cfg entry with its PLC address and, when the gateway accepted the configuration, the
+// slot the gateway made of it.
+struct SlotRow {
+  std::size_t index = 0;
+  std::string json_path;
+  dp::CfgIo io = dp::CfgIo::Empty;
+  std::size_t in_length = 0, out_length = 0;  // bytes of the entry in the DP images
+  std::optional<std::uint16_t> plc_input;     // PLC I address of the input bytes
+  std::optional<std::uint16_t> plc_output;    // PLC Q address of the output bytes
+  std::vector<std::uint8_t> cfg_bytes;        // the entry's Chk_Cfg bytes
+  std::optional<gw::Slot> slot;               // the gateway's decoding (accepted configurations)
+  std::optional<std::uint8_t> fault_code;     // this entry is the one the Cfg fault names
+};
+
+struct GatewayReport {
+  GatewayInput input;
+  std::uint8_t dp_address = 3;  // the address the gateway answers to
+  bool prm_accepted = false;
+  bool cfg_accepted = false;
+  std::optional<gw::UserPrm> prm;  // as the gateway decoded it (when accepted)
+  dp::SlaveState state = dp::SlaveState::WaitPrm;
+  dp::DpSlave::Diag diag{};  // Slave_Diag after Set_Prm and Chk_Cfg
+  std::optional<dp::PrmFault> prm_fault;
+  std::optional<dp::CfgFault> cfg_fault;
+  bool not_supported = false;  // Station_Status_1 bit 4 (Sync_Req/Freeze_Req, emulator-spec §1)
+  std::optional<std::string> cfg_decode_error;  // Chk_Cfg bytes truncated
+  std::vector<SlotRow> slots;
+  std::vector<Warning> warnings;
+
+  bool valid() const { return prm_accepted && cfg_accepted; }
+};
+
+// Set_Prm, Chk_Cfg, Slave_Diag on a fresh gw::Gateway at time 0; then the per-gateway warnings.
+GatewayReport check_gateway(GatewayInput input);
+
+// Overlapping PLC addresses of slots of the same direction, across all gateways (the master has
+// one process image, emulator-spec §8). The warning goes to the later slot's gateway.
+void check_overlaps(std::vector<GatewayReport>& reports);
+
+struct Report {
+  std::string file;      // the configuration file as given
+  std::string gsd_file;  // --gsd FILE, or ""
+  std::string gsd_name;  // "esd CAN-DP/2, Ident_Number 0x04A4"
+  std::vector<GatewayReport> gateways;
+
+  bool valid() const;
+  std::size_t warning_count() const;
+};
+
+// Exit status of `candp2 validate`: 0 valid, 1 invalid (a gateway rejects Set_Prm or Chk_Cfg; with
+// `strict` also any warning). 2 (unusable input) is decided before a report exists.
+int exit_code(const Report& r, bool strict);
+
+// The bytes of a Set_Prm fault, named (emulator-spec §1.1): "flags (byte 9)".
+std::string prm_byte_name(std::size_t telegram_byte);
+
+}  // namespace candp2::validate
