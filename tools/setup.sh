@@ -8,13 +8,13 @@
 #                         time, and the SocketCAN tests inside a QEMU guest
 #   tools/setup.sh deps   only install the packages
 #
-# Environment: CANDP2_FUZZ_SECONDS (default 30 per target), CANDP2_JOBS (default: nproc).
+# Environment: CANDP2_FUZZ_SECONDS (default 20 per target), CANDP2_JOBS (default: nproc).
 set -euo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$here"
 jobs=${CANDP2_JOBS:-$(nproc)}
-fuzz_seconds=${CANDP2_FUZZ_SECONDS:-30}
+fuzz_seconds=${CANDP2_FUZZ_SECONDS:-20}
 
 # Debian packages, one purpose per line.
 packages=(
@@ -95,7 +95,7 @@ run_tests() {
   ctest --test-dir build --output-on-failure -j "$jobs" --timeout 600 || status=1
 
   echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer"
-  configure_build build-asan -DCMAKE_BUILD_TYPE=Debug -DCANDP2_SANITIZE=ON -DCANDP2_BENCH=OFF
+  configure_build build-asan -DCMAKE_BUILD_TYPE=Debug -DCANDP2_SANITIZE=ON -DCANDP2_BENCH=OFF -DCANDP2_APPS=OFF
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
     ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit --timeout 600 || status=1
 
