@@ -3,7 +3,7 @@
 //   candp2d --config FILE              run
 //   candp2d --config FILE --check      validate the configuration and exit
 //   candp2d --config FILE --print-modbus-map
-//   candp2d                            run the built-in default (config/default.json)
+//   candp2d                            run the built-in default (config/demo.json)
 //
 // Exit status: 0 success, 1 the daemon could not start (port in use, CAN interface missing),
 // 2 bad command line or configuration.
@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
   app.add_option("-c,--config", file,
                  "JSON configuration file (docs/configuration.md); without it the built-in "
                  "default runs: a gateway and two simulated drives on a virtual bus "
-                 "(config/default.json), Modbus on 127.0.0.1:1502, socketcand on "
+                 "(config/demo.json), Modbus on 127.0.0.1:1502, socketcand on "
                  "127.0.0.1:29536");
   app.add_flag("--check", check, "validate the configuration, print warnings, and exit");
   app.add_flag("--print-modbus-map", print_map,

@@ -239,12 +239,12 @@ TEST(Daemon, SimulatedUnitekDriveAnswersThroughTheGateway) {
 }
 
 TEST(Daemon, BuiltInDefaultGatewayWithTwoDrives) {
-  // config/default.json (compiled into candp2d as its default) on free ports.
-  std::ifstream in(CANDP2_SOURCE_DIR "/config/default.json");
+  // config/demo.json (compiled into candp2d as its default) on free ports.
+  std::ifstream in(CANDP2_SOURCE_DIR "/config/demo.json");
   json j = json::parse(in);
   j["modbus"]["listen"] = "127.0.0.1:0";
   j["buses"]["can0"]["socketcand"] = "127.0.0.1:0";
-  Running d(load(j, CANDP2_SOURCE_DIR "/config/default.json"));
+  Running d(load(j, CANDP2_SOURCE_DIR "/config/demo.json"));
   ASSERT_TRUE(d.in_data_exchange(3));
   ModbusClient plc(d.modbus(), 3);
   // Q0..4 → axis1 (0x201), Q8..12 → axis2 (0x202): 3D 51 00 = read MODE (0x51) once.

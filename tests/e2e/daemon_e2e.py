@@ -318,7 +318,7 @@ class BadConfigurations(unittest.TestCase):
                    "$.gateways[0].slots[0].comment", "expected hex bytes like \"02,89,B8\"")
 
     def test_builtin_default_without_config(self):
-        # No --config: the built-in default (config/default.json) is checked / mapped.
+        # No --config: the built-in default (config/demo.json) is checked / mapped.
         r = subprocess.run([CANDP2D, "--check"], capture_output=True, text=True, timeout=WAIT)
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertIn("<built-in default>: configuration OK (1 gateway(s)", r.stdout)
