@@ -13,6 +13,7 @@
 
 #include "can/channel.hpp"
 #include "common/hex.hpp"
+#include "config/json_reader.hpp"
 #include "gateway/gateway.hpp"
 #include "gateway/slot_config.hpp"
 
@@ -57,17 +58,6 @@ std::string bitrate_name(std::uint8_t index) {
   return index < std::size(kNames) ? kNames[index] : "?";
 }
 
-namespace {
-
-int hex_digit(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
-}  // namespace
-
 std::optional<std::vector<std::uint8_t>> parse_hex(std::string_view text, std::string* error) {
   auto fail = [&](std::string m) -> std::optional<std::vector<std::uint8_t>> {
     if (error) *error = std::move(m);
@@ -81,17 +71,18 @@ std::optional<std::vector<std::uint8_t>> parse_hex(std::string_view text, std::s
       ++i;
       continue;
     }
-    if (hex_digit(c) < 0)
+    if (json_reader::hex_digit(c) < 0)
       return fail("position " + std::to_string(i) + ": '" + std::string(1, c) +
                   "' is not a hex digit");
     // A run of digits must have an even length: "8880C4" is three bytes, "888" is an error.
     std::size_t j = i;
-    while (j < text.size() && hex_digit(text[j]) >= 0) ++j;
+    while (j < text.size() && json_reader::hex_digit(text[j]) >= 0) ++j;
     if ((j - i) % 2 != 0)
       return fail("position " + std::to_string(i) + ": '" + std::string(text.substr(i, j - i)) +
                   "' has an odd number of hex digits (write two digits per byte)");
     for (std::size_t k = i; k < j; k += 2)
-      out.push_back(static_cast<std::uint8_t>((hex_digit(text[k]) << 4) | hex_digit(text[k + 1])));
+      out.push_back(static_cast<std::uint8_t>((json_reader::hex_digit(text[k]) << 4) |
+                                              json_reader::hex_digit(text[k + 1])));
     i = j;
   }
   if (out.empty()) return fail("no bytes given");
@@ -126,148 +117,7 @@ namespace {
 
 // ------------------------------------------------------------------------------------ helpers
 
-// Thrown inside the parser, caught at the API boundary and turned into a ConfigError.
-struct Failure {
-  std::string path;
-  std::string message;
-};
-
-[[noreturn]] void fail(const std::string& path, std::string message) {
-  throw Failure{path, std::move(message)};
-}
-
-bool plain_key(std::string_view key) {
-  if (key.empty()) return false;
-  return std::all_of(key.begin(), key.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
-  });
-}
-
-std::string member(const std::string& path, std::string_view key) {
-  if (plain_key(key)) return path + "." + std::string(key);
-  return path + "[" + json(std::string(key)).dump() + "]";
-}
-
-std::string element(const std::string& path, std::size_t i) {
-  return path + "[" + std::to_string(i) + "]";
-}
-
-std::string kind_of(const json& j) {
-  switch (j.type()) {
-    case json::value_t::null:
-      return "null";
-    case json::value_t::object:
-      return "an object";
-    case json::value_t::array:
-      return "an array";
-    case json::value_t::string:
-      return "the string " + j.dump();
-    case json::value_t::boolean:
-      return j.get<bool>() ? "true" : "false";
-    case json::value_t::number_integer:
-    case json::value_t::number_unsigned:
-    case json::value_t::number_float:
-      return "the number " + j.dump();
-    default:
-      return "an unsupported value";
-  }
-}
-
-std::string join(const std::vector<std::string>& words) {
-  std::string out;
-  for (const auto& w : words) out += (out.empty() ? "" : ", ") + w;
-  return out;
-}
-
-// An object whose keys are checked: unknown keys are errors, '_' keys are comments.
-class Object {
- public:
-  Object(const json& j, std::string path, std::vector<std::string> allowed)
-      : j_(j), path_(std::move(path)), allowed_(std::move(allowed)) {
-    if (!j_.is_object()) fail(path_, "expected an object, got " + kind_of(j_));
-    for (const auto& [key, value] : j_.items()) {
-      if (!key.empty() && key[0] == '_') continue;
-      if (std::find(allowed_.begin(), allowed_.end(), key) == allowed_.end())
-        fail(member(path_, key), "unknown key (expected one of: " + join(allowed_) + ")");
-    }
-  }
-  bool has(const std::string& key) const { return j_.contains(key); }
-  const json& at(const std::string& key) const {
-    if (!j_.contains(key)) fail(path_, "missing key \"" + key + "\"");
-    return j_.at(key);
-  }
-  const json* find(const std::string& key) const {
-    const auto it = j_.find(key);
-    return it == j_.end() ? nullptr : &*it;
-  }
-  std::string path(const std::string& key) const { return member(path_, key); }
-  const std::string& path() const { return path_; }
-
- private:
-  const json& j_;
-  std::string path_;
-  std::vector<std::string> allowed_;
-};
-
-std::uint64_t as_uint(const json& j, const std::string& path, std::uint64_t min, std::uint64_t max,
-                      std::string_view unit = {}) {
-  const std::string expected = "expected a number from " + std::to_string(min) + " to " +
-                               std::to_string(max) + (unit.empty() ? "" : " " + std::string(unit)) +
-                               " (a JSON number or a \"0x…\" string)";
-  std::uint64_t v = 0;
-  if (j.is_number_unsigned()) {
-    v = j.get<std::uint64_t>();
-  } else if (j.is_number_integer()) {
-    fail(path, expected + ", got " + kind_of(j));  // negative
-  } else if (j.is_number_float()) {
-    fail(path, expected + ", got " + kind_of(j) + " (not a whole number)");
-  } else if (j.is_string()) {
-    const auto& s = j.get_ref<const std::string&>();
-    if (s.size() < 3 || s[0] != '0' || (s[1] != 'x' && s[1] != 'X'))
-      fail(path, expected + ", got " + kind_of(j));
-    const auto [p, ec] = std::from_chars(s.data() + 2, s.data() + s.size(), v, 16);
-    if (ec != std::errc{} || p != s.data() + s.size())
-      fail(path, expected + ", got " + kind_of(j) + " (not a hex number)");
-  } else {
-    fail(path, expected + ", got " + kind_of(j));
-  }
-  if (v < min || v > max) fail(path, expected + ", got " + std::to_string(v));
-  return v;
-}
-
-template <typename T>
-T get_uint(const Object& o, const std::string& key, T fallback, std::uint64_t min,
-           std::uint64_t max, std::string_view unit = {}) {
-  const json* j = o.find(key);
-  if (!j) return fallback;
-  return static_cast<T>(as_uint(*j, o.path(key), min, max, unit));
-}
-
-bool get_bool(const Object& o, const std::string& key, bool fallback) {
-  const json* j = o.find(key);
-  if (!j) return fallback;
-  if (!j->is_boolean()) fail(o.path(key), "expected true or false, got " + kind_of(*j));
-  return j->get<bool>();
-}
-
-std::string as_string(const json& j, const std::string& path, std::string_view what) {
-  if (!j.is_string())
-    fail(path, "expected " + std::string(what) + " (a string), got " + kind_of(j));
-  const auto& s = j.get_ref<const std::string&>();
-  if (s.empty()) fail(path, "expected " + std::string(what) + ", got an empty string");
-  return s;
-}
-
-std::string get_string(const Object& o, const std::string& key, std::string_view what) {
-  return as_string(o.at(key), o.path(key), what);
-}
-
-std::optional<std::string> find_string(const Object& o, const std::string& key,
-                                       std::string_view what) {
-  const json* j = o.find(key);
-  if (!j) return std::nullopt;
-  return as_string(*j, o.path(key), what);
-}
+using namespace json_reader;
 
 template <typename E>
 E get_enum(const Object& o, const std::string& key, E fallback,
@@ -288,14 +138,6 @@ Endpoint get_endpoint(const json& j, const std::string& path) {
   auto e = parse_endpoint(text, &error);
   if (!e) fail(path, error);
   return *e;
-}
-
-std::vector<std::uint8_t> get_hex(const json& j, const std::string& path, std::string_view like) {
-  const std::string text = as_string(j, path, "hex bytes");
-  std::string error;
-  auto bytes = parse_hex(text, &error);
-  if (!bytes) fail(path, "expected hex bytes like \"" + std::string(like) + "\": " + error);
-  return *bytes;
 }
 
 // A name usable as a socketcand bus name and in log lines (socketcand.h MAX_BUSNAME).
@@ -382,7 +224,7 @@ SlotEntry parse_slot(const json& j, const std::string& path) {
         fail(o.path(k),
              "cfg_hex gives the whole Chk_Cfg entry; leave out io, length, "
              "consistent and comment");
-    auto bytes = get_hex(*raw, o.path("cfg_hex"), "43 85 02 89 B8");
+    auto bytes = as_hex(*raw, o.path("cfg_hex"), "43 85 02 89 B8");
     const auto decoded = dp::decode_chk_cfg(bytes);
     if (decoded.error || decoded.entries.size() != 1)
       fail(o.path("cfg_hex"),
@@ -540,7 +382,7 @@ GatewayConfig parse_gateway_or_throw(const json& j, const std::string& file,
   if (o.has("bus")) g.bus = get_string(o, "bus", "the name of a bus in \"buses\"");
   if (const json* p = o.find("parameters")) parse_parameters(*p, o.path("parameters"), g);
   if (const json* h = o.find("prm_hex"))
-    g.prm_hex = get_hex(*h, o.path("prm_hex"), "00 0A 01 00 04 A4 00 00 06 00 01 00 00 FF FF FF");
+    g.prm_hex = as_hex(*h, o.path("prm_hex"), "00 0A 01 00 04 A4 00 00 06 00 01 00 00 FF FF FF");
   g.cia301_bootup = get_bool(o, "cia301_bootup", false);
   g.stored_wakeup_s = get_uint<std::uint8_t>(o, "stored_wakeup_s", 0, 0, 254, "s");
   g.stored_sync_ms = get_uint<std::uint16_t>(o, "stored_sync_ms", 0, 0, 65534, "ms");

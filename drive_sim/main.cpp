@@ -26,50 +26,13 @@
 #include "can/socketcand.hpp"
 #include "common/log.hpp"
 #include "common/time.hpp"
+#include "daemon/log_sink.hpp"
 #include "drive_sim/file_parameter_store.hpp"
 #include "drive_sim/unitek_drive.hpp"
 
 namespace {
 
 using namespace candp2;
-
-class SpdlogSink final : public LogSink {
- public:
-  SpdlogSink(std::shared_ptr<spdlog::logger> logger, LogLevel level)
-      : logger_(std::move(logger)), level_(level) {}
-  bool enabled(LogLevel level) const override { return level >= level_; }
-  void write(LogLevel level, std::string_view component, std::string_view message) override {
-    logger_->log(to_spdlog(level), "{}: {}", component, message);
-  }
-
- private:
-  static spdlog::level::level_enum to_spdlog(LogLevel l) {
-    switch (l) {
-      case LogLevel::Trace:
-        return spdlog::level::trace;
-      case LogLevel::Debug:
-        return spdlog::level::debug;
-      case LogLevel::Info:
-        return spdlog::level::info;
-      case LogLevel::Warn:
-        return spdlog::level::warn;
-      case LogLevel::Error:
-        return spdlog::level::err;
-    }
-    return spdlog::level::info;
-  }
-  std::shared_ptr<spdlog::logger> logger_;
-  LogLevel level_;
-};
-
-std::optional<LogLevel> parse_level(const std::string& s) {
-  if (s == "trace") return LogLevel::Trace;
-  if (s == "debug") return LogLevel::Debug;
-  if (s == "info") return LogLevel::Info;
-  if (s == "warn") return LogLevel::Warn;
-  if (s == "error") return LogLevel::Error;
-  return std::nullopt;
-}
 
 // "0x201", "513": an 11-bit identifier.
 std::optional<std::uint32_t> parse_id(const std::string& s) {
@@ -167,8 +130,9 @@ int main(int argc, char** argv) {
   }
 
   auto logger = spdlog::stderr_color_mt("candp2-drive");
-  logger->set_level(spdlog::level::trace);
-  SpdlogSink sink(logger, *parse_level(log_level));
+  // The daemon's sink (daemon/log_sink.hpp) on a coloured stderr logger; --log-level is checked
+  // by CLI11 above, so parse_level() always answers.
+  candp2::daemon::SpdlogSink sink(*candp2::daemon::parse_level(log_level), logger);
   Logger log(&sink, "main");
 
   // SIGINT/SIGTERM arrive on a signalfd polled with the channel: no races, no async handlers.

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "common/hex.hpp"
+#include "config/json_reader.hpp"
 
 namespace candp2::replay {
 
@@ -188,121 +189,16 @@ std::string Step::describe() const {
 
 namespace {
 
-struct Failure {
-  std::string path;
-  std::string message;
-};
-
-[[noreturn]] void fail(const std::string& path, std::string message) {
-  throw Failure{path, std::move(message)};
-}
-
-std::string member(const std::string& path, std::string_view key) {
-  return path + "." + std::string(key);
-}
-std::string element(const std::string& path, std::size_t i) {
-  return path + "[" + std::to_string(i) + "]";
-}
-
-std::string kind_of(const json& j) {
-  if (j.is_null()) return "null";
-  if (j.is_boolean()) return j.get<bool>() ? "true" : "false";
-  if (j.is_number()) return j.dump();
-  if (j.is_string()) return "\"" + j.get<std::string>() + "\"";
-  if (j.is_array()) return "an array";
-  return "an object";
-}
-
-std::string join(const std::vector<std::string>& v) {
-  std::string s;
-  for (const auto& k : v) s += (s.empty() ? "" : ", ") + k;
-  return s;
-}
-
-// An object with known keys; keys starting with '_' are comments.
-class Object {
- public:
-  Object(const json& j, std::string path, std::vector<std::string> allowed)
-      : j_(j), path_(std::move(path)) {
-    if (!j_.is_object()) fail(path_, "expected an object, got " + kind_of(j_));
-    for (const auto& [key, value] : j_.items()) {
-      if (!key.empty() && key[0] == '_') continue;
-      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end())
-        fail(member(path_, key), "unknown key (expected one of: " + join(allowed) + ")");
-    }
-  }
-  bool has(const std::string& key) const { return j_.contains(key); }
-  const json& at(const std::string& key) const {
-    if (!j_.contains(key)) fail(path_, "missing key \"" + key + "\"");
-    return j_.at(key);
-  }
-  const json* find(const std::string& key) const {
-    const auto it = j_.find(key);
-    return it == j_.end() ? nullptr : &*it;
-  }
-  std::string path(const std::string& key) const { return member(path_, key); }
-  const std::string& path() const { return path_; }
-
- private:
-  const json& j_;
-  std::string path_;
-};
-
-// A number as a JSON number or a "0x…" string.
-std::uint64_t as_uint(const json& j, const std::string& path, std::uint64_t min, std::uint64_t max,
-                      const std::string& unit = "") {
-  std::uint64_t v = 0;
-  const std::string range =
-      std::to_string(min) + ".." + std::to_string(max) + (unit.empty() ? "" : " " + unit);
-  if (j.is_number_unsigned()) {
-    v = j.get<std::uint64_t>();
-  } else if (j.is_string()) {
-    const std::string s = j.get<std::string>();
-    const bool hex = s.size() > 2 && s[0] == '0' && (s[1] == 'x' || s[1] == 'X');
-    char* end = nullptr;
-    errno = 0;
-    v = std::strtoull(s.c_str() + (hex ? 2 : 0), &end, hex ? 16 : 10);
-    if (s.empty() || errno != 0 || *end != '\0' || (!hex && !std::isdigit(s[0])))
-      fail(path, "expected a number " + range + " (or a \"0x…\" string), got " + kind_of(j));
-  } else {
-    fail(path, "expected a number " + range + ", got " + kind_of(j));
-  }
-  if (v < min || v > max) fail(path, "expected " + range + ", got " + std::to_string(v));
-  return v;
-}
-
-std::string as_string(const json& j, const std::string& path, const std::string& what) {
-  if (!j.is_string()) fail(path, "expected " + what + ", got " + kind_of(j));
-  return j.get<std::string>();
-}
-
-bool as_bool(const json& j, const std::string& path) {
-  if (!j.is_boolean()) fail(path, "expected true or false, got " + kind_of(j));
-  return j.get<bool>();
-}
+using namespace config::json_reader;
 
 Duration as_ms(const json& j, const std::string& path, std::uint64_t max = 86400000) {
   return milliseconds(as_uint(j, path, 0, max, "ms"));
-}
-
-std::vector<std::uint8_t> as_hex(const json& j, const std::string& path, const char* like) {
-  const std::string text = as_string(j, path, std::string("hex bytes like \"") + like + "\"");
-  std::string error;
-  auto bytes = config::parse_hex(text, &error);
-  if (!bytes) fail(path, "expected hex bytes like \"" + std::string(like) + "\": " + error);
-  return *bytes;
 }
 
 BytePattern as_pattern(const json& j, const std::string& path) {
   const std::string text = as_string(j, path, "hex bytes like \"00 33 ?? 00\" (?? = any byte)");
   BytePattern p;
   std::size_t i = 0;
-  auto digit = [](char c) {
-    if (c >= '0' && c <= '9') return c - '0';
-    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-    return -1;
-  };
   while (i < text.size()) {
     const char c = text[i];
     if (c == ' ' || c == ',' || c == '\t') {
@@ -315,10 +211,10 @@ BytePattern as_pattern(const json& j, const std::string& path) {
       i += 2;
       continue;
     }
-    if (i + 1 >= text.size() || digit(c) < 0 || digit(text[i + 1]) < 0)
+    if (i + 1 >= text.size() || hex_digit(c) < 0 || hex_digit(text[i + 1]) < 0)
       fail(path, "position " + std::to_string(i) +
                      ": expected two hex digits or ?? per byte, e.g. \"00 33 ?? 00\"");
-    p.bytes.push_back(static_cast<std::uint8_t>((digit(c) << 4) | digit(text[i + 1])));
+    p.bytes.push_back(static_cast<std::uint8_t>((hex_digit(c) << 4) | hex_digit(text[i + 1])));
     p.care.push_back(true);
     i += 2;
   }
@@ -520,7 +416,7 @@ Step parse_step(const json& j, const std::string& path, const Scenario& sc) {
     fail(path, "a step needs one action (" + join(keys) + ") or a \"note\"");
   }
   const Object o(j, path, allowed);
-  if (o.has("note")) s.note = as_string(o.at("note"), o.path("note"), "a text");
+  if (o.has("note")) s.note = as_string(o.at("note"), o.path("note"), "a text", Empty::Allowed);
   if (o.has("at_ms")) s.at = as_ms(o.at("at_ms"), o.path("at_ms"));
   if (o.has("within_ms")) s.window = as_ms(o.at("within_ms"), o.path("within_ms"));
   if (o.has("for_ms")) s.window = as_ms(o.at("for_ms"), o.path("for_ms"));
@@ -653,9 +549,11 @@ Scenario parse_or_throw(const std::string& text, const std::string& file) {
   if (version != kVersion)
     fail(o.path("version"), "this candp2 reads version " + std::to_string(kVersion) + ", got " +
                                 std::to_string(version));
-  sc.name = o.has("name") ? as_string(o.at("name"), o.path("name"), "a name") : file;
+  sc.name =
+      o.has("name") ? as_string(o.at("name"), o.path("name"), "a name", Empty::Allowed) : file;
   if (o.has("description"))
-    sc.description = as_string(o.at("description"), o.path("description"), "a text");
+    sc.description =
+        as_string(o.at("description"), o.path("description"), "a text", Empty::Allowed);
   if (o.has("cycle_ms"))
     sc.cycle = milliseconds(as_uint(o.at("cycle_ms"), o.path("cycle_ms"), 1, 60000, "ms"));
   if (o.has("master_address"))
