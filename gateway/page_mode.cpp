@@ -371,20 +371,32 @@ std::string describe(const can::Ident& id) {
 
 }  // namespace
 
-void PageMode::on_tx_config(std::uint16_t n, std::uint8_t seq, std::span<const std::uint8_t> page) {
-  const auto count = static_cast<std::uint16_t>(tx_.size());
-  if (state_ != State::TxConfig || n != next_config_page_) {
-    const std::string expected =
-        state_ == State::TxConfig
-            ? "expecting Tx configuration page " + std::to_string(next_config_page_)
-            : "state is " + std::string(to_string(state_));
-    return fail(n, seq, Status::Unexpected, count, expected);
+std::optional<page::ConfigPage> PageMode::accept_config_page(std::uint16_t n, std::uint8_t seq,
+                                                             std::span<const std::uint8_t> page,
+                                                             State expected, std::string_view dir,
+                                                             std::uint16_t count) {
+  // Configuration pages come in order 51, 52, ... (151, 152, ...): status 1 otherwise.
+  if (state_ != expected || n != next_config_page_) {
+    const std::string why = state_ == expected
+                                ? "expecting " + std::string(dir) + " configuration page " +
+                                      std::to_string(next_config_page_)
+                                : "state is " + std::string(to_string(state_));
+    fail(n, seq, Status::Unexpected, count, why);
+    return std::nullopt;
   }
   page::ConfigPageFault fault;
+  // Both directions' configuration pages are output pages (PLC -> gateway).
   auto decoded = page::decode_config_page(out_, page, &fault);
   if (!decoded)
-    return fail(n, seq, Status::BadEntry, count,
-                fault.why + " (page byte " + std::to_string(fault.offset) + ")");
+    fail(n, seq, Status::BadEntry, count,
+         fault.why + " (page byte " + std::to_string(fault.offset) + ")");
+  return decoded;
+}
+
+void PageMode::on_tx_config(std::uint16_t n, std::uint8_t seq, std::span<const std::uint8_t> page) {
+  const auto count = static_cast<std::uint16_t>(tx_.size());
+  auto decoded = accept_config_page(n, seq, page, State::TxConfig, "Tx", count);
+  if (!decoded) return;
   for (std::size_t i = 0; i < decoded->entries.size(); ++i) {
     const auto& e = decoded->entries[i];
     // A data-page entry (force + data) must fit into one output segment.
@@ -428,18 +440,8 @@ void PageMode::on_tx_config(std::uint16_t n, std::uint8_t seq, std::span<const s
 
 void PageMode::on_rx_config(std::uint16_t n, std::uint8_t seq, std::span<const std::uint8_t> page) {
   const auto count = static_cast<std::uint16_t>(rx_.size());
-  if (state_ != State::RxConfig || n != next_config_page_) {
-    const std::string expected =
-        state_ == State::RxConfig
-            ? "expecting Rx configuration page " + std::to_string(next_config_page_)
-            : "state is " + std::string(to_string(state_));
-    return fail(n, seq, Status::Unexpected, count, expected);
-  }
-  page::ConfigPageFault fault;
-  auto decoded = page::decode_config_page(out_, page, &fault);
-  if (!decoded)
-    return fail(n, seq, Status::BadEntry, count,
-                fault.why + " (page byte " + std::to_string(fault.offset) + ")");
+  auto decoded = accept_config_page(n, seq, page, State::RxConfig, "Rx", count);
+  if (!decoded) return;
   for (std::size_t i = 0; i < decoded->entries.size(); ++i) {
     const auto& e = decoded->entries[i];
     const std::string what = "entry " + std::to_string(i + 1) + " (" + describe(e.id) + ")";

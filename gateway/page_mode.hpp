@@ -270,6 +270,12 @@ class PageMode {
             const std::string& why);
   void clear_configuration();
   void on_init(std::uint8_t seq);
+  // Order and decoding checks shared by Tx and Rx configuration pages; nullopt after answering
+  // the fault.
+  std::optional<page::ConfigPage> accept_config_page(std::uint16_t number, std::uint8_t seq,
+                                                     std::span<const std::uint8_t> page,
+                                                     State expected, std::string_view dir,
+                                                     std::uint16_t count);
   void on_tx_config(std::uint16_t number, std::uint8_t seq, std::span<const std::uint8_t> page);
   void on_rx_config(std::uint16_t number, std::uint8_t seq, std::span<const std::uint8_t> page);
   void on_data(std::uint16_t number, std::uint8_t seq, std::span<const std::uint8_t> page,

@@ -83,38 +83,47 @@ std::optional<std::vector<DbPos>> locate_data_entries(const DbChain& chain,
   return out;
 }
 
-DbChain make_config_chain(std::span<const IdEntry> ids, std::size_t per_db) {
+namespace {
+
+// Splits `ids` into data blocks of at most `per_db` entries (0 = one block); `entry` appends one
+// identifier's bytes, `marker` closes a block (last = no further block follows).
+template <typename Entry, typename Marker>
+DbChain split_chain(std::span<const IdEntry> ids, std::size_t per_db, Entry entry, Marker marker) {
   DbChain chain;
   std::size_t i = 0;
   do {
     DataBlock db;
     const std::size_t n = per_db == 0 ? ids.size() : std::min(per_db, ids.size() - i);
-    for (std::size_t k = 0; k < n; ++k, ++i) {
-      const auto e = page::encode_entry(ids[i]);
-      db.insert(db.end(), e.begin(), e.end());
-    }
-    const std::uint8_t m = i == ids.size() ? page::kMarkerEnd : page::kMarkerMore;
-    db.insert(db.end(), page::kMarkerLen, m);
+    for (std::size_t k = 0; k < n; ++k, ++i) entry(db, ids[i]);
+    marker(db, i == ids.size());
     chain.push_back(std::move(db));
   } while (i < ids.size());
   return chain;
 }
 
+}  // namespace
+
+DbChain make_config_chain(std::span<const IdEntry> ids, std::size_t per_db) {
+  return split_chain(
+      ids, per_db,
+      [](DataBlock& db, const IdEntry& id) {
+        const auto e = page::encode_entry(id);
+        db.insert(db.end(), e.begin(), e.end());
+      },
+      [](DataBlock& db, bool last) {
+        db.insert(db.end(), page::kMarkerLen, last ? page::kMarkerEnd : page::kMarkerMore);
+      });
+}
+
 DbChain make_data_chain(std::span<const IdEntry> ids, std::size_t per_db) {
-  DbChain chain;
-  std::size_t i = 0;
-  do {
-    DataBlock db;
-    const std::size_t n = per_db == 0 ? ids.size() : std::min(per_db, ids.size() - i);
-    for (std::size_t k = 0; k < n; ++k, ++i) {
-      db.push_back(static_cast<std::uint8_t>(ids[i].length + 1));  // länge = data bytes + 1
-      db.push_back(0);                                             // force / count_in
-      db.insert(db.end(), ids[i].length, 0);
-    }
-    db.push_back(i == ids.size() ? page::kMarkerEnd : page::kMarkerMore);
-    chain.push_back(std::move(db));
-  } while (i < ids.size());
-  return chain;
+  return split_chain(
+      ids, per_db,
+      [](DataBlock& db, const IdEntry& id) {
+        db.push_back(static_cast<std::uint8_t>(id.length + 1));  // länge = data bytes + 1
+        db.push_back(0);                                         // force / count_in
+        db.insert(db.end(), id.length, 0);
+      },
+      [](DataBlock& db, bool last) { db.push_back(last ? page::kMarkerEnd : page::kMarkerMore); });
 }
 
 // ---------------------------------------------------------------- driver

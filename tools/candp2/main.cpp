@@ -8,15 +8,9 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("candp2 ") + CANDP2_VERSION);
   app.require_subcommand(1);
   int exit_code = 0;
-#ifdef CANDP2_CMD_REPLAY
   candp2::cli::add_replay(app, exit_code);
-#endif
-#ifdef CANDP2_CMD_VALIDATE
   candp2::cli::add_validate(app, exit_code);
-#endif
-#ifdef CANDP2_CMD_GSD
   candp2::cli::add_gsd(app, exit_code);
-#endif
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
