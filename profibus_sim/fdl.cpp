@@ -30,7 +30,7 @@ std::string_view to_string(Error e) {
     case Error::Truncated:
       return "truncated telegram";
     case Error::LeOutOfRange:
-      return "LE out of range 4..249";
+      return "LE out of range 3..249";
     case Error::LeMismatch:
       return "LE != LEr";
     case Error::BadSd2Repeat:
@@ -149,7 +149,7 @@ std::size_t candidate_length(std::span<const std::uint8_t> b, Error& err) {
     case kSD2: {
       if (b.size() < 2) return 0;
       const std::size_t le = b[1];
-      if (le < kLeMin || le > kLeMax) {
+      if (le < kLeMinRx || le > kLeMax) {
         err = Error::LeOutOfRange;
         return 0;
       }

@@ -23,9 +23,11 @@ inline constexpr std::uint8_t kSD4 = 0xDC;  // token: SD4 DA SA
 inline constexpr std::uint8_t kSC = 0xE5;   // short acknowledge (single character)
 inline constexpr std::uint8_t kED = 0x16;   // end delimiter
 
-// LE of SD2 = number of bytes DA, SA, FC, DSAP/SSAP and DU (emulator-spec §10; IEC 61158-4-3:
-// 4..249, i.e. at least one data-unit byte, SD1 being the telegram without data).
+// LE of SD2 = number of bytes DA, SA, FC, DSAP/SSAP and DU (emulator-spec §10). IEC 61158-4-3
+// sends 4..249 (at least one data-unit byte; SD1 is the telegram without data); on receive 3..249
+// is accepted like pyprofibus fdl.py and profirust telegram.rs do (docs/decisions.md "FDL LE").
 inline constexpr std::size_t kLeMin = 4;
+inline constexpr std::size_t kLeMinRx = 3;
 inline constexpr std::size_t kLeMax = 249;
 inline constexpr std::size_t kMaxDataUnit = kLeMax - 3;     // DSAP/SSAP + DU bytes of an SD2
 inline constexpr std::size_t kSd3DataLen = 8;               // SD3: exactly 8 DU bytes (incl. SAPs)
