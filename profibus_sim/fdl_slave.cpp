@@ -51,6 +51,13 @@ bool SlaveFrontEnd::add(dp::DpSlave& slave) {
   return true;
 }
 
+std::vector<std::uint8_t> SlaveFrontEnd::addresses() const {
+  std::vector<std::uint8_t> out;
+  for (std::size_t a = 0; a < stations_.size(); ++a)
+    if (stations_[a]) out.push_back(static_cast<std::uint8_t>(a));
+  return out;
+}
+
 const StationStats* SlaveFrontEnd::stats(std::uint8_t address) const {
   if (address >= stations_.size() || !stations_[address]) return nullptr;
   return &stations_[address]->stats;

@@ -62,6 +62,7 @@ class SlaveFrontEnd {
   StreamParser& parser() { return parser_; }
 
   // Inspection for the daemon's status block.
+  std::vector<std::uint8_t> addresses() const;  // served stations, ascending
   const StationStats* stats(std::uint8_t address) const;
   std::uint8_t min_tsdr_bits(std::uint8_t address) const;
   // The bit-time delay as a duration at the configured baud rate (rounded up).

@@ -219,6 +219,7 @@ TEST_F(FdlSlaveFixture, SeveralStationsAndForeignAddresses) {
   auto& a = add_gateway(3);
   auto& b = add_gateway(4);
   EXPECT_FALSE(fe->add(b.dp()));  // address 4 already served
+  EXPECT_EQ(fe->addresses(), (std::vector<std::uint8_t>{3, 4}));
   EXPECT_EQ(send("10 04 02 49 4F 16"), "10 02 04 00 06 16");
   EXPECT_EQ(send(kCapFdlStatus), "10 02 03 00 05 16");
   EXPECT_EQ(send("10 05 02 49 50 16"), "");  // station 5 is not served: silence
