@@ -16,6 +16,7 @@
 #include "config/json_reader.hpp"
 #include "gateway/gateway.hpp"
 #include "gateway/slot_config.hpp"
+#include "serial/serial_port.hpp"
 
 namespace candp2::config {
 
@@ -31,6 +32,10 @@ std::string_view to_string(BusType t) {
       return "socketcand";
   }
   return "?";
+}
+
+std::string_view to_string(ProfibusRole r) {
+  return r == ProfibusRole::Master ? "master" : "slaves";
 }
 
 std::uint8_t GatewayConfig::dp_address() const {
@@ -447,11 +452,68 @@ DriveConfig parse_drive(const json& j, const std::string& path, const std::strin
   return d;
 }
 
+// emulator-spec §10: "profibus": {"port": ..., "baud": ..., "role": "slaves" | "master", ...}.
+ProfibusConfig parse_profibus(const json& j, const std::string& path, const std::string& file) {
+  const Object o(j, path,
+                 {"port", "baud", "role", "master_address", "slot_time_bits", "retries",
+                  "min_tsdr_bits", "rs485", "echo"});
+  ProfibusConfig p;
+  p.json_path = path;
+  p.port = get_string(o, "port", "a serial device such as \"/dev/ttyUSB0\" or \"pty:PATH\"");
+  std::string link;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (serial::parse_pty_port(p.port, &link)) {
+    if (link.empty())
+      fail(o.path("port"),
+           "expected \"pty:PATH\" with a path for the link, such as "
+           "\"pty:/tmp/profibus\"");
+    link = resolve(file, link);
+    const fs::path dir = fs::path(link).parent_path();
+    if (!dir.empty() && !fs::is_directory(dir, ec))
+      fail(o.path("port"), "the directory " + dir.string() + " of the pty link does not exist");
+    p.port = "pty:" + link;
+  } else if (!fs::exists(p.port, ec)) {
+    fail(o.path("port"), "unknown device \"" + p.port +
+                             "\": it does not exist (a serial device such as /dev/ttyUSB0, "
+                             "or \"pty:PATH\" for a pseudo-terminal)");
+  }
+  const std::uint64_t baud = as_uint(o.at("baud"), o.path("baud"), 0, 100000000, "baud");
+  if (!serial::is_supported_baud(static_cast<std::uint32_t>(baud)))
+    fail(o.path("baud"), "baud " + std::to_string(baud) +
+                             " is not supported; expected one of the PROFIBUS rates " +
+                             serial::supported_bauds_text());
+  p.baud = static_cast<std::uint32_t>(baud);
+  if (!o.has("role")) fail(path, "missing key \"role\" (\"slaves\" or \"master\")");
+  p.role =
+      get_enum<ProfibusRole>(o, "role", ProfibusRole::Slaves,
+                             {{"slaves", ProfibusRole::Slaves}, {"master", ProfibusRole::Master}});
+  if (o.has("master_address")) {
+    if (p.role == ProfibusRole::Master)
+      fail(o.path("master_address"),
+           "only for role \"slaves\" (the master whose requests are answered); the built-in "
+           "master's own address is $.master.address");
+    // DP master addresses 0..125 (127 is broadcast, 126 the default address of new slaves).
+    p.master_address = get_uint<std::uint8_t>(o, "master_address", 1, 0, 125, "(DP address)");
+  }
+  // IEC 61158-4-3: TSL 37..16383 bit times; max_retry_limit 0..7; min_TSDR 11..255.
+  p.slot_time_bits = get_uint<std::uint32_t>(o, "slot_time_bits", 100, 37, 16383, "bit times");
+  p.retries = get_uint<std::uint8_t>(o, "retries", 1, 0, 7);
+  p.min_tsdr_bits = get_uint<std::uint8_t>(o, "min_tsdr_bits", 11, 11, 255, "bit times");
+  p.rs485 = get_bool(o, "rs485", false);
+  p.echo = get_bool(o, "echo", false);
+  return p;
+}
+
 DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   DaemonConfig c;
   c.file = file;
-  const Object top(root, "$",
-                   {"modbus", "master", "buses", "gateways", "drives", "log", "state_file"});
+  const Object top(
+      root, "$",
+      {"modbus", "master", "buses", "gateways", "drives", "log", "state_file", "profibus"});
+  if (const json* p = top.find("profibus"))
+    c.profibus = parse_profibus(*p, top.path("profibus"), file);
+  const bool remote = c.remote_gateways();
   if (const json* m = top.find("modbus")) {
     const Object o(*m, top.path("modbus"), {"listen"});
     if (const json* l = o.find("listen")) c.modbus_listen = get_endpoint(*l, o.path("listen"));
@@ -474,8 +536,10 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   }
   if (auto p = find_string(top, "state_file", "a file name")) c.state_file = resolve(file, *p);
 
-  const json& buses = top.at("buses");
-  if (!buses.is_object() || buses.empty())
+  // Role master: the gateways are remote stations; buses only serve simulated drives.
+  static const json kNoBuses = json::object();
+  const json& buses = remote && !top.has("buses") ? kNoBuses : top.at("buses");
+  if (!buses.is_object() || (buses.empty() && !remote))
     fail(top.path("buses"),
          "expected an object of buses by name, e.g. {\"can0\": {\"type\": \"virtual\"}}, got " +
              kind_of(buses));
@@ -501,8 +565,15 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   for (std::size_t i = 0; i < gateways.size(); ++i) {
     const std::string path = element(top.path("gateways"), i);
     GatewayConfig g = parse_gateway_or_throw(gateways[i], file, path);
-    if (g.bus.empty()) fail(path, "missing key \"bus\"");
-    if (!c.bus(g.bus)) {
+    if (remote && !g.bus.empty())
+      fail(path + ".bus",
+           "with $.profibus.role \"master\" the gateways are remote stations on the PROFIBUS "
+           "line, emulated nowhere here: remove \"bus\"");
+    if (remote) {
+      // Fall through to the address checks below.
+    } else if (g.bus.empty()) {
+      fail(path, "missing key \"bus\"");
+    } else if (!c.bus(g.bus)) {
       std::vector<std::string> names;
       for (const auto& b : c.buses) names.push_back(b.name);
       fail(path + ".bus",
@@ -511,6 +582,9 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
     if (const auto* other = c.gateway_by_dp_address(g.dp_address()))
       fail(path + ".address", "DP address " + std::to_string(g.dp_address()) +
                                   " is already used by " + other->json_path);
+    if (c.profibus && c.profibus->master_address && g.dp_address() == *c.profibus->master_address)
+      fail(path + ".address", "DP address " + std::to_string(g.dp_address()) +
+                                  " is the external master's address ($.profibus.master_address)");
     if (g.dp_address() == c.master_address)
       fail(path + ".address", "DP address " + std::to_string(g.dp_address()) +
                                   " is the master's address ($.master.address)");
@@ -541,7 +615,9 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   for (auto& g : c.gateways) {
     // emulator-spec §1: a Data_Exchange gap longer than the watchdog time drops the slave to
     // Wait_Prm; with a watchdog below two master cycles one late cycle is enough.
-    if (g.watchdog_ms != 0 && g.watchdog_ms < 2 * c.cycle_ms)
+    // (Role slaves: an external master's cycle, unknown here.)
+    const bool external_master = c.profibus && c.profibus->role == ProfibusRole::Slaves;
+    if (!external_master && g.watchdog_ms != 0 && g.watchdog_ms < 2 * c.cycle_ms)
       g.warnings.push_back({file, g.json_path + ".parameters.watchdog_ms",
                             "watchdog " + std::to_string(g.watchdog_ms) +
                                 " ms is shorter than two master cycles ($.master.cycle_ms = " +

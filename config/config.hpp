@@ -92,6 +92,23 @@ struct DriveConfig {
   std::string json_path;
 };
 
+// emulator-spec §10: the PROFIBUS line (docs/configuration.md#profibus).
+enum class ProfibusRole { Slaves, Master };
+std::string_view to_string(ProfibusRole r);
+
+struct ProfibusConfig {
+  std::string port;  // serial device path or "pty:PATH"
+  std::uint32_t baud = 19200;
+  ProfibusRole role = ProfibusRole::Slaves;
+  std::optional<std::uint8_t> master_address;  // role slaves: answer only this master
+  std::uint32_t slot_time_bits = 100;          // TSL (emulator-spec §10: typical 100)
+  std::uint8_t retries = 1;                    // max_retry_limit (typical 1)
+  std::uint8_t min_tsdr_bits = 11;             // role slaves: until Set_Prm says otherwise
+  bool rs485 = false;
+  bool echo = false;
+  std::string json_path = "$.profibus";
+};
+
 struct DaemonConfig {
   std::string file;  // where it was loaded from
   Endpoint modbus_listen{"127.0.0.1", 1502};
@@ -102,10 +119,12 @@ struct DaemonConfig {
   std::vector<GatewayConfig> gateways;
   std::vector<DriveConfig> drives;
   std::string log_level = "info";
-  std::optional<std::string> can_log;     // candump -l file (relative paths: to the config file)
-  std::optional<std::string> state_file;  // stored wake-up/SYNC values across restarts
-  std::vector<ConfigError> warnings;      // from every part of the file
+  std::optional<std::string> can_log;      // candump -l file (relative paths: to the config file)
+  std::optional<std::string> state_file;   // stored wake-up/SYNC values across restarts
+  std::vector<ConfigError> warnings;       // from every part of the file
+  std::optional<ProfibusConfig> profibus;  // emulator-spec §10; none: everything in-process (§8)
 
+  bool remote_gateways() const { return profibus && profibus->role == ProfibusRole::Master; }
   const BusConfig* bus(const std::string& name) const;
   const GatewayConfig* gateway_by_dp_address(std::uint8_t dp_address) const;
 };

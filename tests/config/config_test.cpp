@@ -473,5 +473,183 @@ TEST(ParseHex, Forms) {
   EXPECT_FALSE(parse_hex("0x12", &error));
 }
 
+// ------------------------------------------------------------------- profibus (emulator-spec §10)
+
+json with_profibus(const json& profibus) {
+  json j = base();
+  j["profibus"] = profibus;
+  return j;
+}
+
+// role master: remote gateway 3 with the manual §5.1.4 slots, no bus.
+json remote_master() {
+  return json::parse(R"({
+    "modbus": {"listen": "127.0.0.1:1502"},
+    "profibus": {"port": "/dev/null", "baud": 19200, "role": "master"},
+    "gateways": [{
+      "address": 3,
+      "slots": [
+        {"io": "input",  "address": 172, "length": 6, "comment": "02,89,B8"},
+        {"io": "output", "address": 172, "length": 6, "comment": "03,09,B8"}
+      ]
+    }]
+  })");
+}
+
+TEST(ConfigProfibus, AbsentMeansInProcess) {
+  EXPECT_FALSE(ok(base()).profibus);
+}
+
+TEST(ConfigProfibus, RoleSlavesOnAPtyWithDefaults) {
+  const auto c = ok(with_profibus({{"port", "pty:/tmp/pb"}, {"baud", 19200}, {"role", "slaves"}}));
+  ASSERT_TRUE(c.profibus);
+  EXPECT_EQ(c.profibus->port, "pty:/tmp/pb");
+  EXPECT_EQ(c.profibus->baud, 19200u);
+  EXPECT_EQ(c.profibus->role, ProfibusRole::Slaves);
+  EXPECT_FALSE(c.profibus->master_address);
+  // emulator-spec §10: min_TSDR default 11, slot time typical 100, retries typical 1.
+  EXPECT_EQ(c.profibus->min_tsdr_bits, 11);
+  EXPECT_EQ(c.profibus->slot_time_bits, 100u);
+  EXPECT_EQ(c.profibus->retries, 1);
+  EXPECT_FALSE(c.profibus->rs485);
+  EXPECT_FALSE(c.profibus->echo);
+  EXPECT_FALSE(c.remote_gateways());
+}
+
+TEST(ConfigProfibus, EveryOptionalKey) {
+  const auto c = ok(with_profibus({{"port", "/dev/null"},
+                                   {"baud", 93750},
+                                   {"role", "slaves"},
+                                   {"master_address", 2},
+                                   {"slot_time_bits", 300},
+                                   {"retries", 3},
+                                   {"min_tsdr_bits", 22},
+                                   {"rs485", true},
+                                   {"echo", true}}));
+  ASSERT_TRUE(c.profibus);
+  EXPECT_EQ(c.profibus->baud, 93750u);
+  EXPECT_EQ(c.profibus->master_address, 2);
+  EXPECT_EQ(c.profibus->slot_time_bits, 300u);
+  EXPECT_EQ(c.profibus->retries, 3);
+  EXPECT_EQ(c.profibus->min_tsdr_bits, 22);
+  EXPECT_TRUE(c.profibus->rs485);
+  EXPECT_TRUE(c.profibus->echo);
+}
+
+TEST(ConfigProfibus, PtyPathRelativeToTheConfigFile) {
+  auto r =
+      parse_daemon(with_profibus({{"port", "pty:pb"}, {"baud", 19200}, {"role", "slaves"}}).dump(),
+                   "/tmp/x.json");
+  ASSERT_TRUE(std::holds_alternative<DaemonConfig>(r)) << std::get<ConfigError>(r).to_string();
+  EXPECT_EQ(std::get<DaemonConfig>(r).profibus->port, "pty:/tmp/pb");
+}
+
+TEST(ConfigProfibus, RoleMasterRemoteGatewaysWithoutBuses) {
+  auto j = remote_master();
+  j["gateways"][0]["prm_hex"] = "88 1E 01 00 04 A4 00 00 02 00 01 00 00 FF FF FF";
+  j["gateways"][0]["slots"][1] = {{"cfg_hex", "83 85 03 09 B8"}, {"address", 172}};
+  const auto c = ok(j);
+  ASSERT_TRUE(c.profibus);
+  EXPECT_TRUE(c.remote_gateways());
+  EXPECT_TRUE(c.buses.empty());
+  ASSERT_EQ(c.gateways.size(), 1u);
+  EXPECT_TRUE(c.gateways[0].bus.empty());
+  // What the master sends over FDL: the prm_hex and cfg_hex bytes as given (emulator-spec §10).
+  EXPECT_EQ(hex(set_prm_bytes(c.gateways[0])), "88 1E 01 00 04 A4 00 00 02 00 01 00 00 FF FF FF");
+  EXPECT_EQ(hex(chk_cfg_bytes(c.gateways[0])), "43 85 02 89 B8 83 85 03 09 B8");
+}
+
+TEST(ConfigProfibusErrors, UnknownDevice) {
+  const auto e = bad(
+      with_profibus({{"port", "/dev/candp2-no-such-tty"}, {"baud", 19200}, {"role", "slaves"}}));
+  EXPECT_EQ(e.file, "test.json");
+  EXPECT_EQ(e.json_path, "$.profibus.port");
+  EXPECT_NE(e.message.find("unknown device \"/dev/candp2-no-such-tty\""), std::string::npos)
+      << e.message;
+  EXPECT_NE(e.message.find("does not exist"), std::string::npos) << e.message;
+}
+
+TEST(ConfigProfibusErrors, PtyLinkDirectoryMissingOrPathEmpty) {
+  auto e = bad(
+      with_profibus({{"port", "pty:/candp2-no-such-dir/pb"}, {"baud", 19200}, {"role", "slaves"}}));
+  EXPECT_EQ(e.json_path, "$.profibus.port");
+  EXPECT_NE(e.message.find("/candp2-no-such-dir"), std::string::npos) << e.message;
+  e = bad(with_profibus({{"port", "pty:"}, {"baud", 19200}, {"role", "slaves"}}));
+  EXPECT_EQ(e.json_path, "$.profibus.port");
+  EXPECT_NE(e.message.find("pty:PATH"), std::string::npos) << e.message;
+}
+
+TEST(ConfigProfibusErrors, BaudNotSupportedListsTheAllowedOnes) {
+  const auto e =
+      bad(with_profibus({{"port", "pty:/tmp/pb"}, {"baud", 115200}, {"role", "slaves"}}));
+  EXPECT_EQ(e.json_path, "$.profibus.baud");
+  EXPECT_NE(e.message.find("115200 is not supported"), std::string::npos) << e.message;
+  // emulator-spec §10 rates, including the non-standard ones.
+  for (const char* b : {"9600", "19200", "45450", "93750", "187500", "500000", "1500000"})
+    EXPECT_NE(e.message.find(b), std::string::npos) << b << " in " << e.message;
+  const auto missing = bad(with_profibus({{"port", "pty:/tmp/pb"}, {"role", "slaves"}}));
+  EXPECT_EQ(missing.json_path, "$.profibus");
+  EXPECT_NE(missing.message.find("baud"), std::string::npos) << missing.message;
+}
+
+TEST(ConfigProfibusErrors, Role) {
+  auto e = bad(with_profibus({{"port", "pty:/tmp/pb"}, {"baud", 19200}}));
+  EXPECT_EQ(e.json_path, "$.profibus");
+  EXPECT_NE(e.message.find("\"role\""), std::string::npos) << e.message;
+  e = bad(with_profibus({{"port", "pty:/tmp/pb"}, {"baud", 19200}, {"role", "slave"}}));
+  EXPECT_EQ(e.json_path, "$.profibus.role");
+  EXPECT_NE(e.message.find("\"slaves\""), std::string::npos) << e.message;
+  EXPECT_NE(e.message.find("\"master\""), std::string::npos) << e.message;
+}
+
+TEST(ConfigProfibusErrors, RoleMasterGatewayWithABus) {
+  auto j = remote_master();
+  j["buses"] = {{"can0", {{"type", "virtual"}}}};
+  j["gateways"][0]["bus"] = "can0";
+  const auto e = bad(j);
+  EXPECT_EQ(e.json_path, "$.gateways[0].bus");
+  EXPECT_NE(e.message.find("remote stations"), std::string::npos) << e.message;
+}
+
+TEST(ConfigProfibusErrors, RoleSlavesStillNeedsBuses) {
+  auto j = remote_master();
+  j["profibus"]["role"] = "slaves";
+  const auto e = bad(j);
+  EXPECT_EQ(e.json_path, "$");
+  EXPECT_NE(e.message.find("buses"), std::string::npos) << e.message;
+}
+
+TEST(ConfigProfibusErrors, MasterAddress) {
+  auto e = bad(with_profibus(
+      {{"port", "pty:/tmp/pb"}, {"baud", 19200}, {"role", "slaves"}, {"master_address", 126}}));
+  EXPECT_EQ(e.json_path, "$.profibus.master_address");
+  auto j = remote_master();
+  j["profibus"]["master_address"] = 2;
+  e = bad(j);
+  EXPECT_EQ(e.json_path, "$.profibus.master_address");
+  EXPECT_NE(e.message.find("$.master.address"), std::string::npos) << e.message;
+  e = bad(with_profibus(
+      {{"port", "pty:/tmp/pb"}, {"baud", 19200}, {"role", "slaves"}, {"master_address", 5}}));
+  EXPECT_EQ(e.json_path, "$.gateways[0].address");
+  EXPECT_NE(e.message.find("$.profibus.master_address"), std::string::npos) << e.message;
+}
+
+TEST(ConfigProfibusErrors, TimingRangesAndUnknownKeys) {
+  json p = {{"port", "pty:/tmp/pb"}, {"baud", 19200}, {"role", "slaves"}};
+  auto with = [&](const char* key, json v) {
+    json q = p;
+    q[key] = v;
+    return bad(with_profibus(q));
+  };
+  EXPECT_EQ(with("slot_time_bits", 36).json_path, "$.profibus.slot_time_bits");
+  EXPECT_EQ(with("slot_time_bits", 16384).json_path, "$.profibus.slot_time_bits");
+  EXPECT_EQ(with("retries", 8).json_path, "$.profibus.retries");
+  EXPECT_EQ(with("min_tsdr_bits", 10).json_path, "$.profibus.min_tsdr_bits");
+  EXPECT_EQ(with("rs485", "yes").json_path, "$.profibus.rs485");
+  const auto e = with("bauds", 19200);
+  EXPECT_NE(e.to_string().find("bauds"), std::string::npos) << e.to_string();
+  EXPECT_EQ(bad(with_profibus("pty:/tmp/pb")).json_path, "$.profibus");
+}
+
 }  // namespace
 }  // namespace candp2::config
