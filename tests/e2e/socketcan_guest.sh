@@ -64,6 +64,11 @@ if [ "$KIND" = sja1000 ]; then
     grep -q 'restart-ms 100' /out/can0-apply.txt || fail "restart-ms 100 not applied"
     grep -q 'bit rate set to 500 kbit/s from the Set_Prm of gateway gw5 (was 125 kbit/s)' \
         /out/candp2d.log || fail "no log line for the bit rate change"
+    # The down/up reached the raw socket as ENETDOWN with the interface already up again: a
+    # restart (error-active), not a bus-off.
+    grep -q 'interface was restarted (down and up); controller error-active' /out/candp2d.log ||
+        fail "restart after the bit rate change not recognised"
+    reg_is 8205 0x0000 || fail "bus state $(reg 8205) after the bit rate change"
     expect_configured=0x0007/0xA120 expect_interface=0x0007/0xA120 # 500000 bit/s
 else
     # vcan has no bit timing: said once at info, no warning, interface bit rate 0.
