@@ -61,9 +61,10 @@ std::string describe_link_error(const std::string& interface, const LinkError& e
   std::string text = "interface " + interface + ": " + e.message;
   if (e.error == EPERM || e.error == EACCES)
     text +=
-        "; setting the bit rate needs CAP_NET_ADMIN: install the systemd drop-in "
-        "packaging/systemd/candp2d-bitrate-apply.conf, or `setcap cap_net_admin+ep "
-        "/usr/bin/candp2d`, or use \"bitrate\": \"check\" and configure the interface with "
+        "; setting the bit rate needs CAP_NET_ADMIN: copy the systemd drop-in "
+        "packaging/systemd/candp2d-bitrate-apply.conf to /etc/systemd/system/candp2d.service.d/, "
+        "or `setcap cap_net_admin+ep "
+        "$(command -v candp2d)`, or use \"bitrate\": \"check\" and configure the interface with "
         "`ip link set " +
         interface + " type can bitrate N`";
   return text;
