@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "can/can_link.hpp"
 #include "common/hex.hpp"
 
 namespace candp2::can {
@@ -107,10 +108,16 @@ std::string errno_text(int err) {
 class SocketCanChannel final : public Channel {
  public:
   SocketCanChannel(int fd, std::string interface, LogSink* log)
-      : fd_(fd), name_("socketcan:" + interface), log_(log, "socketcan " + interface) {}
+      : fd_(fd),
+        interface_(interface),
+        name_("socketcan:" + interface),
+        log_(log, "socketcan " + interface) {}
   ~SocketCanChannel() override { ::close(fd_); }
   SocketCanChannel(const SocketCanChannel&) = delete;
   SocketCanChannel& operator=(const SocketCanChannel&) = delete;
+
+  // The controller state when the channel opens (can_get_state; none for vcan).
+  void set_initial_state(BusState s) { state_ = s; }
 
   void send(const Frame& frame) override {
     const socketcan::RawFrame raw = socketcan::encode(frame);
@@ -124,7 +131,7 @@ class SocketCanChannel final : public Channel {
         log_.info("transmit works again after " + std::to_string(tx_failing_) + " dropped frames");
         tx_failing_ = 0;
       }
-      link_down_ = false;
+      if (link_down_) restarted();
       return;
     }
     const int err = n < 0 ? errno : EIO;
@@ -155,6 +162,14 @@ class SocketCanChannel final : public Channel {
         if (err == EAGAIN || err == EWOULDBLOCK) return std::nullopt;
         if (err == EINTR) continue;
         if (err == ENETDOWN) {
+          // The kernel reports a down transition once per socket. When the interface is up again
+          // already (a bit rate change or `ip link set down/up`), the controller restarted
+          // error-active (linux/can/netlink.h CAN_STATE_ERROR_ACTIVE after ndo_open).
+          if (interface_up()) {
+            log_.info("interface was restarted (down and up); controller error-active");
+            restarted();
+            continue;
+          }
           if (!link_down_) log_.error("interface went down; bus state reported as bus-off");
           link_down_ = true;
         } else {
@@ -179,8 +194,8 @@ class SocketCanChannel final : public Channel {
         continue;
       }
       if (link_down_) {
-        log_.info("interface is up again");
-        link_down_ = false;
+        log_.info("interface is up again; controller error-active");
+        restarted();
       }
       socketcan::RawFrame raw;
       raw.can_id = cf.can_id;
@@ -215,6 +230,18 @@ class SocketCanChannel final : public Channel {
     }
   }
 
+  bool interface_up() const {
+    ifreq ifr{};
+    std::memcpy(ifr.ifr_name, interface_.c_str(), interface_.size() + 1);
+    return ::ioctl(fd_, SIOCGIFFLAGS, &ifr) == 0 && (ifr.ifr_flags & IFF_UP);
+  }
+  void restarted() {
+    link_down_ = false;
+    if (state_ != BusState::Ok)
+      log_.info("bus state " + std::string(to_string(state_)) + " -> ok (interface restarted)");
+    state_ = BusState::Ok;
+  }
+
   static std::string format_hex_id(std::uint32_t id) {
     char buf[16];
     std::snprintf(buf, sizeof buf, "%08X", static_cast<unsigned>(id));
@@ -222,6 +249,7 @@ class SocketCanChannel final : public Channel {
   }
 
   int fd_;
+  std::string interface_;
   std::string name_;
   Logger log_;
   BusState state_ = BusState::Ok;
@@ -296,8 +324,17 @@ std::unique_ptr<Channel> open_socketcan(const std::string& interface, std::strin
   if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) < 0)
     return close_and_fail("cannot bind to " + who + ": " + errno_text(errno));
 
-  Logger(options.log, "socketcan " + interface).info("opened (raw socket, error frames on)");
-  return std::make_unique<SocketCanChannel>(fd, interface, options.log);
+  Logger log(options.log, "socketcan " + interface);
+  auto channel = std::make_unique<SocketCanChannel>(fd, interface, options.log);
+  // A real controller may already be warning, error-passive or bus-off (restart-ms 0) before this
+  // socket saw any error frame; vcan has no controller state.
+  if (const auto state = CanLink(interface).state()) {
+    channel->set_initial_state(to_bus_state(*state));
+    log.info("opened (raw socket, error frames on), controller " + std::string(to_string(*state)));
+  } else {
+    log.info("opened (raw socket, error frames on)");
+  }
+  return channel;
 }
 
 }  // namespace candp2::can

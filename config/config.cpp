@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -418,11 +419,21 @@ BusConfig parse_bus(const json& j, const std::string& path, const std::string& n
            "the socketcand bus name \"" + b.channel +
                "\" must be 1..16 letters, digits, '_', '-', '.' (set \"channel\")");
   } else if (t == "socketcan") {
-    const Object o(j, path, {"type", "interface"});
+    const Object o(j, path, {"type", "interface", "bitrate", "restart_ms"});
     b.type = BusType::SocketCan;
     b.interface = get_string(o, "interface", "a CAN network interface such as \"can0\"");
     if (b.interface.size() > 15)  // IFNAMSIZ - 1
       fail(o.path("interface"), "expected an interface name of at most 15 characters");
+    b.bitrate =
+        get_enum<BitrateMode>(o, "bitrate", BitrateMode::Check,
+                              {{"check", BitrateMode::Check}, {"apply", BitrateMode::Apply}});
+    if (o.has("restart_ms")) {
+      if (b.bitrate != BitrateMode::Apply)
+        fail(o.path("restart_ms"),
+             "restart_ms is applied together with the bit rate: set \"bitrate\": \"apply\"");
+      // Kernel: IFLA_CAN_RESTART_MS, 0 = no automatic restart after bus-off.
+      b.restart_ms = get_uint<std::uint32_t>(o, "restart_ms", 0, 0, 60000, "ms");
+    }
   } else if (t == "socketcand") {
     const Object o(j, path, {"type", "host", "port", "channel"});
     b.type = BusType::Socketcand;
@@ -503,6 +514,26 @@ ProfibusConfig parse_profibus(const json& j, const std::string& path, const std:
   p.rs485 = get_bool(o, "rs485", false);
   p.echo = get_bool(o, "echo", false);
   return p;
+}
+
+// Gateways whose Set_Prm sets the bit rate of one SocketCAN interface ("bitrate": "apply") must
+// agree on it: the interface has one bit rate (manual §5.1.2, Set_Prm byte 8).
+void check_shared_bitrates(const DaemonConfig& c) {
+  std::map<std::string, const GatewayConfig*> first;  // interface → first gateway on it
+  for (const auto& g : c.gateways) {
+    const BusConfig* b = c.bus(g.bus);
+    if (!b || b->type != BusType::SocketCan) continue;
+    const auto [it, inserted] = first.try_emplace(b->interface, &g);
+    if (inserted) continue;
+    const BusConfig* ob = c.bus(it->second->bus);
+    if (b->bitrate != BitrateMode::Apply && ob->bitrate != BitrateMode::Apply) continue;
+    const auto rate = configured_bitrate(g), other = configured_bitrate(*it->second);
+    if (rate && other && *rate != *other)
+      fail(g.json_path + (g.prm_hex ? ".prm_hex" : ".parameters.can_bitrate"),
+           "bit rate " + std::to_string(*rate) + " bit/s differs from " + std::to_string(*other) +
+               " bit/s of " + it->second->json_path + " on the same interface " + b->interface +
+               " with \"bitrate\": \"apply\" (one interface has one bit rate)");
+  }
 }
 
 DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
@@ -625,6 +656,7 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
                                 "): the gateway will drop out of Data_Exch"});
     c.warnings.insert(c.warnings.end(), g.warnings.begin(), g.warnings.end());
   }
+  check_shared_bitrates(c);
   std::vector<GatewayConfig*> all;
   for (auto& g : c.gateways) all.push_back(&g);
   check_overlaps(file, all, c.warnings);
@@ -727,6 +759,12 @@ Result<GatewayConfig> parse_gateway(const json& j, const std::string& file,
   } catch (const Failure& f) {
     return ConfigError{file, f.path, f.message};
   }
+}
+
+std::optional<std::uint32_t> configured_bitrate(const GatewayConfig& g) {
+  const auto prm = set_prm_bytes(g);
+  if (prm.size() <= gw::kPrmBitrate || prm[gw::kPrmBitrate] > gw::kBitrateMax) return std::nullopt;
+  return gw::kBitrates[prm[gw::kPrmBitrate]];  // emulator-spec §1.1 byte 8
 }
 
 std::vector<std::uint8_t> set_prm_bytes(const GatewayConfig& g) {

@@ -31,11 +31,18 @@ struct Endpoint {
 enum class BusType { Virtual, SocketCan, Socketcand };
 std::string_view to_string(BusType t);
 
+// socketcan buses: what candp2d does with the interface's bit rate (docs/transports.md).
+enum class BitrateMode { Check, Apply };
+
 struct BusConfig {
   std::string name;
   BusType type = BusType::Virtual;
   std::string interface;  // socketcan: the network interface ("can0", "vcan0")
-  Endpoint remote;        // socketcand client: the server's host and port
+  // socketcan: "check" compares the interface's bit rate with the gateway's Set_Prm byte 8,
+  // "apply" sets it (CAP_NET_ADMIN); restart_ms is the kernel's bus-off auto-restart (apply only).
+  BitrateMode bitrate = BitrateMode::Check;
+  std::optional<std::uint32_t> restart_ms;
+  Endpoint remote;  // socketcand client: the server's host and port
   // socketcand client: the bus to open on the server; virtual bus export: the bus name clients
   // open (defaults to the bus's own name).
   std::string channel;
@@ -142,6 +149,9 @@ Result<GatewayConfig> parse_gateway(const nlohmann::json& j, const std::string& 
 // What the simulated master sends for a gateway entry.
 std::vector<std::uint8_t> set_prm_bytes(const GatewayConfig& g);
 std::vector<std::uint8_t> chk_cfg_bytes(const GatewayConfig& g);
+// The CAN bit rate (bit/s) of the gateway's Set_Prm byte 8 (emulator-spec §1.1); nullopt when the
+// byte is missing or out of range (the gateway rejects that Set_Prm).
+std::optional<std::uint32_t> configured_bitrate(const GatewayConfig& g);
 dp::SlaveParameters slave_parameters(const GatewayConfig& g);
 
 // "88 80 C4" / "8880C4" / "88,80,C4" → bytes. nullopt and *error for anything else.

@@ -11,6 +11,7 @@
 
 #include "can/socketcan.hpp"
 #include "can/socketcand.hpp"
+#include "daemon/bitrate_supervisor.hpp"
 #include "daemon/can_log.hpp"
 #include "daemon/modbus_map.hpp"
 #include "daemon/modbus_server.hpp"
@@ -100,6 +101,8 @@ struct GatewayUnit final : modbus::GatewayFace, can::FrameSink {
   std::unique_ptr<gw::Gateway> gateway;
   EventLoop::TimerId timer = 0;
   std::optional<Time> armed;
+  BitrateSupervisor* link = nullptr;  // SocketCAN: the interface's bit rate (docs/transports.md)
+  std::size_t link_index = 0;
 
   void send(const can::Frame& frame) override;  // the gateway transmits
   std::uint8_t dp_address() const override { return gateway->address(); }
@@ -174,6 +177,7 @@ class DaemonImpl final : public Daemon {
   void rearm(GatewayUnit& g);
   void rearm(DriveUnit& d);
   void check_stored();
+  void update_links();
 
   config::DaemonConfig config_;
   EventLoop& loop_;
@@ -182,6 +186,7 @@ class DaemonImpl final : public Daemon {
   std::vector<std::unique_ptr<Bus>> buses_;
   std::vector<std::unique_ptr<GatewayUnit>> gateways_;
   std::vector<std::unique_ptr<DriveUnit>> drives_;
+  std::map<std::string, std::unique_ptr<BitrateSupervisor>> links_;  // by SocketCAN interface
   std::unique_ptr<dp::DpMaster> master_;
   std::unique_ptr<modbus::ProcessImageMap> map_;
   std::unique_ptr<modbus::ModbusServer> modbus_;
@@ -205,6 +210,7 @@ modbus::StatusBlock GatewayUnit::status(Time now) {
   in.gateway = gateway->status();
   in.diag = gateway->dp().slave_diag(now);
   in.dp_address = gateway->address();
+  if (link) in.bitrate = link->status(link_index);
   if (const auto view = daemon->dp_master().slave(gateway->address())) {
     in.master_state = view->state;
     in.parameterizations = view->parameterizations;
@@ -291,6 +297,11 @@ bool DaemonImpl::open_gateway(GatewayUnit& g, std::string* error) {
         *error = where + "cannot open SocketCAN interface " + b.interface + ": " + e;
         return false;
       }
+      if (auto& link = links_[b.interface]; !link)
+        link = std::make_unique<BitrateSupervisor>(b.interface, b.bitrate, b.restart_ms,
+                                                   netlink_ops(b.interface), log_sink_);
+      g.link = links_[b.interface].get();
+      g.link_index = g.link->add_gateway(g.cfg.name);
       break;
     case BusType::Socketcand:
       g.channel =
@@ -403,6 +414,7 @@ bool DaemonImpl::start(std::string* error) {
   deferred_ = loop_.add_deferred([this] { return drain_in_process(); });
   cycle_timer_ = loop_.add_periodic(milliseconds(config_.cycle_ms), [this] {
     master_->cycle(loop_.now());
+    update_links();
     check_stored();
   });
   log_.info("master " + std::to_string(config_.master_address) + ": cycle " +
@@ -474,6 +486,18 @@ void DaemonImpl::rearm(DriveUnit& d) {
     unit->armed.reset();
     unit->drive->advance(loop_.now(), *unit->endpoint);
   });
+}
+
+void DaemonImpl::update_links() {
+  const Time now = loop_.now();
+  for (auto& g : gateways_) {
+    if (!g->link) continue;
+    const auto& prm = g->gateway->user_prm();  // the accepted Set_Prm (emulator-spec §1.1 byte 8)
+    g->link->update(
+        g->link_index,
+        prm ? std::optional<std::uint32_t>(gw::kBitrates.at(prm->bitrate_index)) : std::nullopt,
+        now);
+  }
 }
 
 void DaemonImpl::check_stored() {

@@ -229,6 +229,14 @@ std::span<const StatusField> status_fields() {
        "LED C (CAN): 1 on (ok), 0x45 Morse E (error passive), 0x57 W (warning), 0x4F O (bus off)"},
       {kDpAddress, 1, "dp_address", "the gateway's DP station address"},
       {kParameterizations, 2, "parameterizations", "Set_Prm telegrams the master sent"},
+      {kBitrateMode, 1, "bitrate_mode",
+       "SocketCAN bit rate handling: 0 none (not SocketCAN), 1 check, 2 apply"},
+      {kBitrateConfigured, 2, "bitrate_configured",
+       "CAN bit rate of the gateway's Set_Prm byte 8, bit/s (0 before Set_Prm)"},
+      {kBitrateInterface, 2, "bitrate_interface",
+       "bit rate of the SocketCAN interface, bit/s (0 = no bit timing, e.g. vcan)"},
+      {kBitrateMismatch, 1, "bitrate_mismatch",
+       "1 = the interface's bit rate differs from Set_Prm's by more than 1 %"},
   };
   return kFields;
 }
@@ -257,6 +265,10 @@ StatusBlock encode_status(const StatusInputs& in) {
   b[kSyncMs] = g.sync_ms;
   b[kWakeupS] = g.wakeup_s;
   put32(kDataExchanges, g.data_exchanges);
+  b[kBitrateMode] = in.bitrate.mode;
+  put32(kBitrateConfigured, in.bitrate.configured);
+  put32(kBitrateInterface, in.bitrate.interface);
+  b[kBitrateMismatch] = in.bitrate.mismatch ? 1 : 0;
   // manual table 3.3.1.
   b[kLedD] = g.dp_state == dp::SlaveState::DataExch ? led::kOn : led::kOff;
   b[kLedE] = g.dp_state == dp::SlaveState::WaitPrm   ? 3

@@ -151,7 +151,13 @@ inline constexpr std::uint16_t kLedP = 32;
 inline constexpr std::uint16_t kLedC = 33;
 inline constexpr std::uint16_t kDpAddress = 34;
 inline constexpr std::uint16_t kParameterizations = 35;  // 35-36, master side
-inline constexpr std::uint16_t kCount = 37;
+// ---- issue 14: the CAN bit rate (SocketCAN "bitrate": "check" / "apply", docs/transports.md).
+// One contiguous group; 0 where unknown (not a SocketCAN bus, no Set_Prm yet, vcan).
+inline constexpr std::uint16_t kBitrateMode = 37;        // 0 none, 1 check, 2 apply
+inline constexpr std::uint16_t kBitrateConfigured = 38;  // 38-39 bit/s from Set_Prm byte 8
+inline constexpr std::uint16_t kBitrateInterface = 40;   // 40-41 bit/s of the interface
+inline constexpr std::uint16_t kBitrateMismatch = 42;    // 1 = they differ by more than 1 %
+inline constexpr std::uint16_t kCount = 43;
 }  // namespace status
 
 // LED codes in the status block (manual §3.3, table 3.3.1).
@@ -170,8 +176,17 @@ enum class Control : std::uint16_t { None = 0, PowerCycle = 1, Reparameterize = 
 using StatusBlock = std::array<std::uint16_t, status::kCount>;
 
 // Everything a status block shows, gathered by the owner of gateway and master.
+// The CAN bit rate group (kBitrate*): the daemon's view of the SocketCAN interface.
+struct BitrateStatus {
+  std::uint16_t mode = 0;        // 0 none, 1 check, 2 apply
+  std::uint32_t configured = 0;  // bit/s, 0 before the first Set_Prm
+  std::uint32_t interface = 0;   // bit/s, 0 = no bit timing (virtual) or not readable
+  bool mismatch = false;
+};
+
 struct StatusInputs {
   gw::GatewayStatus gateway;
+  BitrateStatus bitrate;
   dp::DpSlave::Diag diag{};
   std::optional<dp::MasterSlaveState> master_state;
   std::uint32_t parameterizations = 0;

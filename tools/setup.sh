@@ -24,6 +24,7 @@ packages=(
   libmodbus-dev nlohmann-json3-dev libcli11-dev         # Modbus/TCP, JSON configuration, CLI
   libspdlog-dev libfmt-dev                              # logging
   can-utils mbpoll                                      # independent CAN and Modbus peers
+  libsocketcan-dev iproute2                             # SocketCAN bit rate and controller state (netlink); ip in the guest
   python3-can python3-pymodbus python3-serial-asyncio   # independent python peers (/usr/bin/python3)
   qemu-system-x86 linux-image-amd64 busybox-static python3 # the SocketCAN guest (vcan)
 )

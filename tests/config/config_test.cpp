@@ -176,6 +176,66 @@ TEST(Config, BusTypes) {
   EXPECT_EQ(c.bus("can0")->channel, "vcan7");
 }
 
+// docs/transports.md "Bit rate": "bitrate" check (default) / apply, restart_ms only with apply.
+TEST(Config, SocketcanBitrateMode) {
+  json j = base();
+  j["buses"]["hw"] = {{"type", "socketcan"}, {"interface", "can0"}};
+  EXPECT_EQ(ok(j).bus("hw")->bitrate, BitrateMode::Check);
+  EXPECT_FALSE(ok(j).bus("hw")->restart_ms);
+  j["buses"]["hw"]["bitrate"] = "apply";
+  j["buses"]["hw"]["restart_ms"] = 100;
+  const auto c = ok(j);
+  EXPECT_EQ(c.bus("hw")->bitrate, BitrateMode::Apply);
+  EXPECT_EQ(c.bus("hw")->restart_ms, 100u);
+  // emulator-spec §1.1 byte 8: index 2 = 500k, 6 (default) = 125k.
+  j["gateways"][0]["parameters"]["can_bitrate"] = "500k";
+  EXPECT_EQ(configured_bitrate(ok(j).gateways[0]), 500000u);
+  EXPECT_EQ(configured_bitrate(ok(base()).gateways[0]), 125000u);
+}
+
+TEST(ConfigErrors, SocketcanBitrate) {
+  json j = base();
+  j["buses"]["hw"] = {{"type", "socketcan"}, {"interface", "can0"}, {"bitrate", "set"}};
+  auto e = bad(j);
+  EXPECT_EQ(e.json_path, "$.buses.hw.bitrate");
+  EXPECT_NE(e.message.find("\"apply\""), std::string::npos) << e.message;
+  j["buses"]["hw"]["bitrate"] = "check";
+  j["buses"]["hw"]["restart_ms"] = 100;
+  e = bad(j);
+  EXPECT_EQ(e.json_path, "$.buses.hw.restart_ms");
+  EXPECT_NE(e.message.find("apply"), std::string::npos) << e.message;
+  j["buses"]["hw"]["bitrate"] = "apply";
+  j["buses"]["hw"]["restart_ms"] = 60001;
+  EXPECT_EQ(bad(j).json_path, "$.buses.hw.restart_ms");
+}
+
+// Two gateways on one interface with "apply" must agree on Set_Prm byte 8 (one interface, one bit
+// rate); with "check" on both they may differ (each sees the mismatch).
+TEST(ConfigErrors, TwoGatewaysOneInterfaceDifferentBitrates) {
+  json j = base();
+  j["buses"] = {{"a", {{"type", "socketcan"}, {"interface", "can0"}, {"bitrate", "apply"}}},
+                {"b", {{"type", "socketcan"}, {"interface", "can0"}}}};
+  j["gateways"][0]["bus"] = "a";
+  j["gateways"][0]["parameters"]["can_bitrate"] = "500k";
+  json g2 = j["gateways"][0];
+  g2["name"] = "gw6";
+  g2["address"] = 6;
+  g2["bus"] = "b";
+  g2["parameters"]["can_bitrate"] = "250k";
+  j["gateways"].push_back(g2);
+  const auto e = bad(j);
+  EXPECT_EQ(e.json_path, "$.gateways[1].parameters.can_bitrate");
+  EXPECT_NE(e.message.find("250000 bit/s differs from 500000 bit/s of $.gateways[0]"),
+            std::string::npos)
+      << e.message;
+  EXPECT_NE(e.message.find("can0"), std::string::npos) << e.message;
+  j["gateways"][1]["parameters"]["can_bitrate"] = "500k";
+  EXPECT_EQ(ok(j).gateways.size(), 2u);
+  j["gateways"][1]["parameters"]["can_bitrate"] = "250k";
+  j["buses"]["a"].erase("bitrate");
+  EXPECT_EQ(ok(j).gateways.size(), 2u);
+}
+
 TEST(Config, RawPrmAndCfgHex) {
   const auto c =
       ok(with_gateway({{"prm_hex", "00 01 01 00 04 A4 00 00 06 80 01 00 00 FF FF FF"},

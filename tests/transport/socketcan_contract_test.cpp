@@ -148,5 +148,21 @@ TEST_F(SocketCanKernel, InterfaceGoingDownIsBusOffAndDropsSends) {
   EXPECT_TRUE(log_.contains("dropped: Network is down"));
 }
 
+// A down/up the channel only notices afterwards (a bit rate change by "bitrate": "apply", issue
+// 14): the pending ENETDOWN meets an interface that is up, so the controller restarted
+// error-active.
+TEST_F(SocketCanKernel, DownAndUpAgainIsARestartNotABusOff) {
+  ASSERT_TRUE(
+      inject_.write(CAN_ERR_FLAG | CAN_ERR_CRTL, {0, CAN_ERR_CRTL_TX_PASSIVE, 0, 0, 0, 0, 0, 0}));
+  settle();
+  ASSERT_EQ(ch_->bus_state(), can::BusState::ErrorPassive);
+  if (!set_link_up(test_interface(), false)) GTEST_SKIP() << "cannot set the link down (not root)";
+  ASSERT_TRUE(set_link_up(test_interface(), true));
+  settle();  // receive() meets the stale ENETDOWN first
+  EXPECT_EQ(ch_->bus_state(), can::BusState::Ok);
+  EXPECT_TRUE(log_.contains("interface was restarted (down and up); controller error-active"));
+  EXPECT_FALSE(log_.contains("interface went down"));
+}
+
 }  // namespace
 }  // namespace candp2::test

@@ -1,0 +1,76 @@
+// The CAN controller behind a SocketCAN interface, through rtnetlink (docs/transports.md, "Bit
+// rate and controller state"): its bit timing, its bit rate (down, set, up), restart-ms and its
+// fault confinement state. Uses Debian's libsocketcan (libsocketcan-dev) rather than hand-written
+// netlink. Calls are synchronous netlink round trips to the local kernel (well below a millisecond)
+// and are made from the daemon's one event loop.
+//
+// The decisions around it (does a configured bit rate match the interface's, what to log) are pure
+// functions below, tested without CAN support in the kernel.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include "can/channel.hpp"
+
+namespace candp2::can {
+
+// linux/can/netlink.h enum can_state.
+enum class ControllerState : std::uint8_t {
+  ErrorActive,
+  ErrorWarning,
+  ErrorPassive,
+  BusOff,
+  Stopped,
+  Sleeping,
+};
+std::string_view to_string(ControllerState s);
+// What a controller state means for diagnosis byte 8 (emulator-spec §3); Stopped and Sleeping (the
+// interface is down) count as bus-off: the gateway cannot send.
+BusState to_bus_state(ControllerState s);
+
+struct BitTiming {
+  std::uint32_t bitrate = 0;       // bit/s
+  std::uint32_t sample_point = 0;  // tenths of a percent (875 = 87.5 %)
+};
+
+struct LinkError {
+  int error = 0;  // errno of the failed netlink request (EPERM: no CAP_NET_ADMIN)
+  std::string message;
+};
+
+// One SocketCAN interface's controller. All calls are quick netlink requests.
+class CanLink {
+ public:
+  explicit CanLink(std::string interface) : interface_(std::move(interface)) {}
+  const std::string& interface() const { return interface_; }
+
+  // The bit timing; nullopt when the interface has none (vcan, vxcan: no IFLA_CAN_BITTIMING) or
+  // cannot be asked (then *error says why).
+  std::optional<BitTiming> bittiming(std::string* error = nullptr) const;
+  std::optional<ControllerState> state() const;
+  std::optional<std::uint32_t> restart_ms() const;
+
+  // Down, bit rate (and restart-ms when given), up. On failure the interface is brought up again
+  // when it was up before (best effort) and the error says which step failed and why.
+  std::optional<LinkError> set_bitrate(std::uint32_t bitrate,
+                                       std::optional<std::uint32_t> restart_ms) const;
+
+ private:
+  std::string interface_;
+};
+
+// A configured bit rate matches the interface's when they differ by at most 1 % (the kernel picks
+// the nearest timing its controller clock allows: 666.6k and 333.3k (manual table 5.1.1) are never
+// exact; the CAN-DP/2's own SJA1000-class controllers are not either).
+bool bitrate_matches(std::uint32_t configured, std::uint32_t actual);
+
+// The log line for a refused netlink request: names the interface, the step and for EPERM how to
+// grant CAP_NET_ADMIN (the systemd drop-in or setcap).
+std::string describe_link_error(const std::string& interface, const LinkError& e);
+
+// "500000" → "500 kbit/s", "666600" → "666.6 kbit/s", "1000000" → "1000 kbit/s".
+std::string format_bitrate(std::uint32_t bitrate);
+
+}  // namespace candp2::can
