@@ -12,7 +12,7 @@ the 10 ms grid point: p50, p99, max) from GET /api/v1/status:
   phase "clients": --sse plain SSE clients reading /api/v1/events, plus one headless chromium
                    showing the page (--no-chromium to leave it out).
 
-Usage: bench/http_jitter.py --candp2d build/bin/candp2d [--gateways 122] [--seconds 45]
+Usage: bench/http_jitter.py --candp2d build/bin/candp2d [--gateways 122] [--seconds 45] [--fifo]
 """
 
 import argparse
@@ -75,10 +75,13 @@ def main():
     ap.add_argument("--sse", type=int, default=5)
     ap.add_argument("--no-chromium", action="store_true")
     ap.add_argument("--order", default="none,clients,none")
+    ap.add_argument("--fifo", action="store_true",
+                    help="run candp2d under chrt -f 20 (SCHED_FIFO, as docs/daemon.md suggests)")
     args = ap.parse_args()
 
     cfg = config(args.gateways)
-    d = Daemon(args.candp2d, config=cfg, timeout=60)
+    d = Daemon(args.candp2d, config=cfg, timeout=60,
+               prefix=("chrt", "-f", "20") if args.fifo else ())
     writer_stop = False
 
     def writer():

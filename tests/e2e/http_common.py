@@ -18,7 +18,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 
 
 class Daemon:
-    def __init__(self, candp2d, config=None, timeout=15.0):
+    def __init__(self, candp2d, config=None, timeout=15.0, prefix=()):
         self.dir = tempfile.mkdtemp(prefix="candp2-http-")
         if config is None:
             with open(os.path.join(ROOT, "config", "demo.json")) as f:
@@ -31,7 +31,7 @@ class Daemon:
             json.dump(config, f)
         self.log_path = os.path.join(self.dir, "candp2d.log")
         self.log = open(self.log_path, "w")
-        self.proc = subprocess.Popen([candp2d, "--config", self.config_path],
+        self.proc = subprocess.Popen(list(prefix) + [candp2d, "--config", self.config_path],
                                      stdout=self.log, stderr=subprocess.STDOUT)
         end = time.monotonic() + timeout
         while True:
