@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <variant>
+
+#include "config/config.hpp"
 #include "daemon/cycle_stats.hpp"
 #include "gateway/slot_engine.hpp"
 
@@ -100,6 +103,63 @@ TEST(SlotStats, CountsPerConfiguredSlot) {
   e.configure(cfg);  // a new configuration starts from zero
   EXPECT_EQ(e.slot_stats()[0].frames, 0u);
   EXPECT_FALSE(e.slot_stats()[1].last);
+}
+
+TEST(LedCodes, ManualTable331) {
+  gw::GatewayStatus g;
+  g.dp_state = dp::SlaveState::WaitPrm;
+  auto c = modbus::led::codes(g);
+  EXPECT_EQ(c.e, 3);  // 3 short flashes: waiting for the parameter telegram
+  EXPECT_EQ(c.d, modbus::led::kOff);
+  EXPECT_EQ(c.p, modbus::led::kOn);
+  EXPECT_EQ(c.c, modbus::led::kOn);  // CAN bus OK
+  g.dp_state = dp::SlaveState::WaitCfg;
+  EXPECT_EQ(modbus::led::codes(g).e, 4);
+  g.dp_state = dp::SlaveState::DataExch;
+  g.bus_state = can::BusState::Warning;
+  c = modbus::led::codes(g);
+  EXPECT_EQ(c.d, modbus::led::kOn);
+  EXPECT_EQ(c.e, modbus::led::kOff);
+  EXPECT_EQ(c.c, 0x57);  // Morse 'W' short-long-long
+  g.bus_state = can::BusState::ErrorPassive;
+  EXPECT_EQ(modbus::led::codes(g).c, 0x45);  // Morse 'E'
+  g.bus_state = can::BusState::BusOff;
+  EXPECT_EQ(modbus::led::codes(g).c, 0x4F);  // Morse 'O'
+}
+
+constexpr const char* kConfig = R"({
+  "modbus": {"listen": "127.0.0.1:1502"}, %HTTP%
+  "buses": {"can0": {"type": "virtual"}},
+  "gateways": [{"name": "gw3", "address": 3, "bus": "can0",
+                "slots": [{"io": "output", "address": 0, "length": 2, "comment": "02,01,00"}]}]
+})";
+
+config::Result<config::DaemonConfig> parse_with(const std::string& http) {
+  std::string text = kConfig;
+  text.replace(text.find("%HTTP%"), 6, http);
+  return config::parse_daemon(text, "t.json");
+}
+
+TEST(HttpConfig, ListenKey) {
+  auto off = parse_with("");
+  ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(off));
+  EXPECT_FALSE(std::get<config::DaemonConfig>(off).http_listen);  // absent = off
+
+  auto on = parse_with(R"("http": {"listen": "127.0.0.1:8080"},)");
+  ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(on));
+  ASSERT_TRUE(std::get<config::DaemonConfig>(on).http_listen);
+  EXPECT_EQ(std::get<config::DaemonConfig>(on).http_listen->port, 8080);
+
+  auto bad = parse_with(R"("http": {"listen": "localhost:80"},)");
+  ASSERT_TRUE(std::holds_alternative<config::ConfigError>(bad));
+  EXPECT_EQ(std::get<config::ConfigError>(bad).json_path, "$.http.listen");
+
+  auto typo = parse_with(R"("http": {"listn": "127.0.0.1:80"},)");
+  ASSERT_TRUE(std::holds_alternative<config::ConfigError>(typo));
+
+  auto clash = parse_with(R"("http": {"listen": "127.0.0.1:1502"},)");
+  ASSERT_TRUE(std::holds_alternative<config::ConfigError>(clash));
+  EXPECT_NE(std::get<config::ConfigError>(clash).message.find("already used"), std::string::npos);
 }
 
 }  // namespace
