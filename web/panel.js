@@ -241,6 +241,7 @@ function updatePanel(p, g, nowMs) {
 
   // slot table
   const rows = p.slotBody.rows;
+  if (rows.length && rows[0].cells.length === 1) p.slotBody.deleteRow(0);
   while (rows.length > g.slots.length) p.slotBody.deleteRow(-1);
   g.slots.forEach((s, i) => {
     let r = rows[i];
@@ -264,8 +265,12 @@ function updatePanel(p, g, nowMs) {
     setText(c[9], s.frames);
     setText(c[10], age(s.age_ms));
   });
-  if (!g.slots.length && !p.noSlots) {
-    p.noSlots = true;
+  if (!g.slots.length) {
+    // No slot configuration accepted yet (Chk_Cfg pending or rejected: see the diagnosis).
+    const r = p.slotBody.insertRow();
+    const c = r.insertCell();
+    c.colSpan = 11; c.className = 'hw';
+    c.textContent = 'no slot configuration accepted (' + g.dp_state + ', see the diagnosis)';
   }
 
   // frames/s from the counters, one point per second

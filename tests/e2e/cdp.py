@@ -76,7 +76,8 @@ class Browser:
                 raise RuntimeError("no answer to " + method)
 
     def evaluate(self, expression):
-        r = self.call("Runtime.evaluate", expression=expression, returnByValue=True)
+        r = self.call("Runtime.evaluate", expression=expression, returnByValue=True,
+                      awaitPromise=True)
         if "exceptionDetails" in r:
             return None
         return r["result"].get("value")
@@ -92,7 +93,7 @@ class Browser:
             time.sleep(0.1)
 
     def screenshot(self, path):
-        r = self.call("Page.captureScreenshot", format="png", captureBeyondViewport=True)
+        r = self.call("Page.captureScreenshot", format="png")
         with open(path, "wb") as f:
             f.write(base64.b64decode(r["data"]))
 
