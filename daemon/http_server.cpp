@@ -89,7 +89,6 @@ class HttpServerImpl final : public HttpServer {
 
   std::uint16_t port() const override { return port_; }
   std::size_t sse_clients() const override { return clients_.size(); }
-  const Stats& stats() const override { return stats_; }
   void after_cycle(Time now) override {
     if (clients_.empty() || now - last_push_ < options_.push_interval) return;
     last_push_ = now;
@@ -119,10 +118,12 @@ class HttpServerImpl final : public HttpServer {
     const Time t0 = EventLoop::monotonic_now();
     auto snap = std::make_shared<const std::string>(
         "event: status\ndata: " + model_.status(loop_.now()).dump() + "\n\n");
-    stats_.last_build = EventLoop::monotonic_now() - t0;
-    ++stats_.snapshots;
+    auto& counters = model_.http_counters();
+    counters.last_build_us = static_cast<std::uint64_t>((EventLoop::monotonic_now() - t0).count());
+    ++counters.snapshots;
     for (auto& [c, client] : clients_) {
-      client->next = snap;  // an unsent older snapshot is dropped here
+      if (client->next) ++counters.snapshots_dropped;  // the slow client skips it
+      client->next = snap;
       if (client->suspended) {
         client->suspended = false;
         MHD_resume_connection(client->connection);
@@ -141,7 +142,6 @@ class HttpServerImpl final : public HttpServer {
       c.current = std::move(c.next);
       c.next.reset();
       c.offset = 0;
-      if (c.current) ++self.stats_.snapshots_sent;
     }
     if (!c.current) {
       // Nothing new: park the connection until the next push resumes it.
@@ -158,6 +158,7 @@ class HttpServerImpl final : public HttpServer {
   static void free_sse(void* cls) {
     auto* ctx = static_cast<SseContext*>(cls);
     ctx->server->clients_.erase(ctx->client);
+    ctx->server->model_.http_counters().sse_clients = ctx->server->clients_.size();
     delete ctx;
   }
 
@@ -183,7 +184,7 @@ class HttpServerImpl final : public HttpServer {
   static MHD_Result on_request(void* cls, MHD_Connection* connection, const char* url,
                                const char* method, const char*, const char*, std::size_t*, void**) {
     auto& self = *static_cast<HttpServerImpl*>(cls);
-    ++self.stats_.requests;
+    ++self.model_.http_counters().requests;
     const std::string_view m(method), path(url);
     if (m != MHD_HTTP_METHOD_GET && m != MHD_HTTP_METHOD_HEAD) {
       self.log_.debug(std::string(m) + " " + std::string(path) + ": 405 (read-only)");
@@ -221,6 +222,7 @@ class HttpServerImpl final : public HttpServer {
       return MHD_NO;
     }
     clients_.emplace(client.get(), std::move(client));
+    model_.http_counters().sse_clients = clients_.size();
     MHD_add_response_header(r, "Content-Type", "text/event-stream");
     MHD_add_response_header(r, "Cache-Control", "no-store");
     const auto ret = MHD_queue_response(connection, MHD_HTTP_OK, r);
@@ -239,7 +241,6 @@ class HttpServerImpl final : public HttpServer {
   EventLoop::TimerId timeout_timer_ = 0;
   std::unordered_map<SseClient*, std::unique_ptr<SseClient>> clients_;
   bool closing_ = false;
-  Stats stats_;
 };
 
 }  // namespace

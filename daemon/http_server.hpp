@@ -35,12 +35,6 @@ class HttpServer {
     unsigned max_connections = 64;
     unsigned connection_timeout_s = 60;  // idle keep-alive connections
   };
-  struct Stats {
-    std::uint64_t requests = 0;
-    std::uint64_t snapshots = 0;       // SSE snapshots built
-    std::uint64_t snapshots_sent = 0;  // handed to a client (intermediate ones skipped: not)
-    Duration last_build{0};            // time the last snapshot took to build and serialize
-  };
 
   // nullptr and *error ("cannot listen on 127.0.0.1:8080") on failure.
   static std::unique_ptr<HttpServer> listen(Options options, EventLoop& loop, StatusModel& model,
@@ -48,7 +42,6 @@ class HttpServer {
   virtual ~HttpServer() = default;
   virtual std::uint16_t port() const = 0;
   virtual std::size_t sse_clients() const = 0;
-  virtual const Stats& stats() const = 0;
 
   // Called by the daemon right after each master cycle: pushes a snapshot when push_interval has
   // passed since the last one. Building the snapshot right after a cycle leaves it the whole

@@ -215,6 +215,11 @@ json StatusModel::status(Time now) {
                    {"clients", src_.modbus->client_count()},
                    {"clients_accepted", ms.clients_accepted}};
   }
+  j["http"] = {{"requests", http_.requests},
+               {"sse_clients", http_.sse_clients},
+               {"snapshots", http_.snapshots},
+               {"snapshots_dropped", http_.snapshots_dropped},
+               {"last_build_us", http_.last_build_us}};
   json buses = json::array();
   for (std::size_t i = 0; i < src_.buses.size(); ++i) {
     const auto& b = src_.buses[i];
@@ -331,6 +336,11 @@ std::string StatusModel::metrics(Time now) {
     family("candp2_modbus_clients", "gauge", "Modbus/TCP clients connected");
     out << "candp2_modbus_clients " << src_.modbus->client_count() << '\n';
   }
+  family("candp2_http_sse_clients", "gauge", "Server-Sent Events streams open");
+  out << "candp2_http_sse_clients " << http_.sse_clients << '\n';
+  family("candp2_http_snapshots_dropped_total", "counter",
+         "SSE snapshots replaced by a newer one before a slow client started writing them");
+  out << "candp2_http_snapshots_dropped_total " << http_.snapshots_dropped << '\n';
   if (src_.cycle) {
     const auto s = src_.cycle->summary();
     family("candp2_master_cycles_total", "counter", "DP master cycles started");

@@ -70,6 +70,15 @@ struct DriveSource {
   const config::DriveConfig* cfg = nullptr;
   const drive::UnitekDrive* drive = nullptr;
 };
+// The HTTP face's own counters (filled by HttpServer, shown in the status JSON and /metrics).
+struct HttpCounters {
+  std::uint64_t requests = 0;
+  std::uint64_t sse_clients = 0;
+  std::uint64_t snapshots = 0;          // SSE snapshots built (one per push for all clients)
+  std::uint64_t snapshots_dropped = 0;  // replaced before a slow client started writing them
+  std::uint64_t last_build_us = 0;      // time the last snapshot took to build and serialize
+};
+
 struct StatusSources {
   const dp::DpMaster* master = nullptr;
   std::uint32_t cycle_ms = 10;
@@ -91,12 +100,15 @@ class StatusModel {
   std::string metrics(Time now);
 
   const StatusSources& sources() const { return src_; }
+  // The server's counters live here so the model can show them.
+  HttpCounters& http_counters() { return http_; }
 
  private:
   nlohmann::json gateway_json(std::size_t index, Time now) const;
   void update_load(Time now);
 
   StatusSources src_;
+  HttpCounters http_;
   // Bus load over the last completed window of >= 1 s: bits at the window's start.
   struct LoadWindow {
     Time start{0};
