@@ -124,6 +124,8 @@ def main():
             row = {"phase": phase, "samples": lat["samples"], "p50_us": lat["p50"],
                    "p99_us": lat["p99"], "max_us": lat["max"], "snapshot_bytes": len(body),
                    "get_status_ms": round(get_ms, 1),
+                   "snapshot_build_us": s["http"]["last_build_us"],
+                   "snapshots_dropped": s["http"]["snapshots_dropped"],
                    "frames_per_s": round(s["buses"][0]["frames_per_s"]),
                    "sse_events_per_client_per_s": round(
                        sum(r.events for r in readers) / max(1, len(readers)) / t, 1),
