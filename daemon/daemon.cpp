@@ -451,8 +451,9 @@ bool DaemonImpl::start_http(std::string* error) {
   for (auto& d : drives_) src.drives.push_back({&d->cfg, d->drive.get()});
   status_model_ = std::make_unique<StatusModel>(std::move(src));
   std::string e;
-  http_ =
-      HttpServer::listen({.host = at.host, .port = at.port}, loop_, *status_model_, log_sink_, &e);
+  http_ = HttpServer::listen(
+      {.host = at.host, .port = at.port, .status_after_cycle = config_.cycle_ms <= 100}, loop_,
+      *status_model_, log_sink_, &e);
   if (!http_) {
     *error = "HTTP ($.http.listen): " + e;
     return false;

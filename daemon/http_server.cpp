@@ -7,6 +7,7 @@
 #include <cstdarg>
 #include <cstdio>
 #include <cstring>
+#include <list>
 #include <unordered_map>
 
 #include "web/assets.hpp"
@@ -23,6 +24,12 @@ struct SseClient {
   std::size_t offset = 0;
   std::shared_ptr<const std::string> next;
   bool suspended = false;
+};
+
+// A GET /api/v1/status parked until the end of the next master cycle.
+struct PendingStatus {
+  MHD_Connection* connection = nullptr;
+  std::shared_ptr<const std::string> body;  // set when answered
 };
 
 class HttpServerImpl;
@@ -48,6 +55,8 @@ class HttpServerImpl final : public HttpServer {
           client->suspended = false;
           MHD_resume_connection(client->connection);
         }
+      for (auto& p : pending_)
+        if (!p.body) MHD_resume_connection(p.connection);
       MHD_stop_daemon(daemon_);
     }
   }
@@ -90,9 +99,22 @@ class HttpServerImpl final : public HttpServer {
   std::uint16_t port() const override { return port_; }
   std::size_t sse_clients() const override { return clients_.size(); }
   void after_cycle(Time now) override {
-    if (clients_.empty() || now - last_push_ < options_.push_interval) return;
-    last_push_ = now;
-    push();
+    bool waiting = false;
+    for (const auto& p : pending_) waiting = waiting || !p.body;
+    if (waiting) {
+      auto body = std::make_shared<const std::string>(model_.status(loop_.now()).dump() + "\n");
+      for (auto& p : pending_)
+        if (!p.body) {
+          p.body = body;
+          MHD_resume_connection(p.connection);
+        }
+    }
+    if (!clients_.empty() && now - last_push_ >= options_.push_interval) {
+      last_push_ = now;
+      push();
+    } else if (waiting) {
+      run();
+    }
   }
 
  private:
@@ -182,18 +204,32 @@ class HttpServerImpl final : public HttpServer {
   }
 
   static MHD_Result on_request(void* cls, MHD_Connection* connection, const char* url,
-                               const char* method, const char*, const char*, std::size_t*, void**) {
+                               const char* method, const char*, const char*, std::size_t*,
+                               void** req_cls) {
     auto& self = *static_cast<HttpServerImpl*>(cls);
-    ++self.model_.http_counters().requests;
+    if (!*req_cls) ++self.model_.http_counters().requests;
     const std::string_view m(method), path(url);
     if (m != MHD_HTTP_METHOD_GET && m != MHD_HTTP_METHOD_HEAD) {
       self.log_.debug(std::string(m) + " " + std::string(path) + ": 405 (read-only)");
       return queue(connection, MHD_HTTP_METHOD_NOT_ALLOWED, "text/plain; charset=utf-8",
                    "405 method not allowed: this interface is read-only (GET)\n", "GET, HEAD");
     }
-    if (path == "/api/v1/status")
+    if (path == "/api/v1/status") {
+      if (auto* p = static_cast<PendingStatus*>(*req_cls)) {  // resumed after a cycle
+        *req_cls = nullptr;
+        std::string body = *p->body;
+        self.pending_.remove_if([p](const PendingStatus& x) { return &x == p; });
+        return queue(connection, MHD_HTTP_OK, "application/json", std::move(body));
+      }
+      if (self.options_.status_after_cycle) {
+        self.pending_.push_back({connection, nullptr});
+        *req_cls = &self.pending_.back();
+        MHD_suspend_connection(connection);
+        return MHD_YES;
+      }
       return queue(connection, MHD_HTTP_OK, "application/json",
                    self.model_.status(self.loop_.now()).dump() + "\n");
+    }
     if (path == "/metrics")
       return queue(connection, MHD_HTTP_OK, "text/plain; version=0.0.4; charset=utf-8",
                    self.model_.metrics(self.loop_.now()));
@@ -240,6 +276,7 @@ class HttpServerImpl final : public HttpServer {
   Time last_push_{0};
   EventLoop::TimerId timeout_timer_ = 0;
   std::unordered_map<SseClient*, std::unique_ptr<SseClient>> clients_;
+  std::list<PendingStatus> pending_;  // stable addresses: MHD keeps pointers in req_cls
   bool closing_ = false;
 };
 

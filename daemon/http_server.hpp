@@ -34,6 +34,10 @@ class HttpServer {
     Duration push_interval = milliseconds(200);  // SSE snapshots at most this often
     unsigned max_connections = 64;
     unsigned connection_timeout_s = 60;  // idle keep-alive connections
+    // GET /api/v1/status waits for the end of the next master cycle (after_cycle) and is answered
+    // there, all waiting requests with one snapshot, so building it never delays a cycle start.
+    // Only sensible when cycles are short (the daemon sets it for cycle_ms <= 100).
+    bool status_after_cycle = false;
   };
 
   // nullptr and *error ("cannot listen on 127.0.0.1:8080") on failure.
