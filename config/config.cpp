@@ -541,13 +541,17 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   c.file = file;
   const Object top(
       root, "$",
-      {"modbus", "master", "buses", "gateways", "drives", "log", "state_file", "profibus"});
+      {"modbus", "http", "master", "buses", "gateways", "drives", "log", "state_file", "profibus"});
   if (const json* p = top.find("profibus"))
     c.profibus = parse_profibus(*p, top.path("profibus"), file);
   const bool remote = c.remote_gateways();
   if (const json* m = top.find("modbus")) {
     const Object o(*m, top.path("modbus"), {"listen"});
     if (const json* l = o.find("listen")) c.modbus_listen = get_endpoint(*l, o.path("listen"));
+  }
+  if (const json* h = top.find("http")) {
+    const Object o(*h, top.path("http"), {"listen"});
+    if (const json* l = o.find("listen")) c.http_listen = get_endpoint(*l, o.path("listen"));
   }
   if (const json* m = top.find("master")) {
     const Object o(*m, top.path("master"), {"address", "cycle_ms", "retry_ms"});
@@ -583,6 +587,11 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   }
   std::set<std::pair<std::string, std::uint16_t>> listens;
   if (c.modbus_listen.port) listens.insert({c.modbus_listen.host, c.modbus_listen.port});
+  if (c.http_listen && c.http_listen->port &&
+      !listens.insert({c.http_listen->host, c.http_listen->port}).second)
+    fail(top.path("http") + ".listen", "port " + std::to_string(c.http_listen->port) +
+                                           " is already used by another listener of this "
+                                           "configuration");
   for (const auto& b : c.buses)
     if (b.socketcand_listen && b.socketcand_listen->port &&
         !listens.insert({b.socketcand_listen->host, b.socketcand_listen->port}).second)

@@ -119,6 +119,7 @@ struct ProfibusConfig {
 struct DaemonConfig {
   std::string file;  // where it was loaded from
   Endpoint modbus_listen{"127.0.0.1", 1502};
+  std::optional<Endpoint> http_listen;  // status page, JSON API, /metrics (absent = off)
   std::uint8_t master_address = 1;
   std::uint32_t cycle_ms = 10;
   std::uint32_t retry_ms = 1000;  // between parameterization attempts after a fault

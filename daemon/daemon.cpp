@@ -13,6 +13,9 @@
 #include "can/socketcand.hpp"
 #include "daemon/bitrate_supervisor.hpp"
 #include "daemon/can_log.hpp"
+#include "daemon/cycle_stats.hpp"
+#include "daemon/http_server.hpp"
+#include "daemon/http_status.hpp"
 #include "daemon/modbus_map.hpp"
 #include "daemon/modbus_server.hpp"
 #include "drive_sim/file_parameter_store.hpp"
@@ -88,6 +91,7 @@ struct Bus {
   std::unique_ptr<can::VirtualBus> vbus;
   std::unique_ptr<can::VirtualEndpoint> export_endpoint;
   std::unique_ptr<can::SocketcandServer> export_server;
+  BusMonitor monitor;  // every frame once: counts, bus load, trace (HTTP face)
 };
 
 // One emulated gateway: its CAN channel, the gateway engine and its Modbus face.
@@ -126,6 +130,7 @@ class DaemonImpl final : public Daemon {
 
   ~DaemonImpl() override {
     // Unregister everything from the loop before the parts go away.
+    http_.reset();
     if (deferred_) loop_.remove_deferred(deferred_);
     if (cycle_timer_) loop_.cancel_timer(cycle_timer_);
     for (auto& g : gateways_)
@@ -139,6 +144,9 @@ class DaemonImpl final : public Daemon {
   bool start(std::string* error);
 
   std::uint16_t modbus_port() const override { return modbus_ ? modbus_->port() : 0; }
+  std::optional<std::uint16_t> http_port() const override {
+    return http_ ? std::optional<std::uint16_t>(http_->port()) : std::nullopt;
+  }
   std::optional<std::uint16_t> socketcand_port(std::string_view name) const override {
     for (const auto& b : buses_)
       if (b->cfg.name == name && b->export_server) return b->export_server->port();
@@ -160,7 +168,8 @@ class DaemonImpl final : public Daemon {
   }
 
   // Used by the units.
-  void log_frame(const can::Frame& f, const Bus& bus) {
+  void log_frame(const can::Frame& f, Bus& bus) {
+    bus.monitor.on_frame(f, loop_.now());
     if (can_log_.is_open()) can_log_.write(f, EventLoop::wall_now(), bus.cfg.name);
   }
   dp::DpMaster& dp_master() { return *master_; }
@@ -178,6 +187,7 @@ class DaemonImpl final : public Daemon {
   void rearm(DriveUnit& d);
   void check_stored();
   void update_links();
+  bool start_http(std::string* error);
 
   config::DaemonConfig config_;
   EventLoop& loop_;
@@ -195,6 +205,9 @@ class DaemonImpl final : public Daemon {
   std::vector<int> watched_;
   EventLoop::DeferredId deferred_ = 0;
   EventLoop::TimerId cycle_timer_ = 0;
+  CycleStats cycle_stats_;
+  std::unique_ptr<StatusModel> status_model_;  // declared last: destroyed first
+  std::unique_ptr<HttpServer> http_;
 };
 
 void GatewayUnit::send(const can::Frame& frame) {
@@ -411,15 +424,52 @@ bool DaemonImpl::start(std::string* error) {
     return false;
   }
 
+  if (config_.http_listen && !start_http(error)) return false;
+
   deferred_ = loop_.add_deferred([this] { return drain_in_process(); });
+  cycle_stats_.start(loop_.now() + milliseconds(config_.cycle_ms), milliseconds(config_.cycle_ms));
   cycle_timer_ = loop_.add_periodic(milliseconds(config_.cycle_ms), [this] {
+    cycle_stats_.record(loop_.now());
     master_->cycle(loop_.now());
     update_links();
+    if (http_) http_->after_cycle(loop_.now());
     check_stored();
   });
   log_.info("master " + std::to_string(config_.master_address) + ": cycle " +
             std::to_string(config_.cycle_ms) + " ms, " + std::to_string(gateways_.size()) +
             " gateway(s)");
+  return true;
+}
+
+bool DaemonImpl::start_http(std::string* error) {
+  const auto& at = *config_.http_listen;
+  if (at.host.rfind("127.", 0) != 0)
+    log_.warn("http.listen " + at.to_string() +
+              ": not a loopback address; the status page and API are readable from the network");
+  StatusSources src;
+  src.master = master_.get();
+  src.cycle_ms = config_.cycle_ms;
+  src.cycle = &cycle_stats_;
+  src.modbus = modbus_.get();
+  for (auto& g : gateways_) src.gateways.push_back({&g->cfg, g->gateway.get(), g.get()});
+  for (auto& b : buses_) {
+    BusSource bs{&b->cfg, &b->monitor, 0};
+    for (auto& g : gateways_)  // manual table 5.1.1: the bit rate the gateway is set to
+      if (g->bus == b.get() && !bs.bitrate &&
+          g->cfg.parameters.bitrate_index < gw::kBitrates.size())
+        bs.bitrate = gw::kBitrates[g->cfg.parameters.bitrate_index];
+    src.buses.push_back(bs);
+  }
+  for (auto& d : drives_) src.drives.push_back({&d->cfg, d->drive.get()});
+  status_model_ = std::make_unique<StatusModel>(std::move(src));
+  std::string e;
+  http_ = HttpServer::listen(
+      {.host = at.host, .port = at.port, .status_after_cycle = config_.cycle_ms <= 100}, loop_,
+      *status_model_, log_sink_, &e);
+  if (!http_) {
+    *error = "HTTP ($.http.listen): " + e;
+    return false;
+  }
   return true;
 }
 
@@ -518,6 +568,7 @@ void DaemonImpl::check_stored() {
 
 std::string DaemonImpl::listening() const {
   std::string out = "modbus " + config_.modbus_listen.host + ":" + std::to_string(modbus_port());
+  if (http_) out += ", http " + config_.http_listen->host + ":" + std::to_string(http_->port());
   for (const auto& b : buses_)
     if (b->export_server)
       out += ", bus " + b->cfg.name + " socketcand " + b->cfg.socketcand_listen->host + ":" +

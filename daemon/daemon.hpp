@@ -36,6 +36,8 @@ class Daemon {
   // The ports actually bound (the configuration may ask for port 0 = any free port).
   virtual std::uint16_t modbus_port() const = 0;
   virtual std::optional<std::uint16_t> socketcand_port(std::string_view bus) const = 0;
+  // The HTTP face's port (status page, /api/v1/status, /metrics); nullopt when http.listen is off.
+  virtual std::optional<std::uint16_t> http_port() const = 0;
   // A one-line summary for the log: "modbus 127.0.0.1:1502, bus can0 socketcand 127.0.0.1:29536".
   virtual std::string listening() const = 0;
 

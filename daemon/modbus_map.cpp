@@ -241,6 +241,31 @@ std::span<const StatusField> status_fields() {
   return kFields;
 }
 
+led::Codes led::codes(const gw::GatewayStatus& g) {
+  // manual table 3.3.1.
+  Codes c;
+  c.d = g.dp_state == dp::SlaveState::DataExch ? kOn : kOff;
+  c.e = g.dp_state == dp::SlaveState::WaitPrm   ? 3  // 3 short flashes: waiting for Set_Prm
+        : g.dp_state == dp::SlaveState::WaitCfg ? 4  // 4 short flashes: waiting for Chk_Cfg
+                                                : kOff;
+  c.p = kOn;
+  switch (g.bus_state) {
+    case can::BusState::Ok:
+      c.c = kOn;
+      break;
+    case can::BusState::Warning:
+      c.c = kMorseW;
+      break;
+    case can::BusState::ErrorPassive:
+      c.c = kMorseE;
+      break;
+    case can::BusState::BusOff:
+      c.c = kMorseO;
+      break;
+  }
+  return c;
+}
+
 StatusBlock encode_status(const StatusInputs& in) {
   using namespace status;
   StatusBlock b{};
@@ -269,26 +294,11 @@ StatusBlock encode_status(const StatusInputs& in) {
   put32(kBitrateConfigured, in.bitrate.configured);
   put32(kBitrateInterface, in.bitrate.interface);
   b[kBitrateMismatch] = in.bitrate.mismatch ? 1 : 0;
-  // manual table 3.3.1.
-  b[kLedD] = g.dp_state == dp::SlaveState::DataExch ? led::kOn : led::kOff;
-  b[kLedE] = g.dp_state == dp::SlaveState::WaitPrm   ? 3
-             : g.dp_state == dp::SlaveState::WaitCfg ? 4
-                                                     : led::kOff;
-  b[kLedP] = led::kOn;
-  switch (g.bus_state) {
-    case can::BusState::Ok:
-      b[kLedC] = led::kOn;
-      break;
-    case can::BusState::Warning:
-      b[kLedC] = led::kMorseW;
-      break;
-    case can::BusState::ErrorPassive:
-      b[kLedC] = led::kMorseE;
-      break;
-    case can::BusState::BusOff:
-      b[kLedC] = led::kMorseO;
-      break;
-  }
+  const auto leds = led::codes(g);
+  b[kLedD] = leds.d;
+  b[kLedE] = leds.e;
+  b[kLedP] = leds.p;
+  b[kLedC] = leds.c;
   b[kDpAddress] = in.dp_address;
   put32(kParameterizations, in.parameterizations);
   return b;

@@ -168,6 +168,13 @@ inline constexpr std::uint16_t kOn = 1;
 inline constexpr std::uint16_t kMorseE = 0x45;  // LED C: 'E' CAN error (error passive)
 inline constexpr std::uint16_t kMorseW = 0x57;  // LED C: 'W' CAN warning
 inline constexpr std::uint16_t kMorseO = 0x4F;  // LED C: 'O' CAN off (bus off)
+
+// The four LEDs' codes for a gateway state (manual table 3.3.1): the status block, the HTTP face's
+// page and its JSON all show these.
+struct Codes {
+  std::uint16_t p = kOn, d = kOff, e = kOff, c = kOn;
+};
+Codes codes(const gw::GatewayStatus& g);
 }  // namespace led
 
 // Holding register 8192 commands (emulator-spec §8).

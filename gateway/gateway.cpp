@@ -174,7 +174,7 @@ void Gateway::on_data_exchange(std::span<const std::uint8_t> outputs,
   if (cfg_->page_mode) {
     page_.on_output_page(outputs.first(page_.output_page_len()), now, *this);
   } else {
-    slots_.on_outputs(outputs, *this);
+    slots_.on_outputs(outputs, *this, now);
   }
   if (cfg_->cw_out) {
     const Slot& s = cfg_->slots[*cfg_->cw_out];
@@ -238,7 +238,7 @@ void Gateway::on_can_frame(const can::Frame& frame, Time now) {
   if (cfg_->page_mode)
     page_.on_frame(frame, now);
   else
-    slots_.on_frame(frame, input_image_);
+    slots_.on_frame(frame, input_image_, now);
 }
 
 void Gateway::set_controller_status(can::BusState state, std::uint32_t rx_lost_total) {

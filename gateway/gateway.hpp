@@ -78,6 +78,8 @@ class Gateway final : private dp::SlaveApplication, private CwHost {
   const std::optional<UserPrm>& user_prm() const { return prm_; }
   const std::optional<SlotConfig>& slot_config() const { return cfg_; }
   const CommWindow& comm_window() const { return cw_; }
+  const SlotEngine& slot_engine() const { return slots_; }
+  const PageMode& page_mode() const { return page_; }
   std::uint8_t stored_wakeup_s() const { return stored_wakeup_s_; }
   std::uint16_t stored_sync_ms() const { return stored_sync_ms_; }
 

@@ -13,9 +13,12 @@ void SlotEngine::configure(const SlotConfig& cfg) {
   rx_index_.clear();
   rx_ids_.clear();
   released_ = false;
-  for (const Slot& s : cfg.slots) {
+  stats_.assign(cfg.slots.size(), SlotStats{});
+  for (std::size_t i = 0; i < cfg.slots.size(); ++i) {
+    const Slot& s = cfg.slots[i];
     if (s.kind == SlotKind::Tx) {
       TxSlot t;
+      t.slot = i;
       t.offset = s.offset;
       t.length = s.length;
       t.data_len = s.data_len;
@@ -25,6 +28,7 @@ void SlotEngine::configure(const SlotConfig& cfg) {
       tx_.push_back(t);
     } else if (s.kind == SlotKind::Rx) {
       RxSlot r;
+      r.slot = i;
       r.offset = s.offset;
       r.data_len = s.data_len;
       r.counter = s.counter;
@@ -46,7 +50,7 @@ void SlotEngine::configure(const SlotConfig& cfg) {
   std::sort(rx_index_.begin(), rx_index_.end());
 }
 
-void SlotEngine::send(const TxSlot& s, TxPort& tx) const {
+void SlotEngine::send(const TxSlot& s, TxPort& tx, Time now) {
   if (!s.id) return;  // manual §5.1.4: 0x07F8 dummy output, nothing is sent
   can::Frame f;
   f.id = s.id->id;
@@ -54,9 +58,12 @@ void SlotEngine::send(const TxSlot& s, TxPort& tx) const {
   f.dlc = static_cast<std::uint8_t>(s.data_len);  // without the Tx-Counter byte (manual §5.1.2)
   for (std::size_t i = 0; i < s.data_len; ++i) f.data[i] = s.last[s.perm[i]];
   tx.transmit(f);
+  auto& st = stats_[s.slot];
+  ++st.frames;
+  st.last = now;
 }
 
-void SlotEngine::on_outputs(std::span<const std::uint8_t> outputs, TxPort& tx) {
+void SlotEngine::on_outputs(std::span<const std::uint8_t> outputs, TxPort& tx, Time now) {
   const bool active = tx.tx_active();
   for (TxSlot& s : tx_) {
     const std::uint8_t* bytes = outputs.data() + s.offset;
@@ -65,13 +72,13 @@ void SlotEngine::on_outputs(std::span<const std::uint8_t> outputs, TxPort& tx) {
     if (changed) std::memcpy(s.last.data(), bytes, s.length);
     s.have_data = true;
     if (active && (changed || !s.sent_since_release)) {
-      send(s, tx);
+      send(s, tx, now);
       s.sent_since_release = true;
     }
   }
 }
 
-bool SlotEngine::on_frame(const can::Frame& frame, std::span<std::uint8_t> inputs) {
+bool SlotEngine::on_frame(const can::Frame& frame, std::span<std::uint8_t> inputs, Time now) {
   if (frame.remote) return false;  // emulator-spec §4: remote frames never update slots
   const auto key = ident_key(frame);
   auto it =
@@ -88,6 +95,9 @@ bool SlotEngine::on_frame(const can::Frame& frame, std::span<std::uint8_t> input
     std::memcpy(dst, bytes.data(), s.data_len);
   }
   if (s.counter) dst[s.data_len] = ++s.count;  // Rx-Counter: modulo 256 (manual §5.1.2)
+  auto& st = stats_[s.slot];
+  ++st.frames;
+  st.last = now;
   return true;
 }
 
@@ -98,7 +108,7 @@ void SlotEngine::on_release(Time now, TxPort& tx) {
     // emulator-spec §4: the cycle timer runs freely from release.
     s.next_cycle = now + milliseconds(s.cycle_ms);
     if (s.have_data && tx.tx_active()) {
-      send(s, tx);
+      send(s, tx, now);
       s.sent_since_release = true;
     }
   }
@@ -114,7 +124,7 @@ void SlotEngine::advance(Time now, TxPort& tx) {
     // One send per due time; a late call catches up by skipping missed periods (a real CAN
     // controller would not queue a burst of stale cyclic frames either).
     if (active && s.have_data) {
-      send(s, tx);
+      send(s, tx, now);
       s.sent_since_release = true;
     }
     const auto missed = (now - s.next_cycle) / period;

@@ -21,10 +21,10 @@ class SlotEngine {
   void clear() { configure(SlotConfig{}); }
 
   // One Data_Exchange's output image: frames for Tx slots whose bytes changed (or that never sent
-  // since release) go out when tx.tx_active().
-  void on_outputs(std::span<const std::uint8_t> outputs, TxPort& tx);
+  // since release) go out when tx.tx_active(). `now` only stamps the slot statistics.
+  void on_outputs(std::span<const std::uint8_t> outputs, TxPort& tx, Time now = Time{0});
   // A received frame: true when an input slot took it; the slot's bytes in `inputs` are updated.
-  bool on_frame(const can::Frame& frame, std::span<std::uint8_t> inputs);
+  bool on_frame(const can::Frame& frame, std::span<std::uint8_t> inputs, Time now = Time{0});
   // Transmission released: every Tx slot that has data goes out once; cycle timers start now.
   void on_release(Time now, TxPort& tx);
   // Cyclic sends due at or before `now`.
@@ -35,8 +35,17 @@ class SlotEngine {
   std::size_t tx_slot_count() const { return tx_.size(); }
   std::size_t rx_slot_count() const { return rx_.size(); }
 
+  // Per configured slot (SlotConfig::slots order; CW and segment slots stay zero): frames sent
+  // (Tx) or taken (Rx) since configure(), and when the last one was. For the status page.
+  struct SlotStats {
+    std::uint32_t frames = 0;
+    std::optional<Time> last;
+  };
+  const std::vector<SlotStats>& slot_stats() const { return stats_; }
+
  private:
   struct TxSlot {
+    std::size_t slot = 0;  // index into stats_
     std::size_t offset = 0, length = 0, data_len = 0;
     std::optional<can::Ident> id;
     std::array<std::uint8_t, 8> perm{};  // form as a permutation (manual §5.2.2)
@@ -47,18 +56,20 @@ class SlotEngine {
     Time next_cycle{0};
   };
   struct RxSlot {
+    std::size_t slot = 0;  // index into stats_
     std::size_t offset = 0, data_len = 0;
     bool counter = false;
     bool swap = false;
     std::array<std::uint8_t, 8> perm{};  // form as a permutation (manual §5.2.2)
     std::uint8_t count = 0;
   };
-  void send(const TxSlot& s, TxPort& tx) const;
+  void send(const TxSlot& s, TxPort& tx, Time now);
 
   std::vector<TxSlot> tx_;
   std::vector<RxSlot> rx_;
   std::vector<std::pair<std::uint32_t, std::uint16_t>> rx_index_;  // ident key -> rx_ index, sorted
   std::vector<can::Ident> rx_ids_;  // distinct Rx identifiers in slot order
+  std::vector<SlotStats> stats_;
   bool released_ = false;
 };
 

@@ -27,6 +27,7 @@ packages=(
   libsocketcan-dev iproute2                             # SocketCAN bit rate and controller state (netlink); ip in the guest
   python3-can python3-pymodbus python3-serial-asyncio   # independent python peers (/usr/bin/python3)
   qemu-system-x86 linux-image-amd64 busybox-static python3 # the SocketCAN guest (vcan)
+  libmicrohttpd-dev python3-prometheus-client chromium  # HTTP face; /metrics and page tests
 )
 
 as_root() {

@@ -244,6 +244,7 @@ TEST(Daemon, BuiltInDefaultGatewayWithTwoDrives) {
   json j = json::parse(in);
   j["modbus"]["listen"] = "127.0.0.1:0";
   j["buses"]["can0"]["socketcand"] = "127.0.0.1:0";
+  j["http"]["listen"] = "127.0.0.1:0";
   Running d(load(j, CANDP2_SOURCE_DIR "/config/demo.json"));
   ASSERT_TRUE(d.in_data_exchange(3));
   ModbusClient plc(d.modbus(), 3);

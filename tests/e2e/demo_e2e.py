@@ -96,6 +96,7 @@ def main():
             cfg = json.load(f)
         mb, sc = free_port(), free_port()
         cfg["modbus"]["listen"] = "127.0.0.1:%d" % mb
+        cfg["http"]["listen"] = "127.0.0.1:0"  # the demo's 8080 may be taken
         for bus in cfg["buses"].values():
             if "socketcand" in bus:
                 bus["socketcand"] = "127.0.0.1:%d" % sc

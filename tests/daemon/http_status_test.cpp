@@ -1,0 +1,166 @@
+// The HTTP face's pure parts: the cycle lateness statistic, the bus monitor (bits with stuff bits,
+// the trace ring) and the slot engine's per-slot counters the slot table shows.
+#include "daemon/http_status.hpp"
+
+#include <gtest/gtest.h>
+
+#include <variant>
+
+#include "config/config.hpp"
+#include "daemon/cycle_stats.hpp"
+#include "gateway/slot_engine.hpp"
+
+namespace candp2 {
+namespace {
+
+TEST(CycleStats, LatenessAgainstTheGrid) {
+  daemon::CycleStats s;
+  s.start(Time{10'000}, milliseconds(10));
+  // Cycles at +0, +150, +30, +2000 µs after their grid points; one tick skipped (k = 4 → 5).
+  for (const auto t : {10'000, 20'150, 30'030, 42'000, 60'000}) s.record(Time{t});
+  const auto sum = s.summary();
+  EXPECT_EQ(sum.cycles, 5u);
+  EXPECT_EQ(sum.samples, 5u);
+  EXPECT_EQ(sum.max_us, 2000u);
+  EXPECT_EQ(sum.max_ever_us, 2000u);
+  EXPECT_EQ(sum.p50_us, 30u);  // sorted 0 0 30 150 2000
+}
+
+TEST(CycleStats, WindowKeepsTheLastSamples) {
+  daemon::CycleStats s;
+  s.start(Time{0}, milliseconds(10));
+  s.record(Time{5'000});  // 5 ms late, then pushed out of the window
+  for (std::size_t k = 1; k <= daemon::CycleStats::kSamples; ++k)
+    s.record(Time{static_cast<std::int64_t>(k) * 10'000 + 100});
+  const auto sum = s.summary();
+  EXPECT_EQ(sum.samples, daemon::CycleStats::kSamples);
+  EXPECT_EQ(sum.max_us, 100u);
+  EXPECT_EQ(sum.max_ever_us, 5000u);
+}
+
+TEST(BusMonitor, StuffedBitsUpperBound) {
+  // 11-bit, 8 bytes: 47 + 64 = 111 bits unstuffed; stuffed part 34 + 64 = 98 → 24 stuff bits.
+  const std::array<std::uint8_t, 8> eight{};
+  EXPECT_EQ(daemon::frame_bits_stuffed(can::Frame::std_data(0x123, eight)), 111u + 24u);
+  // 29-bit, 0 bytes: 67 unstuffed; stuffed part 54 → 13.
+  EXPECT_EQ(daemon::frame_bits_stuffed(can::Frame::ext_data(0x1234567, {})), 67u + 13u);
+  // Remote frame: no data bits even with DLC 8 (47 + (34 - 1) / 4 = 47 + 8).
+  EXPECT_EQ(daemon::frame_bits_stuffed(can::Frame::rtr(0x123, false, 8)), 55u);
+}
+
+TEST(BusMonitor, CountsAndKeepsTheLastFrames) {
+  daemon::BusMonitor m;
+  const std::array<std::uint8_t, 1> one{0x42};
+  for (std::uint32_t i = 0; i < daemon::BusMonitor::kTrace + 10; ++i)
+    m.on_frame(can::Frame::std_data(i, one), Time{i * 100});
+  EXPECT_EQ(m.frames(), daemon::BusMonitor::kTrace + 10);
+  EXPECT_EQ(m.bits(), m.frames() * daemon::frame_bits_stuffed(can::Frame::std_data(0, one)));
+  ASSERT_EQ(m.trace().size(), daemon::BusMonitor::kTrace);
+  EXPECT_EQ(m.trace().front().seq, 11u);
+  EXPECT_EQ(m.trace().front().frame.id, 10u);
+  EXPECT_EQ(m.trace().back().time, Time{(daemon::BusMonitor::kTrace + 9) * 100});
+}
+
+struct Sink final : gw::TxPort {
+  std::vector<can::Frame> sent;
+  bool tx_active() const override { return true; }
+  void transmit(const can::Frame& f) override { sent.push_back(f); }
+};
+
+TEST(SlotStats, CountsPerConfiguredSlot) {
+  gw::SlotConfig cfg;
+  gw::Slot tx;
+  tx.index = 0;
+  tx.kind = gw::SlotKind::Tx;
+  tx.offset = 0;
+  tx.length = tx.data_len = 2;
+  tx.id = can::Ident{0x201, false};
+  gw::Slot rx;
+  rx.index = 1;
+  rx.kind = gw::SlotKind::Rx;
+  rx.offset = 0;
+  rx.length = rx.data_len = 2;
+  rx.id = can::Ident{0x181, false};
+  cfg.slots = {tx, rx};
+  gw::SlotEngine e;
+  e.configure(cfg);
+  Sink sink;
+  std::array<std::uint8_t, 2> out{1, 2}, in{};
+  e.on_release(Time{1000}, sink);
+  e.on_outputs(out, sink, Time{2000});  // first data: sent (emulator-spec §4)
+  e.on_outputs(out, sink, Time{3000});  // unchanged: not sent
+  out[1] = 3;
+  e.on_outputs(out, sink, Time{4000});  // changed: sent
+  const std::array<std::uint8_t, 2> b{7, 8};
+  EXPECT_TRUE(e.on_frame(can::Frame::std_data(0x181, b), in, Time{5000}));
+  EXPECT_FALSE(e.on_frame(can::Frame::std_data(0x182, b), in, Time{6000}));
+  ASSERT_EQ(e.slot_stats().size(), 2u);
+  EXPECT_EQ(sink.sent.size(), 2u);
+  EXPECT_EQ(e.slot_stats()[0].frames, 2u);
+  EXPECT_EQ(e.slot_stats()[0].last, Time{4000});
+  EXPECT_EQ(e.slot_stats()[1].frames, 1u);
+  EXPECT_EQ(e.slot_stats()[1].last, Time{5000});
+  e.configure(cfg);  // a new configuration starts from zero
+  EXPECT_EQ(e.slot_stats()[0].frames, 0u);
+  EXPECT_FALSE(e.slot_stats()[1].last);
+}
+
+TEST(LedCodes, ManualTable331) {
+  gw::GatewayStatus g;
+  g.dp_state = dp::SlaveState::WaitPrm;
+  auto c = modbus::led::codes(g);
+  EXPECT_EQ(c.e, 3);  // 3 short flashes: waiting for the parameter telegram
+  EXPECT_EQ(c.d, modbus::led::kOff);
+  EXPECT_EQ(c.p, modbus::led::kOn);
+  EXPECT_EQ(c.c, modbus::led::kOn);  // CAN bus OK
+  g.dp_state = dp::SlaveState::WaitCfg;
+  EXPECT_EQ(modbus::led::codes(g).e, 4);
+  g.dp_state = dp::SlaveState::DataExch;
+  g.bus_state = can::BusState::Warning;
+  c = modbus::led::codes(g);
+  EXPECT_EQ(c.d, modbus::led::kOn);
+  EXPECT_EQ(c.e, modbus::led::kOff);
+  EXPECT_EQ(c.c, 0x57);  // Morse 'W' short-long-long
+  g.bus_state = can::BusState::ErrorPassive;
+  EXPECT_EQ(modbus::led::codes(g).c, 0x45);  // Morse 'E'
+  g.bus_state = can::BusState::BusOff;
+  EXPECT_EQ(modbus::led::codes(g).c, 0x4F);  // Morse 'O'
+}
+
+constexpr const char* kConfig = R"({
+  "modbus": {"listen": "127.0.0.1:1502"}, %HTTP%
+  "buses": {"can0": {"type": "virtual"}},
+  "gateways": [{"name": "gw3", "address": 3, "bus": "can0",
+                "slots": [{"io": "output", "address": 0, "length": 2, "comment": "02,01,00"}]}]
+})";
+
+config::Result<config::DaemonConfig> parse_with(const std::string& http) {
+  std::string text = kConfig;
+  text.replace(text.find("%HTTP%"), 6, http);
+  return config::parse_daemon(text, "t.json");
+}
+
+TEST(HttpConfig, ListenKey) {
+  auto off = parse_with("");
+  ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(off));
+  EXPECT_FALSE(std::get<config::DaemonConfig>(off).http_listen);  // absent = off
+
+  auto on = parse_with(R"("http": {"listen": "127.0.0.1:8080"},)");
+  ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(on));
+  ASSERT_TRUE(std::get<config::DaemonConfig>(on).http_listen);
+  EXPECT_EQ(std::get<config::DaemonConfig>(on).http_listen->port, 8080);
+
+  auto bad = parse_with(R"("http": {"listen": "localhost:80"},)");
+  ASSERT_TRUE(std::holds_alternative<config::ConfigError>(bad));
+  EXPECT_EQ(std::get<config::ConfigError>(bad).json_path, "$.http.listen");
+
+  auto typo = parse_with(R"("http": {"listn": "127.0.0.1:80"},)");
+  ASSERT_TRUE(std::holds_alternative<config::ConfigError>(typo));
+
+  auto clash = parse_with(R"("http": {"listen": "127.0.0.1:1502"},)");
+  ASSERT_TRUE(std::holds_alternative<config::ConfigError>(clash));
+  EXPECT_NE(std::get<config::ConfigError>(clash).message.find("already used"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace candp2

@@ -1,0 +1,134 @@
+#!/usr/bin/python3
+"""The live front panel in headless Chromium (issue 13): Debian's chromium loads the page from a
+running candp2d (the demo configuration plus a gateway gw5 whose Chk_Cfg it rejects); after Modbus
+writes of Q 0..4 (enable axis1, read its speed every 100 ms, 30 % speed: the Unitek commands of
+config/demo.json) the page must show the last written bytes in gateway 3's slot table, LED D on
+(manual table 3.3.1: Data Exchange), the drive's replies in slot I0, the frame in the trace, and for
+gw5 LED D off, LED E flashing three times (waiting for Set_Prm after the Cfg fault) and the
+Cfg_Fault bit set — asserted on the DOM through the DevTools protocol (cdp.py). A screenshot is kept
+as <output-dir>/front-panel.png. Bounded: every wait has a deadline; chromium is killed at the end.
+"""
+
+import argparse
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cdp import Browser  # noqa: E402
+from http_common import Daemon  # noqa: E402
+
+from pymodbus.client import ModbusTcpClient  # python3-pymodbus
+
+import json  # noqa: E402
+
+UNIT = 3
+# Unitek REGID commands (REGID, value little-endian; Unitek manual examples 2, 10, 11).
+COMMANDS = [[0x51, 0x00, 0x00, 0x00, 0x00],   # MODE = 0: enable
+            [0x3D, 0x30, 0x64, 0x00, 0x00],   # read the actual speed 0x30 every 100 ms
+            [0x31, 0x66, 0x26, 0x00, 0x00]]   # speed set point 9830 = 30 %
+
+SLOT_BYTES = """(() => {
+  const row = Array.from(document.querySelectorAll('#gw-3 .slots tbody tr'))
+                   .find(r => r.cells[7].textContent === '%s');
+  return row ? row.cells[8].textContent : null; })()"""
+LED_D = """(() => { const l = document.getElementById('gw-3-led-D');
+  return l && l.dataset.code === '1' && l.classList.contains('on'); })()"""
+# gw5's LED E: code 3 and, within one 6 s sequence, seen lit and dark (it flashes).
+LED_E5 = """new Promise(done => {
+  const l = document.getElementById('gw-5-led-E'); let lit = false, dark = false;
+  const t = setInterval(() => { if (l.classList.contains('on')) lit = true; else dark = true; }, 20);
+  setTimeout(() => { clearInterval(t); done(l.dataset.code === '3' && lit && dark); }, 2000); })"""
+
+
+def write(d, mb, cmd):
+    """Writes one 5-byte command to Q 0..4 and waits until slot Q0 has sent it."""
+    def q0(s):
+        g = next(g for g in s["gateways"] if g["dp_address"] == UNIT)
+        return next(x for x in g["slots"] if x["plc"] == "Q0")
+    before = q0(d.status())["frames"]
+    rr = mb.write_registers(0, [(cmd[0] << 8) | cmd[1], (cmd[2] << 8) | cmd[3], cmd[4] << 8],
+                            slave=UNIT)
+    assert not rr.isError(), rr
+    d.wait_for("command %02X sent" % cmd[0], lambda s: q0(s)["frames"] > before)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--candp2d", required=True)
+    ap.add_argument("--output-dir", required=True)
+    ap.add_argument("--chromium", default="/usr/bin/chromium")
+    args = ap.parse_args()
+    os.makedirs(args.output_dir, exist_ok=True)
+    with open(os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+            os.path.abspath(__file__)))), "config", "demo.json")) as f:
+        cfg = json.load(f)
+    cfg["modbus"]["listen"] = "127.0.0.1:0"
+    cfg["http"] = {"listen": "127.0.0.1:0"}
+    cfg["buses"]["can0"]["socketcand"] = "127.0.0.1:0"
+    # emulator-spec §2: Page-Mode on with a plain slot is rejected (Cfg code 9).
+    cfg["gateways"].append({"name": "gw5", "address": 5, "bus": "can0",
+                            "parameters": {"can_bitrate": "500k", "page_mode": True},
+                            "slots": [{"io": "output", "address": 32, "length": 2,
+                                       "comment": "03,05,00"}]})
+    d = Daemon(args.candp2d, config=cfg)
+    browser = None
+    try:
+        d.wait_for("Data_Exch", lambda s: s["gateways"][0]["dp_state"] == "Data_Exch")
+        browser = Browser(args.chromium, width=1400, height=1000)
+        browser.call("Page.enable")
+        browser.call("Page.navigate", url=d.base + "/")
+        browser.wait_for("gateway 3's panel", "!!document.getElementById('gw-3')")
+        before = browser.wait_for("slot Q0", SLOT_BYTES % "Q0")
+        want = " ".join("%02X" % b for b in COMMANDS[-1])
+        assert before != want, before
+
+        mb = ModbusTcpClient("127.0.0.1", port=d.modbus_port, timeout=3)
+        assert mb.connect()
+        for cmd in COMMANDS:
+            write(d, mb, cmd)
+        mb.close()
+
+        browser.wait_for("the written bytes %s in slot Q0" % want,
+                         "(%s) === '%s'" % (SLOT_BYTES % "Q0", want))
+        browser.wait_for("LED D on", LED_D)
+        # The drive's answers arrive on 0x181 (slot I0) and the trace shows the command frame.
+        browser.wait_for("the drive's reply in slot I0", "(%s || '').startsWith('30 ')"
+                         % (SLOT_BYTES % "I0"))
+        browser.wait_for("frame 0x201 with the command in the trace",
+                         "Array.from(document.querySelectorAll('#bus-can0 .trace tr'))"
+                         ".some(r => r.cells[1].textContent === '0x201' && "
+                         "r.cells[3].textContent === '%s')" % want)
+        state = browser.evaluate("document.querySelector('#gw-3 .kv dd').textContent")
+        assert state == "Data_Exch", state
+        browser.wait_for("axis1 turning", "(() => { const dd = document.querySelectorAll("
+                         "'#drive-axis1 dd'); return dd.length > 3 && +dd[3].textContent > 0; })()")
+        # gw5: rejected Chk_Cfg → LED D off, LED E 3 flashes, Cfg_Fault bit (diagnosis byte 0).
+        browser.wait_for("gw5's LED D off", "document.getElementById('gw-5-led-D')"
+                         ".dataset.code === '0'")
+        r = browser.call("Runtime.evaluate", expression=LED_E5, awaitPromise=True,
+                         returnByValue=True)
+        assert r["result"].get("value") is True, r
+        browser.wait_for("gw5's Cfg_Fault bit",
+                         "Array.from(document.querySelectorAll('#gw-5 .bit.set'))"
+                         ".some(b => b.textContent === 'Cfg_Fault')")
+        # Let the frames/s plot collect three one-second points, then keep the picture.
+        browser.wait_for("a frames/s plot", "(() => { const p = document.querySelector("
+                         "'#gw-3 canvas'); return p && +p.dataset.points >= 3; })()", timeout=15)
+        path = os.path.join(args.output_dir, "front-panel.png")
+        # The whole page in one viewport (parts painted beyond the viewport lose their styling).
+        height = int(browser.evaluate("document.documentElement.scrollHeight"))
+        browser.call("Emulation.setDeviceMetricsOverride", width=1400, height=min(height, 8000),
+                     deviceScaleFactor=1, mobile=False)
+        browser.evaluate("new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
+        browser.screenshot(path)
+        assert os.path.getsize(path) > 10000, os.path.getsize(path)
+        print("screenshot: " + path)
+    finally:
+        if browser:
+            browser.close()
+        d.stop()
+    print("PASS")
+
+
+if __name__ == "__main__":
+    main()
