@@ -136,6 +136,7 @@ class DaemonImpl final : public Daemon {
   bool start(std::string* error);
 
   std::uint16_t modbus_port() const override { return modbus_ ? modbus_->port() : 0; }
+  std::size_t modbus_clients() const override { return modbus_ ? modbus_->client_count() : 0; }
   std::optional<std::uint16_t> socketcand_port(std::string_view name) const override {
     for (const auto& b : buses_)
       if (b->cfg.name == name && b->export_server) return b->export_server->port();
