@@ -83,7 +83,7 @@ const json& Object::at(const std::string& key) const {
 std::uint64_t as_uint(const json& j, const std::string& path, std::uint64_t min, std::uint64_t max,
                       std::string_view unit) {
   const std::string expected = "expected a number from " + std::to_string(min) + " to " +
-                               std::to_string(max) + (unit.empty() ? "" : " " + std::string(unit)) +
+                               std::to_string(max) + (unit.empty() ? "" : ' ' + std::string(unit)) +
                                " (a JSON number or a \"0x…\" string)";
   std::uint64_t v = 0;
   if (j.is_number_unsigned()) {

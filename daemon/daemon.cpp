@@ -147,6 +147,7 @@ class DaemonImpl final : public Daemon {
   std::optional<std::uint16_t> http_port() const override {
     return http_ ? std::optional<std::uint16_t>(http_->port()) : std::nullopt;
   }
+  std::size_t modbus_clients() const override { return modbus_ ? modbus_->client_count() : 0; }
   std::optional<std::uint16_t> socketcand_port(std::string_view name) const override {
     for (const auto& b : buses_)
       if (b->cfg.name == name && b->export_server) return b->export_server->port();

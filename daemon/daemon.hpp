@@ -9,6 +9,7 @@
 //                     ──TCP─▶ SocketcandServer ─▶ endpoint ─▶ VirtualBus ─▶ Gateway ─▶ image (I)
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -40,6 +41,8 @@ class Daemon {
   virtual std::optional<std::uint16_t> http_port() const = 0;
   // A one-line summary for the log: "modbus 127.0.0.1:1502, bus can0 socketcand 127.0.0.1:29536".
   virtual std::string listening() const = 0;
+  // Modbus/TCP clients connected now (the systemd STATUS= line, daemon/systemd_notify.hpp).
+  virtual std::size_t modbus_clients() const = 0;
 
   // SIGHUP: reopen the CAN log (after logrotate moved it).
   virtual void reopen_can_log() = 0;

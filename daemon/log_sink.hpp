@@ -1,5 +1,6 @@
 // The daemon's log sink: candp2::LogSink (common/log.hpp) written through spdlog, one line per
-// message with time, level and component ("2024-05-01 12:00:00.123 info  [gw5] Set_Prm accepted").
+// message with time, level and component ("2024-05-01 12:00:00.123 info  [gw5] Set_Prm accepted"),
+// or "<6>[gw5] Set_Prm accepted" under systemd's journal.
 #pragma once
 
 #include <memory>
@@ -14,12 +15,16 @@ class logger;
 
 namespace candp2::daemon {
 
+// True when standard error is systemd's journal stream ($JOURNAL_STREAM, systemd.exec(5)).
+bool stderr_is_journal();
+
 // "trace", "debug", "info", "warn" (or "warning"), "error".
 std::optional<LogLevel> parse_level(std::string_view name);
 
 class SpdlogSink final : public LogSink {
  public:
-  // Writes to `logger`; a null logger writes to standard error.
+  // Writes to `logger`; a null logger writes to standard error, in journald's format ("<6>[gw5]
+  // ...": syslog priority prefix, no time) when standard error is the journal.
   explicit SpdlogSink(LogLevel level, std::shared_ptr<spdlog::logger> logger = nullptr);
   ~SpdlogSink() override;
   bool enabled(LogLevel level) const override { return level >= level_; }
@@ -31,6 +36,7 @@ class SpdlogSink final : public LogSink {
  private:
   LogLevel level_;
   std::shared_ptr<spdlog::logger> logger_;
+  bool journal_ = false;
 };
 
 }  // namespace candp2::daemon

@@ -4,10 +4,15 @@
 //   candp2d --config FILE --check      validate the configuration and exit
 //   candp2d --config FILE --print-modbus-map
 //   candp2d                            run the built-in default (config/demo.json)
+//   candp2d --version                  version and source revision
+//
+// Under systemd (Type=notify, packaging/systemd/candp2d.service) it reports READY=1, STATUS=,
+// STOPPING=1 and WATCHDOG=1 (daemon/systemd_notify.hpp) and logs in journald's format.
 //
 // Exit status: 0 success, 1 the daemon could not start (port in use, CAN interface missing),
 // 2 bad command line or configuration.
 #include <signal.h>
+#include <systemd/sd-daemon.h>
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -18,11 +23,20 @@
 #include "daemon/default_config.hpp"
 #include "daemon/event_loop.hpp"
 #include "daemon/log_sink.hpp"
+#include "daemon/systemd_notify.hpp"
+#include "version/version.hpp"
 
 namespace {
 
 constexpr int kExitStart = 1;
 constexpr int kExitUsage = 2;
+
+// Messages written to stderr before the log sink exists: with a syslog priority prefix when
+// stderr is the journal (sd-daemon.h), so warnings and errors keep their level there.
+std::string prefix(const char* priority) {
+  static const bool journal = candp2::daemon::stderr_is_journal();
+  return journal ? priority : "";
+}
 
 int run(const candp2::config::DaemonConfig& config, candp2::LogLevel level) {
   using namespace candp2;
@@ -31,10 +45,16 @@ int run(const candp2::config::DaemonConfig& config, candp2::LogLevel level) {
   // Sockets are written with MSG_NOSIGNAL; a stray SIGPIPE must still never end the daemon.
   ::signal(SIGPIPE, SIG_IGN);
   EventLoop loop(&sink);
+  daemon::SystemdNotifier systemd(loop, &sink);
   std::string error;
   for (int signo : {SIGTERM, SIGINT})
     if (!loop.add_signal(
-            signo, [&](int) { loop.stop(); }, &error)) {
+            signo,
+            [&](int) {
+              systemd.stopping();
+              loop.stop();
+            },
+            &error)) {
       log.error(error);
       return kExitStart;
     }
@@ -48,14 +68,18 @@ int run(const candp2::config::DaemonConfig& config, candp2::LogLevel level) {
     log.error(error);
     return kExitStart;
   }
-  log.info("candp2d " CANDP2_VERSION " starting with " + config.file);
+  log.info(version_line("candp2d") + " starting with " + config.file);
   d = daemon::Daemon::start(config, loop, &sink, &error);
   if (!d) {
     log.error("cannot start: " + error);
+    systemd.failed(error);
     return kExitStart;
   }
   log.info("ready: " + d->listening());
+  // Every listener is open now: READY=1 (Type=notify).
+  systemd.ready(*d);
   loop.run();
+  systemd.stopping();
   d->shutdown();
   d.reset();
   log.info("stopped");
@@ -69,7 +93,7 @@ int main(int argc, char** argv) {
       "candp2d - emulator of the esd CAN-DP/2 PROFIBUS-DP/CAN gateway: a simulated DP master "
       "cycles the emulated gateways, serves the PLC process image over Modbus/TCP and connects "
       "each gateway to a CAN bus (virtual, SocketCAN or socketcand)."};
-  app.set_version_flag("--version", std::string("candp2d ") + CANDP2_VERSION);
+  app.set_version_flag("--version", candp2::version_line("candp2d"));
   std::string file;
   bool check = false;
   bool print_map = false;
@@ -96,16 +120,18 @@ int main(int argc, char** argv) {
                                                          candp2::daemon::kDefaultConfigName)
                           : candp2::config::load_daemon(file);
   if (const auto* err = std::get_if<candp2::config::ConfigError>(&loaded)) {
-    std::cerr << "candp2d: error: " << err->to_string() << "\n";
+    std::cerr << prefix(SD_ERR) << "candp2d: error: " << err->to_string() << "\n";
     return kExitUsage;
   }
   const auto& config = std::get<candp2::config::DaemonConfig>(loaded);
-  for (const auto& w : config.warnings) std::cerr << "candp2d: warning: " << w.to_string() << "\n";
+  for (const auto& w : config.warnings)
+    std::cerr << prefix(SD_WARNING) << "candp2d: warning: " << w.to_string() << "\n";
 
   const std::string level_name = level_override.empty() ? config.log_level : level_override;
   const auto level = candp2::daemon::parse_level(level_name);
   if (!level) {
-    std::cerr << "candp2d: error: --log-level: expected trace, debug, info, warn or error, got \""
+    std::cerr << prefix(SD_ERR)
+              << "candp2d: error: --log-level: expected trace, debug, info, warn or error, got \""
               << level_name << "\"\n";
     return kExitUsage;
   }

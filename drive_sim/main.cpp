@@ -29,6 +29,7 @@
 #include "daemon/log_sink.hpp"
 #include "drive_sim/file_parameter_store.hpp"
 #include "drive_sim/unitek_drive.hpp"
+#include "version/version.hpp"
 
 namespace {
 
@@ -90,6 +91,7 @@ int main(int argc, char** argv) {
   bool status_16bit = false;
   unsigned reference_ms = 500;
 
+  app.set_version_flag("--version", candp2::version_line("candp2-drive"));
   auto* transport = app.add_option_group("transport", "the CAN bus to join");
   transport->add_option("--socketcan", socketcan_if, "SocketCAN interface, e.g. vcan0");
   transport->add_option("--socketcand", socketcand_spec,

@@ -29,7 +29,12 @@ constexpr std::pair<std::string_view, std::string_view> kBauds[] = {
     {"12M_supp", "MaxTsdr_12M"}};
 
 std::string q(std::string_view s) {
-  return "\"" + std::string(detail::trim(s)) + "\"";
+  // Appended, not `"\"" + std::string(...)`: GCC 12 -O3 reports a false -Wrestrict inside
+  // libstdc++ for a literal + std::string (GCC bug 105329).
+  std::string out(1, '"');
+  out += detail::trim(s);
+  out += '"';
+  return out;
 }
 
 class Checker {

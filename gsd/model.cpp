@@ -61,9 +61,19 @@ bool ExtUserPrmData::allows(std::int64_t v) const {
 }
 
 std::string ExtUserPrmData::range_text() const {
-  if (min && max) return std::to_string(*min) + "-" + std::to_string(*max);
+  // Appended piece by piece: GCC 12 at -O3 reports a false -Wrestrict inside libstdc++ for
+  // `const char* + std::string` (GCC bug 105329), which would stop a -Werror build.
   std::string out;
-  for (auto v : allowed) out += (out.empty() ? "" : ",") + std::to_string(v);
+  if (min && max) {
+    out = std::to_string(*min);
+    out += '-';
+    out += std::to_string(*max);
+    return out;
+  }
+  for (auto v : allowed) {
+    if (!out.empty()) out += ',';
+    out += std::to_string(v);
+  }
   return out;
 }
 

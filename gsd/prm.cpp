@@ -10,7 +10,12 @@ namespace candp2::gsd {
 namespace {
 
 std::string q(std::string_view s) {
-  return "\"" + std::string(detail::trim(s)) + "\"";
+  // Appended, not `"\"" + std::string(...)`: GCC 12 -O3 reports a false -Wrestrict inside
+  // libstdc++ for a literal + std::string (GCC bug 105329).
+  std::string out(1, '"');
+  out += detail::trim(s);
+  out += '"';
+  return out;
 }
 
 bool bits_valid(const ExtUserPrmData& d) {

@@ -94,7 +94,11 @@ std::string summary(const Model& m) {
   line("Revision", rev);
   std::string bauds;
   for (const auto& [key, name] : kBaudNames)
-    if (m.number(key).value_or(0) != 0) bauds += (bauds.empty() ? "" : " ") + std::string(name);
+    if (m.number(key).value_or(0) != 0) {
+      // Appended piece by piece: literal + std::string trips GCC 12's false -Wrestrict at -O3.
+      if (!bauds.empty()) bauds += ' ';
+      bauds += name;
+    }
   line("Baud rates", bauds.empty() ? "(none)" : bauds);
 
   const Limits l = m.limits();
@@ -127,7 +131,10 @@ std::string summary(const Model& m) {
   os << "\nModules: " << m.modules.size() << '\n';
   const bool candp2 = m.ident_number() == kCanDp2Ident;
   for (const auto& mod : m.modules) {
-    os << "  " << pad("\"" + shown(mod.name) + "\"", 36) << ' ' << hex_bytes(mod.config);
+    std::string quoted(1, '"');  // not `"\"" + ...`: GCC 12's false -Wrestrict at -O3
+    quoted += shown(mod.name);
+    quoted += '"';
+    os << "  " << pad(std::move(quoted), 36) << ' ' << hex_bytes(mod.config);
     if (mod.reference) os << "  (ref " << *mod.reference << ")";
     os << '\n';
     if (is_universal_module(mod.config)) {

@@ -51,7 +51,7 @@ std::string xml_escape(std::string_view s) {
 }
 
 std::string step_title(const StepResult& s) {
-  return "#" + std::to_string(s.index) + " " + s.step->describe();
+  return '#' + std::to_string(s.index) + " " + s.step->describe();
 }
 
 }  // namespace

@@ -125,7 +125,10 @@ std::string ms_text(Duration d) {
 
 std::string frames_text(const std::vector<FramePattern>& v) {
   std::string s;
-  for (const auto& p : v) s += (s.empty() ? "" : " ") + p.text();
+  for (const auto& p : v) {
+    if (!s.empty()) s += ' ';  // not `" " + p.text()`: GCC 12 -O3 false -Wrestrict
+    s += p.text();
+  }
   return s;
 }
 

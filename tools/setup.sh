@@ -1,14 +1,19 @@
 #!/usr/bin/env bash
 # candp2 set-up for a fresh Debian 12 machine (run as root, or with sudo available).
 #
-#   tools/setup.sh run    install what is needed, build, run candp2d on its embedded default
-#                         (virtual CAN bus, simulated drives, Modbus on 127.0.0.1:1502)
-#   tools/setup.sh test   install what is needed, build, run every test: unit and end-to-end tests,
-#                         the unit tests again under ASan/UBSan, every libFuzzer target for a bounded
-#                         time, and the SocketCAN tests inside a QEMU guest
+#   tools/setup.sh run    install what is needed, build (Release, warnings not fatal: what users
+#                         build, in build-release/), run candp2d on its embedded default (virtual
+#                         CAN bus, simulated drives, Modbus on 127.0.0.1:1502)
+#   tools/setup.sh test   install what is needed, build, run every test: the run command's own
+#                         build and a smoke test of it, the Debian package, unit and end-to-end
+#                         tests, the unit tests again under ASan/UBSan, every libFuzzer target for a
+#                         bounded time, and the SocketCAN tests inside a QEMU guest; development
+#                         builds with warnings as errors (CANDP2_WERROR)
+#   tools/setup.sh deb    install what is needed, build, write dist/candp2_VERSION_ARCH.deb
 #   tools/setup.sh deps   only install the packages
 #
 # Environment: CANDP2_FUZZ_SECONDS (default 20 per target), CANDP2_JOBS (default: nproc).
+# ccache is used when installed.
 set -euo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -28,6 +33,9 @@ packages=(
   python3-can python3-pymodbus python3-serial-asyncio   # independent python peers (/usr/bin/python3)
   qemu-system-x86 linux-image-amd64 busybox-static python3 # the SocketCAN guest (vcan)
   libmicrohttpd-dev python3-prometheus-client chromium  # HTTP face; /metrics and page tests
+  libsystemd-dev systemd                                # sd_notify (Type=notify); systemd-analyze verify
+  dpkg-dev lintian                                      # the .deb: dpkg-shlibdeps, dpkg-deb, lintian
+  ccache git                                            # compiler cache; the source revision (--version)
 )
 
 as_root() {
@@ -48,23 +56,47 @@ install_deps() {
   as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
 }
 
+# ccache when present (any build directory, any checkout path).
+launcher=()
+if command -v ccache >/dev/null; then
+  launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+  export CCACHE_BASEDIR="$here"
+fi
+
 configure_build() {  # DIR [cmake args...]
   local dir=$1
   shift
-  cmake -S . -B "$dir" -G Ninja "$@" >/dev/null
+  cmake -S . -B "$dir" -G Ninja "${launcher[@]}" "$@" >/dev/null
   cmake --build "$dir" -j "$jobs"
 }
 
+# The run command's build, exactly what a user builds: Release, warnings not fatal (a new
+# compiler's false positive must not stop a user's build), only the user-facing executables.
+# `test` and `deb` use this very function and directory.
+release_dir=build-release
+build_release() {
+  cmake -S . -B "$release_dir" -G Ninja "${launcher[@]}" -DCMAKE_BUILD_TYPE=Release \
+    -DCANDP2_WERROR=OFF -DCANDP2_BENCH=OFF >/dev/null
+  cmake --build "$release_dir" -j "$jobs" --target candp2d candp2 candp2-drive
+}
+
 run_daemon() {
-  configure_build build -DCMAKE_BUILD_TYPE=Release
-  echo "setup: starting build/bin/candp2d (Ctrl-C to stop)"
-  exec build/bin/candp2d "$@"
+  build_release
+  echo "setup: starting $release_dir/bin/candp2d (Ctrl-C to stop)"
+  exec "$release_dir/bin/candp2d" "$@"
+}
+
+# dist/candp2_VERSION_ARCH.deb from the run command's build (packaging/deb/build-deb.sh).
+build_deb() {
+  build_release
+  packaging/deb/build-deb.sh "$release_dir" dist
 }
 
 run_fuzzers() {
   local dir=build-fuzz
-  CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -G Ninja -DCANDP2_FUZZ=ON -DCANDP2_APPS=OFF \
-    -DCANDP2_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+  CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -G Ninja "${launcher[@]}" -DCANDP2_FUZZ=ON \
+    -DCANDP2_APPS=OFF -DCANDP2_BENCH=OFF -DCANDP2_WERROR=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    >/dev/null
   cmake --build "$dir" -j "$jobs"
   local failed=0 ran=0
   for f in "$dir"/fuzz/*; do
@@ -92,12 +124,24 @@ run_fuzzers() {
 
 run_tests() {
   local status=0
-  echo "== build and all tests (unit, e2e, replay, qemu)"
-  configure_build build -DCMAKE_BUILD_TYPE=RelWithDebInfo
+  local t=$SECONDS
+  echo "== the run command's build (Release) and its smoke test"
+  build_release || status=1
+  /usr/bin/python3 tests/e2e/run_smoke.py --candp2d "$release_dir/bin/candp2d" || status=1
+  echo "setup: Release build and smoke test took $((SECONDS - t)) s"
+
+  t=$SECONDS
+  echo "== the Debian package (dist/), tested by ctest's deb_package"
+  packaging/deb/build-deb.sh "$release_dir" dist || status=1
+  echo "setup: Debian package took $((SECONDS - t)) s"
+
+  echo "== build and all tests (unit, e2e, replay, systemd, package, qemu)"
+  configure_build build -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCANDP2_WERROR=ON
   ctest --test-dir build --output-on-failure -j "$jobs" --timeout 600 || status=1
 
   echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer"
-  configure_build build-asan -DCMAKE_BUILD_TYPE=Debug -DCANDP2_SANITIZE=ON -DCANDP2_BENCH=OFF -DCANDP2_APPS=OFF
+  configure_build build-asan -DCMAKE_BUILD_TYPE=Debug -DCANDP2_SANITIZE=ON -DCANDP2_BENCH=OFF \
+    -DCANDP2_APPS=OFF -DCANDP2_WERROR=ON
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
     ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit --timeout 600 || status=1
 
@@ -112,8 +156,9 @@ case "${1:-}" in
   deps) install_deps ;;
   run) install_deps; shift; run_daemon "$@" ;;
   test) install_deps; run_tests ;;
+  deb) install_deps; build_deb ;;
   *)
-    echo "usage: $0 run|test|deps" >&2
+    echo "usage: $0 run|test|deb|deps" >&2
     exit 2
     ;;
 esac

@@ -2,10 +2,11 @@
 #include <iostream>
 
 #include "tools/candp2/commands.hpp"
+#include "version/version.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"candp2 - tools for the CAN-DP/2 PROFIBUS-DP/CAN gateway emulator"};
-  app.set_version_flag("--version", std::string("candp2 ") + CANDP2_VERSION);
+  app.set_version_flag("--version", candp2::version_line("candp2"));
   app.require_subcommand(1);
   int exit_code = 0;
   candp2::cli::add_replay(app, exit_code);

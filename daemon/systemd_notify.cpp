@@ -1,0 +1,101 @@
+#include "daemon/systemd_notify.hpp"
+
+#include <systemd/sd-daemon.h>
+
+#include <cerrno>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+
+namespace candp2::daemon {
+
+namespace {
+
+// How often the status summary is compared with the last one sent (cheap: a few counters).
+constexpr Duration kStatusPeriod = milliseconds(1000);
+
+std::string count(std::size_t n, const char* singular, const char* plural) {
+  std::string out = std::to_string(n);
+  out += ' ';
+  out += n == 1 ? singular : plural;
+  return out;
+}
+
+}  // namespace
+
+std::string status_summary(std::size_t gateways, std::size_t in_data_exch,
+                           std::size_t modbus_clients) {
+  std::string out = count(gateways, "gateway", "gateways");
+  out += ", ";
+  out += std::to_string(in_data_exch);
+  out += " in Data_Exch, ";
+  out += count(modbus_clients, "Modbus client", "Modbus clients");
+  return out;
+}
+
+std::string status_summary(Daemon& daemon) {
+  const auto slaves = daemon.master().slaves();
+  std::size_t exchanging = 0;
+  for (const auto& s : slaves)
+    if (s.state == dp::MasterSlaveState::DataExch) ++exchanging;
+  return status_summary(slaves.size(), exchanging, daemon.modbus_clients());
+}
+
+SystemdNotifier::SystemdNotifier(EventLoop& loop, LogSink* log)
+    : loop_(loop), log_(log, "systemd") {
+  const char* socket = std::getenv("NOTIFY_SOCKET");
+  enabled_ = socket && *socket;
+}
+
+SystemdNotifier::~SystemdNotifier() {
+  if (status_timer_) loop_.cancel_timer(status_timer_);
+  if (watchdog_timer_) loop_.cancel_timer(watchdog_timer_);
+}
+
+void SystemdNotifier::send(const std::string& state) {
+  // sd_notify(3): 0 = no NOTIFY_SOCKET, > 0 sent, < 0 -errno.
+  const int rc = sd_notify(0, state.c_str());
+  if (rc < 0) log_.warn("sd_notify(" + state + "): " + std::strerror(-rc));
+}
+
+void SystemdNotifier::ready(Daemon& daemon) {
+  if (!enabled_) return;
+  daemon_ = &daemon;
+  status_ = status_summary(daemon);
+  send("READY=1\nSTATUS=" + status_);
+  status_timer_ = loop_.add_periodic(kStatusPeriod, [this] { update_status(); });
+  // sd_watchdog_enabled(3): > 0 when WATCHDOG_USEC is set (and WATCHDOG_PID, if set, is ours);
+  // systemd recommends sending WATCHDOG=1 at half the interval.
+  std::uint64_t usec = 0;
+  if (sd_watchdog_enabled(0, &usec) > 0 && usec > 0) {
+    const Duration half = microseconds(static_cast<std::int64_t>(usec / 2));
+    send("WATCHDOG=1");
+    watchdog_timer_ = loop_.add_periodic(half > Duration{0} ? half : microseconds(1),
+                                         [this] { send("WATCHDOG=1"); });
+    log_.info("watchdog every " + std::to_string(usec / 2000) + " ms");
+  }
+}
+
+void SystemdNotifier::failed(const std::string& why) {
+  if (enabled_) send("STATUS=cannot start: " + why);
+}
+
+void SystemdNotifier::update_status() {
+  if (!daemon_) return;
+  auto now = status_summary(*daemon_);
+  if (now == status_) return;
+  status_ = std::move(now);
+  send("STATUS=" + status_);
+}
+
+void SystemdNotifier::stopping() {
+  if (stopped_) return;
+  stopped_ = true;
+  if (status_timer_) loop_.cancel_timer(status_timer_);
+  if (watchdog_timer_) loop_.cancel_timer(watchdog_timer_);
+  status_timer_ = watchdog_timer_ = 0;
+  daemon_ = nullptr;
+  if (enabled_) send("STOPPING=1\nSTATUS=stopping");
+}
+
+}  // namespace candp2::daemon

@@ -1,0 +1,162 @@
+#!/usr/bin/python3
+"""Smoke test of what `tools/setup.sh run` builds and starts (issue 11), run by `tools/setup.sh test`
+on the run command's own Release build:
+
+  1. `candp2d --version` names the version and the source revision;
+  2. candp2d without --config (the built-in default, config/demo.json) starts and listens on the
+     fixed Modbus port 1502;
+  3. the README's mbpoll walk-through (section "The demo"), read from README.md itself so the two
+     cannot drift apart, gives its documented answer (`0xA866 0x2600` in input registers 0..1 once
+     the drive's ramp is done);
+  4. SIGTERM stops it cleanly: exit status 0 and "stopped" in its log.
+
+Port 1502 (and socketcand's 29536) are fixed by the built-in default: when one is busy the test
+fails at once with a message saying so, instead of hanging. Every wait polls with a deadline.
+
+  run_smoke.py --candp2d build-release/bin/candp2d
+"""
+
+import argparse
+import os
+import re
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from demo_e2e import ROOT, wait_for_port  # noqa: E402  (same folder: the demo's e2e test)
+
+MODBUS_PORT = 1502       # config/demo.json "modbus.listen"
+SOCKETCAND_PORT = 29536  # config/demo.json "buses.can0.socketcand"
+UNIT = 3
+
+
+def fail(msg):
+    raise SystemExit("FAIL: " + msg)
+
+
+def port_free(port):
+    with socket.socket() as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            s.bind(("127.0.0.1", port))
+            return True
+        except OSError:
+            return False
+
+
+def readme_walkthrough():
+    """The demo section's mbpoll commands and the answer it documents."""
+    with open(os.path.join(ROOT, "README.md")) as f:
+        text = f.read()
+    section = text.split("## The demo", 1)[1].split("\n## ", 1)[0]
+    m = re.search(r'^\s*M="([^"]+)"\s*$', section, re.M)
+    if not m:
+        fail('README "The demo": no M="mbpoll ..." line')
+    commands = [re.sub(r"\s+#.*$", "", line.strip()) for line in section.splitlines()
+                if line.strip().startswith("$M ")]
+    answer = re.search(r"The last read shows `((?:0x[0-9A-F]{4} ?)+)`", section)
+    if len(commands) < 2 or not answer:
+        fail('README "The demo": expected $M commands and "The last read shows `0x....`"')
+    prefix = m.group(1).split()
+    argv = [prefix + c.split()[1:] for c in commands]
+    return argv[:-1], argv[-1], answer.group(1).split()
+
+
+def mbpoll(argv, timeout=10):
+    r = subprocess.run(argv, capture_output=True, text=True, timeout=timeout)
+    if r.returncode != 0 or "failed" in r.stdout.lower() + r.stderr.lower():
+        fail("%s: exit %d\n%s%s" % (" ".join(argv), r.returncode, r.stdout, r.stderr))
+    return r.stdout
+
+
+def registers(output):
+    """mbpoll's "[N]: 	0xABCD" lines as ["0xABCD", ...] (hex tables) or ints."""
+    return [v for _, v in re.findall(r"^\[(\d+)\]:\s+(\S+)", output, re.M)]
+
+
+def tx_frames(base):
+    """Status block 8210..8211 of unit 3: CAN frames the gateway sent (docs/modbus.md)."""
+    out = mbpoll(base + ["-r", "8210", "-c", "2", "-t", "3", "127.0.0.1"])
+    hi, lo = (int(v) for v in registers(out))
+    return (hi << 16) | lo
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--candp2d", required=True)
+    args = ap.parse_args()
+    writes, read, answer = readme_walkthrough()
+    base = writes[0][:writes[0].index("-r")]  # "mbpoll -m tcp -p 1502 -a 3 -0 -1"
+
+    version = subprocess.run([args.candp2d, "--version"], capture_output=True, text=True,
+                             timeout=10)
+    if version.returncode != 0 or not re.fullmatch(r"candp2d \d+\.\d+\.\d+ \(revision \S+\)\n",
+                                                   version.stdout):
+        fail("--version: %r (exit %d)" % (version.stdout, version.returncode))
+    print("version:", version.stdout.strip())
+
+    for port in (MODBUS_PORT, SOCKETCAND_PORT):
+        if not port_free(port):
+            fail("port %d on 127.0.0.1 is busy (another candp2d?); the built-in default needs it"
+                 % port)
+
+    with tempfile.TemporaryDirectory(prefix="candp2-smoke-") as tmp:
+        log_path = os.path.join(tmp, "candp2d.log")
+        with open(log_path, "w") as log:
+            proc = subprocess.Popen([args.candp2d], stdout=log, stderr=subprocess.STDOUT)
+        try:
+            wait_for_port(MODBUS_PORT, proc)
+            # The gateway reaches Data_Exch a few master cycles after the start (8192 = 2).
+            end = time.monotonic() + 10
+            while registers(mbpoll(base + ["-r", "8192", "-t", "3", "127.0.0.1"])) != ["2"]:
+                if time.monotonic() > end:
+                    fail("gateway never reached Data_Exch")
+                time.sleep(0.05)
+            for argv in writes:
+                # Each write is a new command; wait until the slot has sent it (its Tx counter
+                # moves) before the next one replaces it (slots send on change, manual §3.2.3).
+                before = tx_frames(base)
+                print("$", " ".join(argv))
+                mbpoll(argv)
+                end = time.monotonic() + 5
+                while tx_frames(base) == before:
+                    if time.monotonic() > end:
+                        fail("%s never reached the CAN bus" % " ".join(argv))
+                    time.sleep(0.02)
+            print("$", " ".join(read), " # until", " ".join(answer))
+            end = time.monotonic() + 10
+            while True:
+                got = registers(mbpoll(read))[:len(answer)]
+                if [g.upper().replace("0X", "0x") for g in got] == answer:
+                    break
+                if time.monotonic() > end:
+                    fail("README's read shows %s, documented %s" % (got, answer))
+                time.sleep(0.05)
+            print("read:", " ".join(got))
+
+            proc.send_signal(signal.SIGTERM)
+            try:
+                rc = proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                fail("candp2d did not stop within 10 s of SIGTERM")
+            with open(log_path) as f:
+                text = f.read()
+            if rc != 0:
+                fail("exit status %d after SIGTERM\n%s" % (rc, text))
+            if not re.search(r"\[candp2d\] stopped$", text, re.M):
+                fail("no \"stopped\" line in the log\n" + text)
+            print("SIGTERM: exit 0, log says stopped")
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait(timeout=10)
+    print("run smoke test passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
