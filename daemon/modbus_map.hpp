@@ -43,6 +43,7 @@ enum class Exception : std::uint8_t {
   IllegalFunction = 0x01,
   IllegalDataAddress = 0x02,
   IllegalDataValue = 0x03,
+  ServerDeviceFailure = 0x04,  // profibus role slaves: the output image is the wire's (§10)
   GatewayTargetFailed = 0x0B,  // "gateway target device failed to respond": unknown unit ID
 };
 std::string_view to_string(Exception e);
@@ -151,7 +152,17 @@ inline constexpr std::uint16_t kLedP = 32;
 inline constexpr std::uint16_t kLedC = 33;
 inline constexpr std::uint16_t kDpAddress = 34;
 inline constexpr std::uint16_t kParameterizations = 35;  // 35-36, master side
-inline constexpr std::uint16_t kCount = 37;
+// The PROFIBUS line (emulator-spec §10; zero without a `profibus` section).
+inline constexpr std::uint16_t kLineRole = 37;         // 0 in-process, 1 role slaves, 2 role master
+inline constexpr std::uint16_t kLineTelegrams = 38;    // 38-39 good telegrams on the line
+inline constexpr std::uint16_t kLineFcsErrors = 40;    // 40-41
+inline constexpr std::uint16_t kLineOtherErrors = 42;  // 42-43 framing, parity, truncated
+inline constexpr std::uint16_t kStationRequests = 44;  // 44-45 requests to this station
+inline constexpr std::uint16_t kStationRetries = 46;   // 46-47 repetitions (FCB / master retries)
+inline constexpr std::uint16_t kResponseUs = 48;       // last response time, µs (max 65535)
+inline constexpr std::uint16_t kResponseMaxUs = 49;    // highest response time, µs
+inline constexpr std::uint16_t kStationPresent = 50;   // 1 talking to a master / answering
+inline constexpr std::uint16_t kCount = 51;
 }  // namespace status
 
 // LED codes in the status block (manual §3.3, table 3.3.1).
@@ -176,6 +187,14 @@ struct StatusInputs {
   std::optional<dp::MasterSlaveState> master_state;
   std::uint32_t parameterizations = 0;
   std::uint8_t dp_address = 0;
+  struct Line {
+    std::uint16_t role = 0;  // 1 slaves, 2 master
+    std::uint32_t telegrams = 0, fcs_errors = 0, other_errors = 0;
+    std::uint32_t requests = 0, retries = 0;
+    std::uint32_t response_us = 0, response_max_us = 0;
+    bool present = false;
+  };
+  std::optional<Line> line;
 };
 StatusBlock encode_status(const StatusInputs& in);
 
@@ -202,6 +221,9 @@ class ProcessImageMap final : public Handler {
  public:
   // The first gateway is the one unit IDs 0 and 255 address.
   ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways);
+  // profibus role slaves (emulator-spec §10): the output image shows what an external master
+  // sent; writes to it (holding registers 0..4095, coils) get exception 0x04.
+  void set_outputs_read_only(bool read_only) { outputs_read_only_ = read_only; }
   std::optional<DecodeFailure> handle(const Request& request, ReadResult& out, Time now) override;
   // The last command written to a gateway's control register (reads of holding register 8192).
   std::uint16_t last_control(std::uint8_t dp_address) const;
@@ -214,6 +236,7 @@ class ProcessImageMap final : public Handler {
   dp::ProcessImage& image_;
   std::vector<GatewayFace*> gateways_;
   std::vector<std::uint16_t> last_control_;  // per gateway
+  bool outputs_read_only_ = false;
 };
 
 // The status block's fields, for `candp2d --print-modbus-map` and logs.
