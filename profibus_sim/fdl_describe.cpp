@@ -311,8 +311,8 @@ Description describe(const Telegram& t, const Telegram* request) {
     s += t.dsap ? std::to_string(*t.dsap) : std::string("-");
     s += "]";
   }
-  s += " " + fc_name(t.fc);
   const std::uint8_t fn = t.function();
+  if (!(d.request && fn == kFcFdlStatus)) s += " " + fc_name(t.fc);  // else the service says it
   if (d.request && fn != kFcFdlStatus && fn != kFcSdnLow && fn != kFcSdnHigh)
     s += std::string(" FCB=") + (t.fcb() ? "1" : "0") + " FCV=" + (t.fcv() ? "1" : "0");
   if (t.da == kBroadcast && d.request) s += " broadcast";

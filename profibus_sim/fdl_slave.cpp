@@ -69,7 +69,7 @@ Duration SlaveFrontEnd::bit_times(std::uint32_t bits) const {
 
 std::optional<Reply> SlaveFrontEnd::on_telegram(const Telegram& t, Time request_end) {
   if (t.kind != Kind::SD1 && t.kind != Kind::SD2 && t.kind != Kind::SD3) return std::nullopt;
-  if (!t.is_request()) return std::nullopt;
+  if (!t.is_request() || t.da > kAddrMask || t.sa > kAddrMask) return std::nullopt;
   const std::uint8_t fn = t.function();
 
   // emulator-spec §10: address 127 = broadcast, nobody answers. Global_Control (SDN, DSAP 58)
@@ -104,6 +104,7 @@ std::optional<Reply> SlaveFrontEnd::on_telegram(const Telegram& t, Time request_
     // emulator-spec §10: FDL_Status SD1 FC 0x49 -> SD1 FC 0x00 (slave, OK). The master starts
     // its FCB sequence afresh after it (FCB=1, FCV=0 next).
     st->links[t.sa] = Link{};
+    if (debug) log_.debug(who(t.da, t.sa) + ": FDL_Status, FCB sequence restarts");
     response = short_response(t, kFcOk);
   } else if (is_sdn(fn)) {
     // SDN: never answered. Global_Control to this station; anything else is dropped.

@@ -17,7 +17,7 @@ std::string line(Describer& d, const char* hex) {
 
 TEST(FdlDescribe, CaptureRequestsAndResponses) {
   Describer d;
-  EXPECT_EQ(line(d, kCapFdlStatus), "SD1 2->3 FDL_Status FDL_Status.req");
+  EXPECT_EQ(line(d, kCapFdlStatus), "SD1 2->3 FDL_Status.req");
   EXPECT_EQ(line(d, "10 02 03 00 05 16"), "SD1 3->2 OK FDL_Status.res");
   EXPECT_EQ(line(d, kCapSlaveDiag1), "SD2 2->3 [62->60] SRD_high FCB=1 FCV=0 Slave_Diag.req");
   EXPECT_EQ(line(d, "68 10 10 68 82 83 08 3E 3C 02 05 00 FF 04 A4 05 04 00 00 00 3E 16"),

@@ -227,6 +227,9 @@ TEST_F(FdlSlaveFixture, SeveralStationsAndForeignAddresses) {
   EXPECT_EQ(b.dp().state(), dp::SlaveState::WaitPrm);
   EXPECT_EQ(fe->stats(4)->requests, 1u);
   EXPECT_EQ(fe->stats(5), nullptr);
+  // A hand-built telegram with an address beyond 127 (decode never yields one): no answer.
+  EXPECT_FALSE(fe->on_telegram(Telegram::no_data(200, kMaster, request_fc(kFcFdlStatus)), now));
+  EXPECT_FALSE(fe->on_telegram(Telegram::no_data(3, 200, request_fc(kFcFdlStatus)), now));
 }
 
 TEST_F(FdlSlaveFixture, BroadcastIsNeverAnswered) {

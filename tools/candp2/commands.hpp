@@ -9,5 +9,6 @@ namespace candp2::cli {
 void add_replay(CLI::App& app, int& exit_code);    // candp2 replay SCENARIO
 void add_validate(CLI::App& app, int& exit_code);  // candp2 validate CONFIG
 void add_gsd(CLI::App& app, int& exit_code);       // candp2 gsd FILE
+void add_sniff(CLI::App& app, int& exit_code);     // candp2 sniff PORT|FILE
 
 }  // namespace candp2::cli

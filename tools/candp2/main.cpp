@@ -1,4 +1,4 @@
-// candp2: offline tools around the CAN-DP/2 emulator (replay, validate, gsd).
+// candp2: offline tools around the CAN-DP/2 emulator (replay, validate, gsd, sniff).
 #include <iostream>
 
 #include "tools/candp2/commands.hpp"
@@ -11,6 +11,7 @@ int main(int argc, char** argv) {
   candp2::cli::add_replay(app, exit_code);
   candp2::cli::add_validate(app, exit_code);
   candp2::cli::add_gsd(app, exit_code);
+  candp2::cli::add_sniff(app, exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,360 @@
+// candp2 sniff PORT|FILE: FDL/DP telegrams of a PROFIBUS line, one readable line each, like
+// can-utils' candump for CAN (issue 10, emulator-spec §10). FILE is a raw capture (bytes exactly as
+// on the wire; the line shows the byte offset of each telegram); PORT is a serial device or
+// "pty:PATH" opened 8E1 at --baud (the line shows seconds since the first byte). On top of the
+// generic DP decoding (profibus_sim/fdl_describe.hpp) the CAN-DP/2 payloads are decoded with the
+// gateway's own decoders: Set_Prm user parameters (emulator-spec §1.1), Chk_Cfg slots with their
+// comment bytes (emulator-spec §2) and the extended diagnosis bytes (emulator-spec §3).
+// Exit status: 0 at end of file / after --count telegrams / on SIGINT, 2 when the source cannot
+// be opened or read.
+#include <poll.h>
+#include <signal.h>
+
+#include <array>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "common/hex.hpp"
+#include "gateway/slot_config.hpp"
+#include "gateway/user_prm.hpp"
+#include "profibus_sim/fdl.hpp"
+#include "profibus_sim/fdl_describe.hpp"
+#include "serial/serial_port.hpp"
+#include "tools/candp2/commands.hpp"
+
+namespace candp2::cli {
+
+namespace {
+
+struct SniffArgs {
+  std::string source;
+  std::uint32_t baud = 19200;
+  bool errors = false;
+  bool hex = false;
+  bool generic = false;
+  std::uint64_t count = 0;  // 0 = unlimited
+};
+
+std::string hex2(std::uint8_t b) {
+  return hex_bytes(std::array{b});
+}
+
+std::string kbit(std::uint32_t bps) {
+  char buf[32];
+  if (bps % 1000 == 0)
+    std::snprintf(buf, sizeof buf, "%u kbit/s", bps / 1000);
+  else
+    std::snprintf(buf, sizeof buf, "%.1f kbit/s", bps / 1000.0);
+  return buf;
+}
+
+// emulator-spec §1.1 user parameters, through gw::decode_user_prm.
+std::string describe_user_prm(const gw::UserPrm& p) {
+  std::string s =
+      "CAN " + kbit(gw::kBitrates[p.bitrate_index]) + ", ModuleID " + std::to_string(p.module_id);
+  auto flag = [&](bool on, const char* name) {
+    if (on) s += std::string(", ") + name;
+  };
+  flag(p.comm_window, "Communication-Window");
+  flag(p.page_mode, "Page-Mode");
+  flag(p.canopen_slave, "CANopen-Slave");
+  flag(p.canopen_master, "CANopen-Master");
+  flag(p.start_frame, "Start-Frame");
+  flag(!p.send_rtr, "no RTR");
+  flag(p.can_diagnosis, "CAN-Diagnosis");
+  flag(p.rx_counter, "Rx-Counter");
+  flag(p.tx_counter, "Tx-Counter");
+  s += ", wake-up " +
+       (p.wakeup_s == gw::kWakeupKeep ? std::string("keep") : std::to_string(p.wakeup_s) + " s");
+  s += ", SYNC " +
+       (p.sync_ms == gw::kSyncKeep ? std::string("keep") : std::to_string(p.sync_ms) + " ms");
+  return s;
+}
+
+std::string ident_text(const can::Ident& id) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, id.extended ? "%08X" : "%03X", id.id);
+  return buf;
+}
+
+// emulator-spec §2 slots, through gw::decode_slots.
+std::string describe_slots(const gw::SlotConfig& c) {
+  std::string s;
+  for (const auto& slot : c.slots) {
+    if (!s.empty()) s += "; ";
+    s += "slot" + std::to_string(slot.index) + " " + std::string(gw::to_string(slot.kind));
+    if (slot.id)
+      s += " " + ident_text(*slot.id);
+    else if (slot.kind == gw::SlotKind::Tx)
+      s += " dummy";
+    s += " " + std::to_string(slot.length) + "B";
+    if (slot.counter) s += " +counter";
+    if (slot.kind == gw::SlotKind::Rx || slot.kind == gw::SlotKind::Tx)
+      s += " form " + hex2(slot.form);
+    if (slot.cycle_ms && slot.kind == gw::SlotKind::Tx)
+      s += " cycle " + std::to_string(slot.cycle_ms) + " ms";
+    if (slot.cw_sync_ms) s += " SYNC " + std::to_string(slot.cw_sync_ms) + " ms";
+    s += " @" + std::string(slot.is_input() ? "I" : "Q") + std::to_string(slot.offset);
+  }
+  return s.empty() ? "no slots" : s;
+}
+
+// The CAN-DP/2 layer of the sniffer: remembers each station's user parameters (the slots depend
+// on Page-Mode, counters and the Communication Window flag).
+class CanDp2Decoder {
+ public:
+  std::string decode(const fdl::Telegram& t, const fdl::Description& d) {
+    const bool req = d.request;
+    const std::uint8_t station = req ? t.da : t.sa;
+    switch (d.service) {
+      case fdl::Service::SetPrm: {
+        if (!req || t.du.size() < dp::kPrmStdLen) return {};
+        const auto std_part = dp::decode_prm_std(t.du);
+        if (!std_part || std_part->ident_number != gw::kIdentNumber) {
+          foreign_[station] = true;
+          return {};
+        }
+        foreign_[station] = false;
+        auto r = gw::decode_user_prm(t.du);
+        if (auto* fault = std::get_if<dp::PrmFault>(&r))
+          return "Prm fault: byte " + std::to_string(fault->byte) + ", correct value " +
+                 hex2(fault->correct);
+        prm_[station] = std::get<gw::UserPrm>(r);
+        return describe_user_prm(prm_[station]);
+      }
+      case fdl::Service::ChkCfg:
+      case fdl::Service::GetCfg: {
+        if (req != (d.service == fdl::Service::ChkCfg) || t.du.empty() || foreign_[station])
+          return {};
+        auto it = prm_.find(station);
+        const gw::UserPrm prm = it == prm_.end() ? gw::UserPrm{} : it->second;
+        auto r = gw::decode_slots(t.du, prm);
+        if (auto* fault = std::get_if<dp::CfgFault>(&r))
+          return "Cfg fault: slot " + std::to_string(fault->slot) + ", code " +
+                 std::to_string(fault->code) + " (" + std::string(gw::cfg_code_text(fault->code)) +
+                 ")";
+        return describe_slots(std::get<gw::SlotConfig>(r));
+      }
+      case fdl::Service::SlaveDiag: {
+        if (req || t.du.size() < 11 || foreign_[station]) return {};
+        if (t.du[4] != (gw::kIdentNumber >> 8) || t.du[5] != (gw::kIdentNumber & 0xFF)) return {};
+        // emulator-spec §3 bytes 8..10.
+        const auto b = std::span(t.du).subspan(8, 3);
+        if (b[0] == dp::kExtDiagPrmSap)
+          return "Prm fault: byte " + std::to_string(b[1]) + ", correct value " + hex2(b[2]);
+        if (b[0] == dp::kExtDiagCfgSap)
+          return "Cfg fault: slot " + std::to_string(b[1]) + ", code " + std::to_string(b[2]) +
+                 " (" + std::string(gw::cfg_code_text(b[2])) + ")";
+        if (!(t.du[0] & dp::kDiag1ExtDiag)) return {};
+        static constexpr const char* kBus[] = {"OK", "WARN", "ERROR_PASSIVE", "BUS_OFF"};
+        return std::string("CAN bus ") + kBus[(b[0] >> 6) & 3] + ", IRQ_LOST " +
+               std::to_string(b[1]) + ", MSG_LOST " + std::to_string(b[2]);
+      }
+      default:
+        return {};
+    }
+  }
+
+ private:
+  std::map<std::uint8_t, gw::UserPrm> prm_;
+  std::map<std::uint8_t, bool> foreign_;  // station's Set_Prm carried another Ident_Number
+};
+
+class Sniffer {
+ public:
+  explicit Sniffer(const SniffArgs& a) : args_(a) {}
+
+  // Prints the parser's pending events; `stamp` prefixes each line. False once --count is reached.
+  bool print_events(fdl::StreamParser& p, const std::string* stamp) {
+    while (auto ev = p.next()) {
+      std::string line = stamp ? *stamp : offset_stamp(ev->offset);
+      if (ev->error != fdl::Error::None) {
+        if (!args_.errors) continue;
+        line += " ERROR " + std::string(fdl::to_string(ev->error)) + ": " + hex_bytes(ev->raw);
+        std::cout << line << "\n";
+        continue;
+      }
+      if (args_.hex) line += " " + hex_bytes(ev->raw) + " |";
+      const auto d = describer_.describe(ev->telegram);
+      line += " " + d.text;
+      if (!args_.generic) {
+        const auto extra = candp2_.decode(ev->telegram, d);
+        if (!extra.empty()) line += " | CAN-DP/2: " + extra;
+      }
+      std::cout << line << "\n";
+      if (args_.count && ++printed_ >= args_.count) return false;
+    }
+    std::cout.flush();
+    return true;
+  }
+
+ private:
+  static std::string offset_stamp(std::uint64_t offset) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "@%06llu", static_cast<unsigned long long>(offset));
+    return buf;
+  }
+
+  const SniffArgs& args_;
+  fdl::Describer describer_;
+  CanDp2Decoder candp2_;
+  std::uint64_t printed_ = 0;
+};
+
+void print_stats(const fdl::ParserStats& s) {
+  std::cout.flush();
+  std::cerr << "candp2 sniff: " << s.telegrams << " telegrams, " << s.bytes << " bytes, "
+            << s.fcs_errors << " FCS errors, " << s.framing_errors << " framing errors, "
+            << s.parity_errors << " parity errors, " << s.garbage_bytes << " garbage bytes\n";
+}
+
+int sniff_file(const SniffArgs& a) {
+  std::ifstream in(a.source, std::ios::binary);
+  if (!in) {
+    std::cerr << "candp2 sniff: " << a.source << ": cannot open: " << std::strerror(errno) << "\n";
+    return 2;
+  }
+  fdl::StreamParser parser;
+  Sniffer sniffer(a);
+  std::vector<char> buf(4096);
+  while (in) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const auto n = static_cast<std::size_t>(in.gcount());
+    if (n == 0) break;
+    parser.feed(std::span(reinterpret_cast<const std::uint8_t*>(buf.data()), n));
+    if (!sniffer.print_events(parser, nullptr)) return 0;
+  }
+  if (in.bad()) {
+    std::cerr << "candp2 sniff: " << a.source << ": read error\n";
+    return 2;
+  }
+  parser.gap();  // end of file ends a partial telegram
+  sniffer.print_events(parser, nullptr);
+  if (a.errors) print_stats(parser.stats());
+  return 0;
+}
+
+volatile sig_atomic_t g_stop = 0;
+void on_signal(int) {
+  g_stop = 1;
+}
+
+int sniff_port(const SniffArgs& a) {
+  serial::SerialOptions o;
+  o.port = a.source;
+  o.baud = a.baud;
+  std::string error;
+  auto port = serial::SerialPort::open(o, &error);
+  if (!port) {
+    std::cerr << "candp2 sniff: " << error << "\n";
+    return 2;
+  }
+  if (port->is_pty())
+    std::cerr << "candp2 sniff: listening on " << port->link_path() << " -> "
+              << port->terminal_path() << "\n";
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+
+  using Clock = std::chrono::steady_clock;
+  const auto start = Clock::now();
+  auto now = [&] { return std::chrono::duration_cast<Time>(Clock::now() - start); };
+  // emulator-spec §10: idle ≥ TSYN (33 bit times) ends a telegram.
+  const auto tsyn = std::chrono::microseconds(
+      static_cast<long long>(std::ceil(33.0 * 1e6 / static_cast<double>(a.baud))));
+  fdl::StreamParser parser;
+  Sniffer sniffer(a);
+  std::optional<Time> first;
+  std::vector<serial::RxByte> rx;
+  int rc = 0;
+  while (!g_stop) {
+    pollfd pfd{port->fd(), POLLIN, 0};
+    const timespec ts{0, static_cast<long>(tsyn.count()) * 1000};
+    const int r = ppoll(&pfd, 1, parser.buffered() ? &ts : nullptr, nullptr);
+    if (r < 0) {
+      if (errno == EINTR) continue;
+      std::cerr << "candp2 sniff: poll: " << std::strerror(errno) << "\n";
+      rc = 2;
+      break;
+    }
+    const Time t = now();
+    if (r == 0) {
+      parser.gap();
+    } else {
+      rx.clear();
+      if (port->read(rx, t, &error) < 0) {
+        std::cerr << "candp2 sniff: " << error << "\n";
+        rc = 2;
+        break;
+      }
+      if (!rx.empty() && !first) first = t;
+      for (const auto& b : rx) {
+        if (b.parity_error)
+          parser.feed_bad_char(b.value);
+        else
+          parser.feed(b.value);
+      }
+    }
+    char stamp[40];
+    std::snprintf(stamp, sizeof stamp, "(%.6f)",
+                  std::chrono::duration<double>(t - first.value_or(t)).count());
+    const std::string s(stamp);
+    if (!sniffer.print_events(parser, &s)) break;
+  }
+  if (a.errors) print_stats(parser.stats());
+  return rc;
+}
+
+bool looks_like_port(const std::string& source) {
+  if (source.rfind("pty:", 0) == 0 || source.rfind("/dev/", 0) == 0) return true;
+  std::error_code ec;
+  const auto st = std::filesystem::status(source, ec);
+  return !ec && std::filesystem::is_character_file(st);
+}
+
+int run_sniff(const SniffArgs& a) {
+  return looks_like_port(a.source) ? sniff_port(a) : sniff_file(a);
+}
+
+}  // namespace
+
+void add_sniff(CLI::App& app, int& exit_code) {
+  auto args = std::make_shared<SniffArgs>();
+  auto* cmd = app.add_subcommand(
+      "sniff",
+      "Decode PROFIBUS FDL/DP telegrams from a serial line or a raw capture file, one line per "
+      "telegram (docs/sniff.md); exit 0 at end of file, 2 when the source cannot be opened");
+  cmd->add_option("SOURCE", args->source,
+                  "a serial device (/dev/ttyUSB0), pty:PATH, or a raw capture file")
+      ->required();
+  cmd->add_option("--baud", args->baud, "bit rate of a serial line (default 19200)")
+      ->check([](const std::string& v) -> std::string {
+        try {
+          if (serial::is_supported_baud(static_cast<std::uint32_t>(std::stoul(v)))) return {};
+        } catch (...) {
+        }
+        return "supported: " + serial::supported_bauds_text();
+      });
+  cmd->add_flag("--errors", args->errors,
+                "also print parser errors (FCS, LE, ED, parity) and the line statistics");
+  cmd->add_flag("-x,--hex", args->hex, "print each telegram's raw bytes before its description");
+  cmd->add_flag("--generic", args->generic, "generic DP decoding only (no CAN-DP/2 payloads)");
+  cmd->add_option("-n,--count", args->count, "exit after this many telegrams");
+  cmd->callback([args, &exit_code] { exit_code = run_sniff(*args); });
+}
+
+}  // namespace candp2::cli
