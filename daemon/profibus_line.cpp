@@ -110,7 +110,11 @@ void ProfibusSlaveLine::on_readable() {
   std::string error;
   const long n = port_->read(rx_, now, &error);
   if (n < 0) {
-    log_.error(error);
+    // A device that is gone (USB adapter unplugged: EIO) would report readable forever: stop
+    // watching it; the gateways stay, their watchdogs take them out of Data_Exch.
+    log_.error(error + ": the PROFIBUS line is dead; restart candp2d when the port is back");
+    if (watching_) loop_.remove_fd(port_->fd());
+    watching_ = false;
     return;
   }
   if (rx_.empty()) return;
