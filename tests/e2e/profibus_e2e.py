@@ -396,6 +396,46 @@ class TestMasterDrivesSlaves(unittest.TestCase):
         self.assertIsNone(s.bus.recv(timeout=0.5), "S's gateway still sends on CAN")
 
 
+class TestStartErrors(unittest.TestCase):
+    """Bad profibus sections and ports: exit status and a message naming the place."""
+
+    def run_daemon(self, profibus):
+        tmp = tempfile.mkdtemp(prefix="candp2-pb-err-")
+        try:
+            cfg = slaves_config(os.path.join(tmp, "pb"), free_port(), free_port())
+            cfg["profibus"].update(profibus(tmp))
+            path = os.path.join(tmp, "bad.json")
+            with open(path, "w") as f:
+                json.dump(cfg, f)
+            r = subprocess.run([CANDP2D, "--config", path], capture_output=True, text=True,
+                               timeout=WAIT)
+            return r.returncode, r.stdout + r.stderr
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+    def test_baud_not_supported(self):
+        rc, out = self.run_daemon(lambda tmp: {"baud": 115200})
+        self.assertEqual(rc, 2, out)
+        self.assertIn("$.profibus.baud", out)
+        self.assertIn("93750", out)
+
+    def test_unknown_device(self):
+        rc, out = self.run_daemon(lambda tmp: {"port": os.path.join(tmp, "ttyUSB9")})
+        self.assertEqual(rc, 2, out)
+        self.assertIn("$.profibus.port", out)
+        self.assertIn("does not exist", out)
+
+    def test_pty_path_is_a_regular_file(self):
+        def regular_file(tmp):
+            path = os.path.join(tmp, "file")
+            with open(path, "w") as f:
+                f.write("keep")
+            return {"port": "pty:" + path}
+        rc, out = self.run_daemon(regular_file)
+        self.assertEqual(rc, 1, out)
+        self.assertIn("not a symbolic link", out)
+
+
 def role_master_supported():
     tmp = tempfile.mkdtemp(prefix="candp2-pb-probe-")
     try:
