@@ -17,7 +17,7 @@
 #include "daemon/daemon.hpp"
 #include "daemon/default_config.hpp"
 #include "daemon/event_loop.hpp"
-#include "daemon/log_sink.hpp"
+#include "logsink/spdlog_sink.hpp"
 
 namespace {
 
@@ -26,7 +26,7 @@ constexpr int kExitUsage = 2;
 
 int run(const candp2::config::DaemonConfig& config, candp2::LogLevel level) {
   using namespace candp2;
-  daemon::SpdlogSink sink(level);
+  logsink::SpdlogSink sink(level);
   Logger log(&sink, "candp2d");
   // Sockets are written with MSG_NOSIGNAL; a stray SIGPIPE must still never end the daemon.
   ::signal(SIGPIPE, SIG_IGN);
@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
   for (const auto& w : config.warnings) std::cerr << "candp2d: warning: " << w.to_string() << "\n";
 
   const std::string level_name = level_override.empty() ? config.log_level : level_override;
-  const auto level = candp2::daemon::parse_level(level_name);
+  const auto level = candp2::logsink::parse_level(level_name);
   if (!level) {
     std::cerr << "candp2d: error: --log-level: expected trace, debug, info, warn or error, got \""
               << level_name << "\"\n";

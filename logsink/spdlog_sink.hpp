@@ -1,5 +1,6 @@
-// The daemon's log sink: candp2::LogSink (common/log.hpp) written through spdlog, one line per
-// message with time, level and component ("2024-05-01 12:00:00.123 info  [gw5] Set_Prm accepted").
+// candp2::LogSink (common/log.hpp) written through spdlog, one line per message with time, level
+// and component ("2024-05-01 12:00:00.123 info  [gw5] Set_Prm accepted"). Shared by the
+// applications (candp2d, candp2-drive); below both, so neither reaches into the other's folder.
 #pragma once
 
 #include <memory>
@@ -12,7 +13,7 @@ namespace spdlog {
 class logger;
 }
 
-namespace candp2::daemon {
+namespace candp2::logsink {
 
 // "trace", "debug", "info", "warn" (or "warning"), "error".
 std::optional<LogLevel> parse_level(std::string_view name);
@@ -33,4 +34,4 @@ class SpdlogSink final : public LogSink {
   std::shared_ptr<spdlog::logger> logger_;
 };
 
-}  // namespace candp2::daemon
+}  // namespace candp2::logsink

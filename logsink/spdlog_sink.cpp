@@ -1,9 +1,9 @@
-#include "daemon/log_sink.hpp"
+#include "logsink/spdlog_sink.hpp"
 
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
 
-namespace candp2::daemon {
+namespace candp2::logsink {
 
 namespace {
 
@@ -66,4 +66,4 @@ void SpdlogSink::flush() {
   logger_->flush();
 }
 
-}  // namespace candp2::daemon
+}  // namespace candp2::logsink
