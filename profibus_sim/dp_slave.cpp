@@ -102,6 +102,7 @@ bool DpSlave::chk_cfg(std::uint8_t master, std::span<const std::uint8_t> cfg, Ti
   cfg_.assign(cfg.begin(), cfg.end());
   cfg_accepted_ = true;
   inputs_.assign(app_.input_length(), 0);
+  outputs_.assign(app_.output_length(), 0);
   enter(SlaveState::DataExch, now, "Chk_Cfg accepted");
   return true;
 }
@@ -160,6 +161,7 @@ std::optional<std::span<const std::uint8_t>> DpSlave::data_exchange(
               " output bytes, configured " + std::to_string(app_.output_length()) + ": ignored");
     return std::nullopt;
   }
+  outputs_.assign(outputs.begin(), outputs.end());
   app_.on_data_exchange(outputs, inputs_, now);
   return std::span<const std::uint8_t>(inputs_);
 }

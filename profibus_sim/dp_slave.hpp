@@ -96,6 +96,9 @@ class DpSlave {
   std::optional<PrmFault> prm_fault() const { return prm_fault_; }
   std::optional<CfgFault> cfg_fault() const { return cfg_fault_; }
   std::optional<std::uint32_t> watchdog_ms() const;
+  // The process image as last exchanged: inputs sent, outputs received (Rd_Inp / Rd_Outp).
+  std::span<const std::uint8_t> inputs() const { return inputs_; }
+  std::span<const std::uint8_t> outputs() const { return outputs_; }
   // Power cycle: back to Wait_Prm with nothing accepted.
   void reset(Time now);
 
@@ -117,6 +120,7 @@ class DpSlave {
   std::optional<CfgFault> cfg_fault_;
   Time last_master_telegram_{0};
   std::vector<std::uint8_t> inputs_;
+  std::vector<std::uint8_t> outputs_;
 };
 
 }  // namespace candp2::dp
