@@ -18,6 +18,7 @@
 #include "daemon/http_status.hpp"
 #include "daemon/modbus_map.hpp"
 #include "daemon/modbus_server.hpp"
+#include "daemon/profibus_line.hpp"
 #include "drive_sim/file_parameter_store.hpp"
 #include "drive_sim/unitek_drive.hpp"
 
@@ -174,6 +175,11 @@ class DaemonImpl final : public Daemon {
     if (can_log_.is_open()) can_log_.write(f, EventLoop::wall_now(), bus.cfg.name);
   }
   dp::DpMaster& dp_master() { return *master_; }
+  // emulator-spec §10: role slaves (an external master drives the gateways over FDL).
+  bool external_master() const { return line_ != nullptr; }
+  std::optional<modbus::StatusInputs::Line> line_status(std::uint8_t address) const {
+    return line_ ? line_->status(address) : std::nullopt;
+  }
   Time now() const { return loop_.now(); }
   const Logger& logger() const { return log_; }
 
@@ -207,6 +213,7 @@ class DaemonImpl final : public Daemon {
   EventLoop::DeferredId deferred_ = 0;
   EventLoop::TimerId cycle_timer_ = 0;
   CycleStats cycle_stats_;
+  std::unique_ptr<ProfibusSlaveLine> line_;    // profibus role slaves
   std::unique_ptr<StatusModel> status_model_;  // declared last: destroyed first
   std::unique_ptr<HttpServer> http_;
 };
@@ -229,6 +236,7 @@ modbus::StatusBlock GatewayUnit::status(Time now) {
     in.master_state = view->state;
     in.parameterizations = view->parameterizations;
   }
+  in.line = daemon->line_status(gateway->address());
   return modbus::encode_status(in);
 }
 
@@ -243,6 +251,13 @@ void GatewayUnit::control(modbus::Control command, Time now) {
       gateway->power_cycle(now);
       return;
     case modbus::Control::Reparameterize:
+      if (daemon->external_master()) {
+        // emulator-spec §10 role slaves: the external master parameterizes; it cannot be forced.
+        daemon->logger().warn(cfg.name +
+                              ": re-parameterization requested over Modbus ignored: an external "
+                              "PROFIBUS master drives this gateway (write 1 to power-cycle it)");
+        return;
+      }
       daemon->logger().info(cfg.name + ": re-parameterization requested over Modbus");
       daemon->dp_master().reparameterize(gateway->address(), now);
       return;
@@ -341,7 +356,7 @@ bool DaemonImpl::open_gateway(GatewayUnit& g, std::string* error) {
   }
   o.log = log_sink_;
   g.gateway = std::make_unique<gw::Gateway>(o, g, loop_.now());
-  master_->add_slave(g.gateway->dp(), config::slave_parameters(g.cfg));
+  if (!config_.profibus) master_->add_slave(g.gateway->dp(), config::slave_parameters(g.cfg));
   log_.info("gateway " + g.cfg.name + ": DP address " + std::to_string(g.gateway->address()) +
             ", " + std::to_string(g.cfg.slots.size()) + " slots, bus " + b.name + " (" +
             std::string(config::to_string(b.type)) + ")");
@@ -376,6 +391,10 @@ bool DaemonImpl::open_drive(DriveUnit& d, std::string* error) {
 }
 
 bool DaemonImpl::start(std::string* error) {
+  if (config_.remote_gateways()) {
+    *error = "PROFIBUS line ($.profibus.role): role \"master\" is not available in this build";
+    return false;
+  }
   if (config_.state_file) stored_ = load_state(*config_.state_file, log_);
   if (config_.can_log && !can_log_.open(*config_.can_log, error)) return false;
 
@@ -413,9 +432,21 @@ bool DaemonImpl::start(std::string* error) {
   }
   check_stored();
 
+  if (config_.profibus) {
+    // emulator-spec §10 role slaves: the gateways answer FDL on the line; the built-in master
+    // does not run.
+    line_ = ProfibusSlaveLine::open(*config_.profibus, loop_, master_->image(), log_sink_, error);
+    if (!line_) return false;
+    for (auto& g : gateways_)
+      line_->add(g->gateway->dp(), config::slave_parameters(g->cfg), g->cfg.name);
+    log_.info("PROFIBUS line " + line_->describe() + ": " + std::to_string(gateways_.size()) +
+              " gateway(s) answer an external master");
+  }
+
   std::vector<modbus::GatewayFace*> faces;
   for (auto& g : gateways_) faces.push_back(g.get());
   map_ = std::make_unique<modbus::ProcessImageMap>(master_->image(), std::move(faces));
+  map_->set_outputs_read_only(line_ != nullptr);
   std::string e;
   modbus_ = modbus::ModbusServer::listen(
       {.host = config_.modbus_listen.host, .port = config_.modbus_listen.port}, loop_, *map_,
@@ -429,6 +460,15 @@ bool DaemonImpl::start(std::string* error) {
 
   deferred_ = loop_.add_deferred([this] { return drain_in_process(); });
   cycle_stats_.start(loop_.now() + milliseconds(config_.cycle_ms), milliseconds(config_.cycle_ms));
+  if (line_) {
+    // Role slaves: an external master cycles the gateways; no built-in master cycle runs.
+    cycle_timer_ = loop_.add_periodic(milliseconds(config_.cycle_ms), [this] {
+      update_links();
+      if (http_) http_->after_cycle(loop_.now());
+      check_stored();
+    });
+    return true;
+  }
   cycle_timer_ = loop_.add_periodic(milliseconds(config_.cycle_ms), [this] {
     cycle_stats_.record(loop_.now());
     master_->cycle(loop_.now());
@@ -574,6 +614,7 @@ std::string DaemonImpl::listening() const {
     if (b->export_server)
       out += ", bus " + b->cfg.name + " socketcand " + b->cfg.socketcand_listen->host + ":" +
              std::to_string(b->export_server->port());
+  if (line_) out += ", profibus " + line_->describe();
   return out;
 }
 

@@ -22,8 +22,8 @@
 #include "daemon/daemon.hpp"
 #include "daemon/default_config.hpp"
 #include "daemon/event_loop.hpp"
-#include "daemon/log_sink.hpp"
 #include "daemon/systemd_notify.hpp"
+#include "logsink/spdlog_sink.hpp"
 #include "version/version.hpp"
 
 namespace {
@@ -34,13 +34,13 @@ constexpr int kExitUsage = 2;
 // Messages written to stderr before the log sink exists: with a syslog priority prefix when
 // stderr is the journal (sd-daemon.h), so warnings and errors keep their level there.
 std::string prefix(const char* priority) {
-  static const bool journal = candp2::daemon::stderr_is_journal();
+  static const bool journal = candp2::logsink::stderr_is_journal();
   return journal ? priority : "";
 }
 
 int run(const candp2::config::DaemonConfig& config, candp2::LogLevel level) {
   using namespace candp2;
-  daemon::SpdlogSink sink(level);
+  logsink::SpdlogSink sink(level);
   Logger log(&sink, "candp2d");
   // Sockets are written with MSG_NOSIGNAL; a stray SIGPIPE must still never end the daemon.
   ::signal(SIGPIPE, SIG_IGN);
@@ -128,7 +128,7 @@ int main(int argc, char** argv) {
     std::cerr << prefix(SD_WARNING) << "candp2d: warning: " << w.to_string() << "\n";
 
   const std::string level_name = level_override.empty() ? config.log_level : level_override;
-  const auto level = candp2::daemon::parse_level(level_name);
+  const auto level = candp2::logsink::parse_level(level_name);
   if (!level) {
     std::cerr << prefix(SD_ERR)
               << "candp2d: error: --log-level: expected trace, debug, info, warn or error, got \""

@@ -12,6 +12,8 @@ std::string_view to_string(Exception e) {
       return "illegal data address";
     case Exception::IllegalDataValue:
       return "illegal data value";
+    case Exception::ServerDeviceFailure:
+      return "server device failure";
     case Exception::GatewayTargetFailed:
       return "gateway target device failed to respond";
   }
@@ -237,6 +239,21 @@ std::span<const StatusField> status_fields() {
        "bit rate of the SocketCAN interface, bit/s (0 = no bit timing, e.g. vcan)"},
       {kBitrateMismatch, 1, "bitrate_mismatch",
        "1 = the interface's bit rate differs from Set_Prm's by more than 1 %"},
+      {kLineRole, 1, "line_role",
+       "PROFIBUS line (emulator-spec §10): 0 none (in-process), 1 role slaves, 2 role master"},
+      {kLineTelegrams, 2, "line_telegrams", "good FDL telegrams received on the line"},
+      {kLineFcsErrors, 2, "line_fcs_errors", "telegrams dropped for a wrong FCS"},
+      {kLineOtherErrors, 2, "line_other_errors",
+       "telegrams dropped for framing (LE/LEr, ED, truncated) or parity errors"},
+      {kStationRequests, 2, "station_requests", "requests addressed to this station"},
+      {kStationRetries, 2, "station_retries",
+       "role slaves: FCB repetitions answered; role master: requests repeated (no answer)"},
+      {kResponseUs, 1, "response_us",
+       "last response time, µs: role slaves request end → answer written; role master request "
+       "written → answer complete (65535 = longer)"},
+      {kResponseMaxUs, 1, "response_max_us", "highest response time since start, µs"},
+      {kStationPresent, 1, "station_present",
+       "role slaves: 1 while a master talks to the station; role master: 1 while it answers"},
   };
   return kFields;
 }
@@ -299,6 +316,19 @@ StatusBlock encode_status(const StatusInputs& in) {
   b[kLedE] = leds.e;
   b[kLedP] = leds.p;
   b[kLedC] = leds.c;
+  if (in.line) {
+    const auto& l = *in.line;
+    b[kLineRole] = l.role;
+    put32(kLineTelegrams, l.telegrams);
+    put32(kLineFcsErrors, l.fcs_errors);
+    put32(kLineOtherErrors, l.other_errors);
+    put32(kStationRequests, l.requests);
+    put32(kStationRetries, l.retries);
+    b[kResponseUs] = static_cast<std::uint16_t>(std::min<std::uint32_t>(l.response_us, 0xFFFF));
+    b[kResponseMaxUs] =
+        static_cast<std::uint16_t>(std::min<std::uint32_t>(l.response_max_us, 0xFFFF));
+    b[kStationPresent] = l.present ? 1 : 0;
+  }
   b[kDpAddress] = in.dp_address;
   put32(kParameterizations, in.parameterizations);
   return b;
@@ -365,6 +395,15 @@ std::optional<DecodeFailure> ProcessImageMap::read_registers(Table t, GatewayFac
   return address_error(t, address, count);
 }
 
+namespace {
+DecodeFailure read_only_error() {
+  // emulator-spec §10, role slaves: the output image is what the external master sends.
+  return {Exception::ServerDeviceFailure,
+          "the output image belongs to the external PROFIBUS master (profibus role slaves): it "
+          "shows what the master sent and cannot be written"};
+}
+}  // namespace
+
 std::optional<DecodeFailure> ProcessImageMap::handle(const Request& r, ReadResult& out, Time now) {
   GatewayFace* g = resolve(r.unit);
   if (!g)
@@ -391,6 +430,7 @@ std::optional<DecodeFailure> ProcessImageMap::handle(const Request& r, ReadResul
     case Function::WriteMultipleCoils: {
       if (!within(r.address, r.count, 0, kImageBits))
         return address_error(r.table, r.address, r.count);
+      if (outputs_read_only_) return read_only_error();
       for (std::uint32_t i = 0; i < r.count; ++i) {
         const std::uint32_t b = r.address + i;
         const bool on = r.function == Function::WriteSingleCoil ? r.register_value(0) == kCoilOn
@@ -408,6 +448,7 @@ std::optional<DecodeFailure> ProcessImageMap::handle(const Request& r, ReadResul
       const bool image = within(wa, wc, 0, kImageRegisters);
       const bool control = within(wa, wc, kControlRegister, 1);
       if (!image && !control) return address_error(Table::HoldingRegisters, wa, wc);
+      if (image && outputs_read_only_) return read_only_error();
       // FC 23: both ranges are checked before anything is written (all or nothing).
       if (r.function == Function::ReadWriteMultipleRegisters &&
           !within(r.address, r.count, 0, kImageRegisters) &&

@@ -43,6 +43,7 @@ enum class Exception : std::uint8_t {
   IllegalFunction = 0x01,
   IllegalDataAddress = 0x02,
   IllegalDataValue = 0x03,
+  ServerDeviceFailure = 0x04,  // profibus role slaves: the output image is the wire's (§10)
   GatewayTargetFailed = 0x0B,  // "gateway target device failed to respond": unknown unit ID
 };
 std::string_view to_string(Exception e);
@@ -157,7 +158,17 @@ inline constexpr std::uint16_t kBitrateMode = 37;        // 0 none, 1 check, 2 a
 inline constexpr std::uint16_t kBitrateConfigured = 38;  // 38-39 bit/s from Set_Prm byte 8
 inline constexpr std::uint16_t kBitrateInterface = 40;   // 40-41 bit/s of the interface
 inline constexpr std::uint16_t kBitrateMismatch = 42;    // 1 = they differ by more than 1 %
-inline constexpr std::uint16_t kCount = 43;
+// The PROFIBUS line (emulator-spec §10; zero without a `profibus` section).
+inline constexpr std::uint16_t kLineRole = 43;         // 0 in-process, 1 role slaves, 2 role master
+inline constexpr std::uint16_t kLineTelegrams = 44;    // 44-45 good telegrams on the line
+inline constexpr std::uint16_t kLineFcsErrors = 46;    // 46-47
+inline constexpr std::uint16_t kLineOtherErrors = 48;  // 48-49 framing, parity, truncated
+inline constexpr std::uint16_t kStationRequests = 50;  // 50-51 requests to this station
+inline constexpr std::uint16_t kStationRetries = 52;   // 52-53 repetitions (FCB / master retries)
+inline constexpr std::uint16_t kResponseUs = 54;       // last response time, µs (max 65535)
+inline constexpr std::uint16_t kResponseMaxUs = 55;    // highest response time, µs
+inline constexpr std::uint16_t kStationPresent = 56;   // 1 talking to a master / answering
+inline constexpr std::uint16_t kCount = 57;
 }  // namespace status
 
 // LED codes in the status block (manual §3.3, table 3.3.1).
@@ -198,6 +209,14 @@ struct StatusInputs {
   std::optional<dp::MasterSlaveState> master_state;
   std::uint32_t parameterizations = 0;
   std::uint8_t dp_address = 0;
+  struct Line {
+    std::uint16_t role = 0;  // 1 slaves, 2 master
+    std::uint32_t telegrams = 0, fcs_errors = 0, other_errors = 0;
+    std::uint32_t requests = 0, retries = 0;
+    std::uint32_t response_us = 0, response_max_us = 0;
+    bool present = false;
+  };
+  std::optional<Line> line;
 };
 StatusBlock encode_status(const StatusInputs& in);
 
@@ -224,6 +243,9 @@ class ProcessImageMap final : public Handler {
  public:
   // The first gateway is the one unit IDs 0 and 255 address.
   ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways);
+  // profibus role slaves (emulator-spec §10): the output image shows what an external master
+  // sent; writes to it (holding registers 0..4095, coils) get exception 0x04.
+  void set_outputs_read_only(bool read_only) { outputs_read_only_ = read_only; }
   std::optional<DecodeFailure> handle(const Request& request, ReadResult& out, Time now) override;
   // The last command written to a gateway's control register (reads of holding register 8192).
   std::uint16_t last_control(std::uint8_t dp_address) const;
@@ -236,6 +258,7 @@ class ProcessImageMap final : public Handler {
   dp::ProcessImage& image_;
   std::vector<GatewayFace*> gateways_;
   std::vector<std::uint16_t> last_control_;  // per gateway
+  bool outputs_read_only_ = false;
 };
 
 // The status block's fields, for `candp2d --print-modbus-map` and logs.

@@ -89,6 +89,7 @@ class Server final : public ModbusServer {
     int fd = -1;
     std::string name;
     MbapFramer framer;
+    bool warned_device_failure = false;  // 0x04 (role slaves output image) logged once
   };
 
   void accept_all() {
@@ -180,7 +181,10 @@ class Server final : public ModbusServer {
     int rc;
     if (failure) {
       ++stats_.exceptions;
-      if (log_.enabled(LogLevel::Debug))
+      if (failure->exception == Exception::ServerDeviceFailure && !c.warned_device_failure) {
+        c.warned_device_failure = true;  // once per client; later ones at debug
+        log_.warn(c.name + ": write refused with exception 0x04: " + failure->why);
+      } else if (log_.enabled(LogLevel::Debug))
         log_.debug(c.name + ": unit " + std::to_string(adu[6]) + " function " +
                    std::to_string(adu[7]) + ": exception 0x" +
                    hex_bytes(std::array{static_cast<std::uint8_t>(failure->exception)}) + " (" +

@@ -26,9 +26,9 @@
 #include "can/socketcand.hpp"
 #include "common/log.hpp"
 #include "common/time.hpp"
-#include "daemon/log_sink.hpp"
 #include "drive_sim/file_parameter_store.hpp"
 #include "drive_sim/unitek_drive.hpp"
+#include "logsink/spdlog_sink.hpp"
 #include "version/version.hpp"
 
 namespace {
@@ -132,9 +132,9 @@ int main(int argc, char** argv) {
   }
 
   auto logger = spdlog::stderr_color_mt("candp2-drive");
-  // The daemon's sink (daemon/log_sink.hpp) on a coloured stderr logger; --log-level is checked
-  // by CLI11 above, so parse_level() always answers.
-  candp2::daemon::SpdlogSink sink(*candp2::daemon::parse_level(log_level), logger);
+  // The shared spdlog sink (logsink/spdlog_sink.hpp) on a coloured stderr logger; --log-level is
+  // checked by CLI11 above, so parse_level() always answers.
+  candp2::logsink::SpdlogSink sink(*candp2::logsink::parse_level(log_level), logger);
   Logger log(&sink, "main");
 
   // SIGINT/SIGTERM arrive on a signalfd polled with the channel: no races, no async handlers.

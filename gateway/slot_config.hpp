@@ -12,6 +12,7 @@
 #include "can/frame.hpp"
 #include "gateway/user_prm.hpp"
 #include "profibus_sim/dp_telegram.hpp"
+#include "profibus_sim/page_format.hpp"
 
 namespace candp2::gw {
 
@@ -38,9 +39,9 @@ inline constexpr std::size_t kMaxDataLen = 300;
 inline constexpr std::size_t kCommWindowLen = 16;         // manual §5.3.1
 inline constexpr std::uint16_t kCommWindowIdHigh = 0xFF;  // comment bytes FF EF (manual §5.3.2)
 inline constexpr std::uint16_t kCommWindowIdLow = 0xEF;
-inline constexpr std::uint32_t kDummyTxId = 0x07F8;    // manual §5.1.4: output without CAN id
-inline constexpr std::uint32_t kIdBit29 = 0x20000000;  // manual §5.2.1: flags a 29-bit id
-inline constexpr std::size_t kSegmentLen = 32;         // manual table 6.4.1
+inline constexpr std::uint32_t kDummyTxId = 0x07F8;         // manual §5.1.4: output without CAN id
+inline constexpr std::uint32_t kIdBit29 = page::kIdFlag29;  // manual §5.2.1: flags a 29-bit id
+inline constexpr std::size_t kSegmentLen = page::kSegmentLen;  // manual table 6.4.1
 
 enum class SlotKind : std::uint8_t { Rx, Tx, CwIn, CwOut, SegmentIn, SegmentOut };
 std::string_view to_string(SlotKind k);

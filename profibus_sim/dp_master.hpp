@@ -2,15 +2,23 @@
 //
 // Per slave: Slave_Diag → Set_Prm → Chk_Cfg → Slave_Diag → cyclic Data_Exchange, retrying the
 // parameterization while the slave reports a fault; every transition and the diagnosis it saw are
-// logged (the pyprofibus master's discipline: state → name, handler, time limit). The master owns
+// logged (the pyprofibus master's discipline: a table of state → name and handler). The master owns
 // one PLC process image (I and Q, 8192 bytes each) shared by all slaves, as in a PLC; slot bytes
 // are copied between the image and each slave's DP data at the PLC addresses of the configuration.
+//
+// Each slave is reached through a dp::SlaveLink (profibus_sim/slave_link.hpp): in-process (a
+// DpSlave in the same process, answers at once) or over FDL (fdl::FdlMaster, answers later). One
+// request per slave is outstanding at a time; a slave whose answer has not come yet is skipped in
+// that cycle. A station that does not answer shows Station_Non_Existent (diag byte 0 bit 0) in the
+// diagnosis the master exposes and is parameterized again from Init when it answers again, as a
+// real master's diagnosis shows it; a malformed answer shows Invalid_Slave_Response (bit 5).
 // Pure: time passed in; the daemon calls cycle() every cycle_ms.
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -18,6 +26,7 @@
 #include "common/log.hpp"
 #include "common/time.hpp"
 #include "profibus_sim/dp_slave.hpp"
+#include "profibus_sim/slave_link.hpp"
 
 namespace candp2::dp {
 
@@ -68,7 +77,11 @@ class DpMaster {
  public:
   DpMaster(MasterOptions options, LogSink* log = nullptr);
 
-  // The slave must outlive the master. Returns the slave's index.
+  // A slave reached through `link` (at link.address()); the link must outlive the master.
+  // Returns the slave's index.
+  std::size_t add_slave(SlaveLink& link, SlaveParameters params);
+  // Convenience: a DpSlave in this process, through an InProcessLink the master owns. The slave
+  // must outlive the master.
   std::size_t add_slave(DpSlave& slave, SlaveParameters params);
   void set_program(PlcProgram* program) { program_ = program; }
 
@@ -88,6 +101,7 @@ class DpMaster {
     std::optional<DpSlave::Diag> last_diag;
     std::uint32_t data_exchanges;
     std::uint32_t parameterizations;
+    std::uint32_t station_lost = 0;  // times the station stopped answering
   };
   std::vector<SlaveView> slaves() const;
   std::optional<SlaveView> slave(std::uint8_t address) const;
@@ -100,7 +114,8 @@ class DpMaster {
     std::size_t length;
   };
   struct Entry {
-    DpSlave* slave;
+    SlaveLink* link = nullptr;
+    std::unique_ptr<InProcessLink> owned;  // add_slave(DpSlave&)
     SlaveParameters params;
     std::vector<Mapping> out_map, in_map;
     std::size_t out_len = 0, in_len = 0;
@@ -110,17 +125,52 @@ class DpMaster {
     Time retry_at{0};
     std::uint32_t data_exchanges = 0;
     std::uint32_t parameterizations = 0;
+    std::uint32_t station_lost = 0;
+    bool busy = false;             // a request is outstanding on the link
+    bool diag_due = false;         // Data_Exchange answered DH: read the diagnosis next
+    std::uint32_t generation = 0;  // bumped by reparameterize(): older answers are dropped
+    std::uint8_t address() const { return link->address(); }
   };
+  using Handler = void (DpMaster::*)(Entry&, Time);
+  struct StateRow {
+    MasterSlaveState state;
+    Handler step;
+  };
+  static const StateRow kStates[];
+  using OnAnswer = void (DpMaster::*)(Entry&, const Response&, Time);
+
   void step(Entry& e, Time now);
+  void on_retry(Entry& e, Time now);
+  void on_init(Entry& e, Time now);
+  void on_set_prm(Entry& e, Time now);
+  void on_chk_cfg(Entry& e, Time now);
+  void on_check_diag(Entry& e, Time now);
+  void on_data_exch(Entry& e, Time now);
+
+  void send(Entry& e, Service service, std::vector<std::uint8_t> data, Time now, OnAnswer then);
+  void init_answered(Entry& e, const Response& r, Time now);
+  void set_prm_answered(Entry& e, const Response& r, Time now);
+  void chk_cfg_answered(Entry& e, const Response& r, Time now);
+  void check_diag_answered(Entry& e, const Response& r, Time now);
+  void diag_due_answered(Entry& e, const Response& r, Time now);
+  void exchange_answered(Entry& e, const Response& r, Time now);
+  void refused_diag_answered(Entry& e, const Response& r, Time now);
+
+  // Shared answer handling: NoResponse → station lost; a Slave_Diag answer that is not 11 bytes
+  // → Invalid_Slave_Response. False when the answer was consumed that way.
+  bool answered(Entry& e, const Response& r, Time now, std::string_view what);
+  bool take_diag(Entry& e, const Response& r, Time now);
   void go(Entry& e, MasterSlaveState next, std::string_view why);
-  void read_diag(Entry& e, Time now);
+  void set_diag(Entry& e, const DpSlave::Diag& d);
   void fault(Entry& e, Time now, std::string_view why);
+  void lost(Entry& e, std::string_view what);
+  void invalid(Entry& e, Time now, std::string_view why);
 
   MasterOptions options_;
   Logger log_;
   ProcessImage image_;
   PlcProgram* program_ = nullptr;
-  std::vector<Entry> entries_;
+  std::vector<std::unique_ptr<Entry>> entries_;
 };
 
 // "02 05 00 FF 04 A4 05 04 00 00 00" decoded into words, for logs and reports:

@@ -7,8 +7,6 @@
 
 namespace candp2::plc {
 
-namespace page = gw::page;
-
 // ---------------------------------------------------------------- data blocks
 
 std::optional<std::vector<page::RawEntry>> parse_config_chain(const DbChain& chain,

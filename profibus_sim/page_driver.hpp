@@ -25,12 +25,12 @@
 
 #include "common/log.hpp"
 #include "common/time.hpp"
-#include "gateway/page_mode.hpp"
 #include "profibus_sim/dp_master.hpp"
+#include "profibus_sim/page_format.hpp"
 
 namespace candp2::plc {
 
-using gw::page::IdEntry;
+using page::IdEntry;
 using DataBlock = std::vector<std::uint8_t>;
 // Data blocks in processing order: a DD marker at the end of one continues in the next, EE ends.
 using DbChain = std::vector<DataBlock>;
@@ -45,8 +45,8 @@ struct DbPos {
 // WRITE_CONFIG_DB / READ_CONFIG_DB (manual tables 6.5.2/6.5.3): 6 bytes per identifier (identifier
 // big-endian, form, länge), then DD DD DD DD (next DB) or EE EE EE EE (end). The entries verbatim,
 // or nullopt and *why for a chain without a proper end.
-std::optional<std::vector<gw::page::RawEntry>> parse_config_chain(const DbChain& chain,
-                                                                  std::string* why);
+std::optional<std::vector<page::RawEntry>> parse_config_chain(const DbChain& chain,
+                                                              std::string* why);
 // WRITE_DB / READ_DB (manual tables 6.5.4/6.5.6): per identifier länge (= data bytes + 1),
 // force / count_in, data; then DD (next DB) or EE (end). The position of each identifier's länge
 // byte, checked against the configured lengths; nullopt and *why when the layout does not match.
@@ -118,8 +118,8 @@ class PageDriver final : public dp::PlcProgram {
   std::uint64_t scans() const { return scans_; }          // PLC cycles seen
   std::uint64_t restarts() const { return restarts_; }    // times page 0 was sent
   const std::string& last_error() const { return last_error_; }
-  const gw::page::Layout& output_layout() const { return out_; }
-  const gw::page::Layout& input_layout() const { return in_; }
+  const page::Layout& output_layout() const { return out_; }
+  const page::Layout& input_layout() const { return in_; }
 
  private:
   struct Answer {
@@ -154,14 +154,14 @@ class PageDriver final : public dp::PlcProgram {
   Time sent_at_{0};
   Time ready_at_{0};
   Time retry_at_{0};
-  gw::page::Layout out_, in_;
+  page::Layout out_, in_;
 
-  std::vector<gw::page::RawEntry> tx_raw_, rx_raw_;
+  std::vector<page::RawEntry> tx_raw_, rx_raw_;
   std::vector<IdEntry> tx_, rx_;
   std::size_t cursor_ = 0;     // configuration entries acknowledged so far
   std::size_t pending_ = 0;    // entries on the configuration page in flight
   bool pending_last_ = false;  // that page carries EE
-  std::vector<gw::page::DataPlace> tx_places_, rx_places_;
+  std::vector<page::DataPlace> tx_places_, rx_places_;
   std::size_t data_pages_ = 0;
   std::size_t data_index_ = 0;
 

@@ -250,7 +250,12 @@ bool SerialPort::open_pty(const std::string& link, std::string* error) {
     return false;
   }
   // Both ends raw 8E1 (no echo, no line editing): the terminal end until the peer sets its own.
-  if (!configure(pts_fd_, true, error) || !configure(fd_, true, error)) return false;
+  // One termios for both ends: Linux applies termios calls on the master to the terminal end
+  // (tty_mode_ioctl uses tty->link), and what the peer writes reaches us through the master's own
+  // fixed raw line discipline. So: the terminal end raw 8E1 without parity marks (a 0xFF would
+  // reach the peer doubled, and a pty has no parity errors anyway), nothing to unescape here.
+  if (!configure(pts_fd_, true, error, false)) return false;
+  mark_parity_ = false;
 
   // Atomic replace: a temporary link renamed over PATH (a stale link from a killed process goes).
   bool replaced = false;
@@ -279,7 +284,7 @@ bool SerialPort::open_pty(const std::string& link, std::string* error) {
   return true;
 }
 
-bool SerialPort::configure(int fd, bool is_pty, std::string* error) {
+bool SerialPort::configure(int fd, bool is_pty, std::string* error, bool mark_parity) {
   const std::string& what = is_pty ? pts_path_ : options_.port;
   struct termios tio;
   if (::tcgetattr(fd, &tio) != 0) {
@@ -293,7 +298,7 @@ bool SerialPort::configure(int fd, bool is_pty, std::string* error) {
   // Parity errors marked in the stream (0xFF 0x00 X), a data 0xFF doubled; no software flow
   // control.
   tio.c_iflag &= ~(IGNPAR | ISTRIP | IXON | IXOFF | IXANY | IGNBRK | BRKINT);
-  tio.c_iflag |= INPCK | PARMRK;
+  if (mark_parity) tio.c_iflag |= INPCK | PARMRK;
   tio.c_cc[VMIN] = 0;  // non-blocking reads
   tio.c_cc[VTIME] = 0;
   const speed_t std_speed = standard_speed(options_.baud);
@@ -364,7 +369,10 @@ long SerialPort::read(std::vector<RxByte>& out, Time now, std::string* error) {
     if (n < 0) return -1;
     if (n == 0) break;
     const std::size_t from = out.size();
-    parmrk_.feed(buffer, static_cast<std::size_t>(n), out);
+    if (mark_parity_)
+      parmrk_.feed(buffer, static_cast<std::size_t>(n), out);
+    else
+      for (long i = 0; i < n; ++i) out.push_back({buffer[i], false});
     for (std::size_t i = from; i < out.size(); ++i)
       if (out[i].parity_error) ++parity_errors_;
     if (options_.echo) echo_.filter(out, from, now);

@@ -106,12 +106,16 @@ class SerialPort {
   const std::string& terminal_path() const { return pts_path_; }  // pty: /dev/pts/N
   std::uint32_t baud() const { return baud_; }
   bool low_latency() const { return low_latency_; }
+  // Whether read_raw() delivers PARMRK escapes (serial devices, a pty's terminal end opened as a
+  // device); false on our own pty master side.
+  bool marks_parity() const { return mark_parity_; }
   const SerialOptions& options() const { return options_; }
 
   // Reads everything available (non-blocking), unescapes parity marks, drops our echo, appends to
   // `out`. Returns the number of raw bytes read (0: nothing available), -1 on an error (*error).
   long read(std::vector<RxByte>& out, Time now, std::string* error);
-  // Raw bytes as the descriptor gives them (PARMRK escapes included): for a sniffer.
+  // Raw bytes as the descriptor gives them (PARMRK escapes included unless marks_parity() is
+  // false): for a sniffer.
   long read_raw(std::uint8_t* buffer, std::size_t size, std::string* error);
 
   // Writes (non-blocking); what the descriptor does not take now is queued: call flush() when
@@ -127,7 +131,7 @@ class SerialPort {
   explicit SerialPort(const SerialOptions& options);
   bool open_device(std::string* error);
   bool open_pty(const std::string& link, std::string* error);
-  bool configure(int fd, bool is_pty, std::string* error);
+  bool configure(int fd, bool is_pty, std::string* error, bool mark_parity = true);
 
   SerialOptions options_;
   Logger log_;
@@ -138,6 +142,7 @@ class SerialPort {
   std::uint32_t baud_ = 0;
   bool low_latency_ = false;
   ParmrkDecoder parmrk_;
+  bool mark_parity_ = true;  // PARMRK in effect on what we read (not on a pty's master side)
   EchoFilter echo_;
   std::vector<std::uint8_t> out_;
   std::uint64_t parity_errors_ = 0;

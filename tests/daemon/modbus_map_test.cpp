@@ -279,6 +279,24 @@ TEST_F(MapFixture, AddressBoundaries) {
   EXPECT_EQ(run(5, pdu(0x04, 65535, 1)), Exception::IllegalDataAddress);
 }
 
+TEST_F(MapFixture, RoleSlavesOutputImageIsReadOnly) {
+  // emulator-spec §10 role slaves: the output image is what the external master sent; writes to
+  // it get exception 0x04, reads, the status block and the control register still work.
+  image.outputs[172] = 0x11;
+  map.set_outputs_read_only(true);
+  EXPECT_EQ(run(5, write_regs(86, {0x0A0B})), Exception::ServerDeviceFailure);
+  EXPECT_EQ(run(5, pdu(0x06, 86, 0x0A0B)), Exception::ServerDeviceFailure);
+  EXPECT_EQ(run(5, pdu(0x05, 1376, 0xFF00)), Exception::ServerDeviceFailure);  // coil
+  EXPECT_EQ(image.outputs[172], 0x11);
+  ASSERT_EQ(run(5, pdu(0x03, 86, 1)), std::nullopt);
+  EXPECT_EQ(out.registers[0], 0x1100);
+  ASSERT_EQ(run(5, write_regs(8192, {1})), std::nullopt);
+  ASSERT_EQ(gw5.commands.size(), 1u);
+  EXPECT_EQ(run(5, write_regs(4096, {1})), Exception::IllegalDataAddress);  // 0x02 stays first
+  map.set_outputs_read_only(false);
+  EXPECT_EQ(run(5, write_regs(86, {0x0A0B})), std::nullopt);
+}
+
 TEST_F(MapFixture, UnitIdsSelectTheGatewayOfStatusAndControl) {
   ASSERT_EQ(run(6, pdu(0x04, 8192, 2)), std::nullopt);
   EXPECT_EQ(out.registers[0], 600);

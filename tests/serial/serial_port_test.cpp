@@ -185,7 +185,8 @@ TEST(SerialPortPty, LinkSettingsAndBytesBothWays) {
   EXPECT_EQ(fs::read_symlink(link).string(), port->terminal_path());
   EXPECT_EQ(port->terminal_path().rfind("/dev/pts/", 0), 0u);
 
-  // 8E1 raw on our side, read back.
+  // 8E1 raw, read back (on a pty there is one termios, the terminal end's, also through our fd).
+  EXPECT_FALSE(port->marks_parity());
   termios tio;
   ASSERT_EQ(::tcgetattr(port->fd(), &tio), 0);
   EXPECT_EQ(tio.c_cflag & CSIZE, static_cast<tcflag_t>(CS8));
@@ -196,8 +197,8 @@ TEST(SerialPortPty, LinkSettingsAndBytesBothWays) {
   EXPECT_TRUE(tio.c_cflag & CLOCAL);
   EXPECT_TRUE(tio.c_cflag & CREAD);
   EXPECT_FALSE(tio.c_cflag & CRTSCTS);
-  EXPECT_TRUE(tio.c_iflag & INPCK);
-  EXPECT_TRUE(tio.c_iflag & PARMRK);
+  // No parity marks on the terminal end: the peer must get a 0xFF as one byte.
+  EXPECT_FALSE(tio.c_iflag & PARMRK);
   EXPECT_FALSE(tio.c_iflag & (IXON | IXOFF));
   EXPECT_FALSE(tio.c_lflag & (ECHO | ICANON));
   EXPECT_EQ(tio.c_cc[VMIN], 0);
@@ -205,6 +206,10 @@ TEST(SerialPortPty, LinkSettingsAndBytesBothWays) {
 
   const int peer = open_peer(link);
   ASSERT_GE(peer, 0);
+  // The terminal end (the peer's) has no parity marks: a 0xFF we send arrives as one 0xFF.
+  termios peer_tio;
+  ASSERT_EQ(::tcgetattr(peer, &peer_tio), 0);
+  EXPECT_FALSE(peer_tio.c_iflag & PARMRK);
   // Peer -> port: an SD2 telegram with a 0xFF data byte (arrives doubled by PARMRK, unescaped).
   const std::uint8_t req[] = {0x68, 0x05, 0x05, 0x68, 0x83, 0x82, 0x6D, 0xFF, 0x3E, 0xAD, 0x16};
   ASSERT_EQ(::write(peer, req, sizeof req), static_cast<ssize_t>(sizeof req));
@@ -289,10 +294,18 @@ TEST(SerialPortDevice, ProfibusRateThroughTermios2) {
     }
     EXPECT_FALSE(tio.c_cflag & PARODD);
     EXPECT_EQ(tio.c_cflag & CSIZE, static_cast<tcflag_t>(CS8));
+    // A device marks parity errors (INPCK + PARMRK) and we unescape them.
+    EXPECT_TRUE(dev->marks_parity());
+    EXPECT_TRUE(tio.c_iflag & INPCK);
+    EXPECT_TRUE(tio.c_iflag & PARMRK);
     // Bytes from the device side reach the pty side.
     const std::uint8_t b[] = {0xDC, 0x03, 0x02};
     ASSERT_TRUE(dev->write(b, sizeof b, Time(0), &error)) << error;
     EXPECT_EQ(read_port(*server, 3), plain({0xDC, 0x03, 0x02}));
+    // And back, with a 0xFF data byte: PARMRK doubles it on the device side, read() unescapes.
+    const std::uint8_t back[] = {0x68, 0xFF, 0x16};
+    ASSERT_TRUE(server->write(back, sizeof back, Time(0), &error)) << error;
+    EXPECT_EQ(read_port(*dev, 3), plain({0x68, 0xFF, 0x16}));
   }
 }
 

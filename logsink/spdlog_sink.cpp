@@ -1,4 +1,4 @@
-#include "daemon/log_sink.hpp"
+#include "logsink/spdlog_sink.hpp"
 
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 
-namespace candp2::daemon {
+namespace candp2::logsink {
 
 namespace {
 
@@ -107,4 +107,4 @@ void SpdlogSink::flush() {
   logger_->flush();
 }
 
-}  // namespace candp2::daemon
+}  // namespace candp2::logsink

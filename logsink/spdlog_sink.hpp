@@ -1,6 +1,7 @@
-// The daemon's log sink: candp2::LogSink (common/log.hpp) written through spdlog, one line per
-// message with time, level and component ("2024-05-01 12:00:00.123 info  [gw5] Set_Prm accepted"),
-// or "<6>[gw5] Set_Prm accepted" under systemd's journal.
+// candp2::LogSink (common/log.hpp) written through spdlog, one line per message with time, level
+// and component ("2024-05-01 12:00:00.123 info  [gw5] Set_Prm accepted"), or "<6>[gw5] Set_Prm
+// accepted" under systemd's journal. Shared by the applications (candp2d, candp2-drive); below
+// both, so neither reaches into the other's folder.
 #pragma once
 
 #include <memory>
@@ -13,7 +14,7 @@ namespace spdlog {
 class logger;
 }
 
-namespace candp2::daemon {
+namespace candp2::logsink {
 
 // True when standard error is systemd's journal stream ($JOURNAL_STREAM, systemd.exec(5)).
 bool stderr_is_journal();
@@ -39,4 +40,4 @@ class SpdlogSink final : public LogSink {
   bool journal_ = false;
 };
 
-}  // namespace candp2::daemon
+}  // namespace candp2::logsink
