@@ -123,14 +123,17 @@ void FdlMaster::transmit(Time now) {
   if (log_.enabled(LogLevel::Debug))
     log_.debug("station " + std::to_string(st.address()) + " <- " + hex_bytes(o.bytes) +
                (o.attempt ? " (retry " + std::to_string(o.attempt) + ")" : ""));
-  o.answer_started = false;
-  send_(o.bytes, now);
   // The slot time runs from the request's last character (emulator-spec §10 "Timing").
   o.request_end = now + wire_time(o.bytes.size());
   o.deadline = o.request_end + bit_times(options_.slot_time_bits) + options_.latency_allowance;
-  if (!o.fdl_status && o.pending.request.service == dp::Service::GlobalControl) {
+  o.answer_started = false;
+  const bool sdn = !o.fdl_status && o.pending.request.service == dp::Service::GlobalControl;
+  const Time request_end = o.request_end;
+  const std::vector<std::uint8_t> bytes = o.bytes;
+  send_(bytes, now);  // an in-memory line may answer from inside: `o` may be gone after this
+  if (sdn && current_) {
     // SDN: no answer to wait for; the line is free after the telegram and TSYN.
-    line_free_at_ = o.request_end + bit_times(kTsynBits);
+    line_free_at_ = request_end + bit_times(kTsynBits);
     finish({dp::Response::Status::Ok, {}, false}, now);
   }
 }
