@@ -11,6 +11,7 @@
 
 #include "can/socketcan.hpp"
 #include "can/socketcand.hpp"
+#include "daemon/can_fault.hpp"
 #include "daemon/can_log.hpp"
 #include "daemon/modbus_map.hpp"
 #include "daemon/modbus_server.hpp"
@@ -100,11 +101,28 @@ struct GatewayUnit final : modbus::GatewayFace, can::FrameSink {
   std::unique_ptr<gw::Gateway> gateway;
   EventLoop::TimerId timer = 0;
   std::optional<Time> armed;
+  CanFaultLayer faults;  // between gateway and channel (docs/faults.md)
 
   void send(const can::Frame& frame) override;  // the gateway transmits
   std::uint8_t dp_address() const override { return gateway->address(); }
   modbus::StatusBlock status(Time now) override;
   void control(modbus::Control command, Time now) override;
+  bool force_bus_state(std::uint16_t code, Time now) override;
+  std::uint16_t forced_bus_state() const override { return faults.forced_code(); }
+  void drop_received(std::uint16_t n, Time now) override;
+  std::uint16_t drop_remaining() const override {
+    return static_cast<std::uint16_t>(std::min<std::uint32_t>(faults.drop_remaining(), 0xFFFF));
+  }
+  // Gives the gateway the controller state and IRQ_LOST total through the fault layer.
+  void update_controller() {
+    gateway->set_controller_status(faults.state(channel->bus_state()),
+                                   faults.rx_lost(channel->rx_lost()));
+  }
+  // A received frame through the fault layer.
+  void receive(const can::Frame& frame, Time now) {
+    if (faults.pass_rx()) gateway->on_can_frame(frame, now);
+  }
+  std::uint32_t reconnects() const;
 };
 
 struct DriveUnit {
@@ -196,8 +214,32 @@ void GatewayUnit::send(const can::Frame& frame) {
   // Virtual buses log every frame through their tap. On SocketCAN and socketcand buses the first
   // gateway's channel logs what it sends and receives: it receives what the other gateways on
   // that bus send (separate sockets/connections), so every frame is logged once.
+  if (!faults.pass_tx()) return;  // forced bus-off: dropped, counted (docs/faults.md)
   if (logs_bus) daemon->log_frame(frame, *bus);
   channel->send(frame);
+}
+
+std::uint32_t GatewayUnit::reconnects() const {
+  if (const auto* c = dynamic_cast<const can::SocketcandClientChannel*>(channel.get()))
+    return c->reconnects();
+  return 0;
+}
+
+bool GatewayUnit::force_bus_state(std::uint16_t code, Time) {
+  if (!faults.force(code)) return false;
+  daemon->logger().warn(cfg.name + ": CAN controller state " +
+                        (code == kForceReal
+                             ? std::string("no longer forced (real state)")
+                             : "forced to " + std::string(can::to_string(*faults.forced()))) +
+                        " over Modbus");
+  update_controller();
+  return true;
+}
+
+void GatewayUnit::drop_received(std::uint16_t n, Time) {
+  faults.drop_next(n);
+  daemon->logger().warn(cfg.name + ": the next " + std::to_string(n) +
+                        " received frame(s) will be dropped (IRQ_LOST)");
 }
 
 modbus::StatusBlock GatewayUnit::status(Time now) {
@@ -208,7 +250,13 @@ modbus::StatusBlock GatewayUnit::status(Time now) {
   if (const auto view = daemon->dp_master().slave(gateway->address())) {
     in.master_state = view->state;
     in.parameterizations = view->parameterizations;
+    in.addressed = view->addressed;
   }
+  in.forced_state = faults.forced_code();
+  in.tx_suppressed = faults.tx_suppressed();
+  in.rx_suppressed = faults.rx_suppressed();
+  in.rx_drop_remaining = faults.drop_remaining();
+  in.reconnects = reconnects();
   return modbus::encode_status(in);
 }
 
@@ -225,6 +273,14 @@ void GatewayUnit::control(modbus::Control command, Time now) {
     case modbus::Control::Reparameterize:
       daemon->logger().info(cfg.name + ": re-parameterization requested over Modbus");
       daemon->dp_master().reparameterize(gateway->address(), now);
+      return;
+    case modbus::Control::MasterStops:
+      daemon->logger().warn(cfg.name + ": the master stops addressing it (requested over Modbus)");
+      daemon->dp_master().set_addressed(gateway->address(), false, now);
+      return;
+    case modbus::Control::MasterResumes:
+      daemon->logger().info(cfg.name + ": the master addresses it again (requested over Modbus)");
+      daemon->dp_master().set_addressed(gateway->address(), true, now);
       return;
   }
 }
@@ -415,9 +471,9 @@ void DaemonImpl::drain_channel(GatewayUnit& g) {
   const Time now = loop_.now();
   while (auto f = g.channel->receive()) {
     if (g.logs_bus) log_frame(*f, *g.bus);
-    g.gateway->on_can_frame(*f, now);
+    g.receive(*f, now);
   }
-  g.gateway->set_controller_status(g.channel->bus_state(), g.channel->rx_lost());
+  g.update_controller();
 }
 
 bool DaemonImpl::drain_in_process() {
@@ -426,10 +482,10 @@ bool DaemonImpl::drain_in_process() {
   for (auto& g : gateways_) {
     if (g->endpoint) {
       while (auto f = g->endpoint->receive()) {
-        g->gateway->on_can_frame(*f, now);
+        g->receive(*f, now);
         work = true;
       }
-      g->gateway->set_controller_status(g->endpoint->bus_state(), g->endpoint->rx_lost());
+      g->update_controller();
     }
   }
   for (auto& d : drives_) {
@@ -592,8 +648,11 @@ std::string modbus_map_text(const config::DaemonConfig& config) {
     out << line << f.name << ": " << f.meaning << "\n";
   }
   out << "\nControl (holding register " << modbus::kControlRegister
-      << ", unit ID = DP address): write 1 = power cycle, 2 = re-parameterize; reads the last "
-         "command\n";
+      << ", unit ID = DP address): write 1 = power cycle, 2 = re-parameterize, 3 = the master "
+         "stops addressing the gateway, 4 = it resumes; reads the last command\n";
+  out << "Faults (docs/faults.md): holding register " << modbus::kForcedStateRegister
+      << " = forced CAN state (0 real, 1 warning, 2 error-passive, 3 bus-off), "
+      << modbus::kDropRxRegister << " = drop the next N received frames (IRQ_LOST)\n";
   out << "Exceptions: 0x01 unsupported function, 0x02 address outside the tables, 0x03 bad "
          "quantity/value, 0x0B unknown unit ID\n";
   return out.str();

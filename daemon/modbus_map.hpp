@@ -126,6 +126,12 @@ inline constexpr std::uint16_t kImageRegisters = 4096;   // registers 0..4095 = 
 inline constexpr std::uint32_t kImageBits = 65536;       // coils / discrete inputs 0..65535
 inline constexpr std::uint16_t kStatusBase = 8192;       // input registers 8192.. per gateway
 inline constexpr std::uint16_t kControlRegister = 8192;  // holding register 8192
+// Fault injection (docs/faults.md): holding register 8193 = forced CAN controller state (0 real,
+// 1 warning, 2 error-passive, 3 bus-off), 8194 = drop the next N received frames (reads:
+// remaining).
+inline constexpr std::uint16_t kForcedStateRegister = 8193;
+inline constexpr std::uint16_t kDropRxRegister = 8194;
+inline constexpr std::uint16_t kControlRegisters = 3;  // 8192..8194
 
 // The status block from input register 8192 (docs/modbus.md). Offsets from kStatusBase.
 namespace status {
@@ -151,7 +157,14 @@ inline constexpr std::uint16_t kLedP = 32;
 inline constexpr std::uint16_t kLedC = 33;
 inline constexpr std::uint16_t kDpAddress = 34;
 inline constexpr std::uint16_t kParameterizations = 35;  // 35-36, master side
-inline constexpr std::uint16_t kCount = 37;
+// Fault injection and transport faults (docs/faults.md).
+inline constexpr std::uint16_t kForcedState = 37;   // holding register 8193 as written (0 = real)
+inline constexpr std::uint16_t kTxSuppressed = 38;  // 38-39 frames not sent in a forced bus-off
+inline constexpr std::uint16_t kRxSuppressed = 40;  // 40-41 not received in a forced bus-off
+inline constexpr std::uint16_t kRxDropRemaining = 42;  // holding register 8194 (saturates 0xFFFF)
+inline constexpr std::uint16_t kAddressed = 43;   // 1 = the master addresses it, 0 = stopped (3)
+inline constexpr std::uint16_t kReconnects = 44;  // 44-45 socketcand client reconnections
+inline constexpr std::uint16_t kCount = 46;
 }  // namespace status
 
 // LED codes in the status block (manual §3.3, table 3.3.1).
@@ -165,7 +178,13 @@ inline constexpr std::uint16_t kMorseO = 0x4F;  // LED C: 'O' CAN off (bus off)
 }  // namespace led
 
 // Holding register 8192 commands (emulator-spec §8).
-enum class Control : std::uint16_t { None = 0, PowerCycle = 1, Reparameterize = 2 };
+enum class Control : std::uint16_t {
+  None = 0,
+  PowerCycle = 1,
+  Reparameterize = 2,
+  MasterStops = 3,    // the master stops addressing this gateway (docs/faults.md)
+  MasterResumes = 4,  // the master addresses it again and parameterizes it
+};
 
 using StatusBlock = std::array<std::uint16_t, status::kCount>;
 
@@ -176,6 +195,13 @@ struct StatusInputs {
   std::optional<dp::MasterSlaveState> master_state;
   std::uint32_t parameterizations = 0;
   std::uint8_t dp_address = 0;
+  bool addressed = true;
+  // Fault injection (docs/faults.md).
+  std::uint16_t forced_state = 0;
+  std::uint32_t tx_suppressed = 0;
+  std::uint32_t rx_suppressed = 0;
+  std::uint32_t rx_drop_remaining = 0;
+  std::uint32_t reconnects = 0;
 };
 StatusBlock encode_status(const StatusInputs& in);
 
@@ -186,6 +212,12 @@ class GatewayFace {
   virtual std::uint8_t dp_address() const = 0;
   virtual StatusBlock status(Time now) = 0;
   virtual void control(Control command, Time now) = 0;
+  // Holding register 8193: forced CAN controller state; false = value refused (exception 0x03).
+  virtual bool force_bus_state(std::uint16_t /*code*/, Time /*now*/) { return false; }
+  virtual std::uint16_t forced_bus_state() const { return 0; }
+  // Holding register 8194: drop the next n received frames; reads give the remaining count.
+  virtual void drop_received(std::uint16_t /*n*/, Time /*now*/) {}
+  virtual std::uint16_t drop_remaining() const { return 0; }
 };
 
 class Handler {

@@ -156,7 +156,22 @@ void DpMaster::step(Entry& e, Time now) {
 
 void DpMaster::cycle(Time now) {
   if (program_) program_->scan(image_, now);
-  for (auto& e : entries_) step(e, now);
+  for (auto& e : entries_)
+    if (e.addressed) step(e, now);
+}
+
+void DpMaster::set_addressed(std::uint8_t slave_address, bool addressed, Time now) {
+  for (auto& e : entries_) {
+    if (e.slave->info().address != slave_address || e.addressed == addressed) continue;
+    e.addressed = addressed;
+    if (addressed) {
+      e.retry_at = now;
+      go(e, MasterSlaveState::Init, "addressed again");
+    } else {
+      log_.warn("slave " + std::to_string(slave_address) +
+                ": no longer addressed (the PLC stopped)");
+    }
+  }
 }
 
 void DpMaster::reparameterize(std::uint8_t slave_address, Time now) {
@@ -170,8 +185,8 @@ void DpMaster::reparameterize(std::uint8_t slave_address, Time now) {
 std::vector<DpMaster::SlaveView> DpMaster::slaves() const {
   std::vector<SlaveView> out;
   for (const auto& e : entries_)
-    out.push_back(
-        {e.slave->info().address, e.state, e.last_diag, e.data_exchanges, e.parameterizations});
+    out.push_back({e.slave->info().address, e.state, e.last_diag, e.data_exchanges,
+                   e.parameterizations, e.addressed});
   return out;
 }
 

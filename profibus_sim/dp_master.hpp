@@ -79,6 +79,11 @@ class DpMaster {
   // Start parameterization of a slave again (Modbus control register 8192 = 2).
   void reparameterize(std::uint8_t slave_address, Time now);
 
+  // Stop addressing a slave (addressed = false; Modbus control 8192 = 3: the PLC stops, the slave's
+  // watchdog expires if it has one) or address it again (true; 8192 = 4): the master starts over
+  // with Slave_Diag → Set_Prm → Chk_Cfg, as a real master does with a slave back in Wait_Prm.
+  void set_addressed(std::uint8_t slave_address, bool addressed, Time now);
+
   ProcessImage& image() { return image_; }
   const ProcessImage& image() const { return image_; }
 
@@ -88,6 +93,7 @@ class DpMaster {
     std::optional<DpSlave::Diag> last_diag;
     std::uint32_t data_exchanges;
     std::uint32_t parameterizations;
+    bool addressed = true;
   };
   std::vector<SlaveView> slaves() const;
   std::optional<SlaveView> slave(std::uint8_t address) const;
@@ -110,6 +116,7 @@ class DpMaster {
     Time retry_at{0};
     std::uint32_t data_exchanges = 0;
     std::uint32_t parameterizations = 0;
+    bool addressed = true;
   };
   void step(Entry& e, Time now);
   void go(Entry& e, MasterSlaveState next, std::string_view why);

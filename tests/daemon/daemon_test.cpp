@@ -155,6 +155,94 @@ TEST(Daemon, ControlRegisterPowerCycleAndReparameterize) {
   EXPECT_TRUE(d.log.contains("power cycle requested over Modbus"));
 }
 
+// docs/faults.md: holding registers 8193 (forced CAN state), 8194 (drop received frames) and
+// control 3/4 (the master stops / resumes), seen through Modbus and the socketcand export.
+TEST(Daemon, FaultControlsThroughModbusAndSocketcand) {
+  json j = manual_514();
+  j["gateways"][0]["parameters"]["can_diagnosis"] = true;  // diagnosis bytes 8..10 (manual §3.4.2)
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange());
+  SocketcandClient bus(d.socketcand(), "can0");
+  ModbusClient plc(d.modbus(), 5);
+  namespace st = modbus::status;
+  auto status = [&] { return regs(plc.read_input(modbus::kStatusBase, st::kCount)); };
+  auto u32 = [](const std::vector<std::uint16_t>& s, std::uint16_t at) {
+    return (static_cast<std::uint32_t>(s[at]) << 16) | s[at + 1];
+  };
+
+  // Warning and error-passive: byte 8 = 0x40 / 0x80, Ext_Diag, LED C 'W' / 'E' (manual table
+  // 3.3.1, table 3.4.5); the gateway still sends.
+  for (auto [code, byte8, led] :
+       {std::tuple{1, 0x40, modbus::led::kMorseW}, std::tuple{2, 0x80, modbus::led::kMorseE}}) {
+    ASSERT_EQ(plc.write_one(modbus::kForcedStateRegister, static_cast<std::uint16_t>(code)), 0);
+    const auto s = status();
+    EXPECT_EQ(s[st::kBusState], code);
+    EXPECT_EQ(s[st::kDiag + 8], byte8);
+    EXPECT_TRUE(s[st::kDiag + 0] & 0x08) << "Ext_Diag";
+    EXPECT_EQ(s[st::kLedC], led);
+    EXPECT_EQ(s[st::kForcedState], code);
+  }
+  ASSERT_EQ(plc.write(86, {0x1111, 0x1111, 0x1111}), 0);
+  EXPECT_EQ(bus.frame(), "309#111111111111");
+
+  // Bus-off: byte 8 = 0xC0, LED C 'O'; nothing sent, nothing received.
+  ASSERT_EQ(plc.write_one(modbus::kForcedStateRegister, 3), 0);
+  auto s = status();
+  EXPECT_EQ(s[st::kBusState], 3);
+  EXPECT_EQ(s[st::kDiag + 8], 0xC0);
+  EXPECT_EQ(s[st::kLedC], modbus::led::kMorseO);
+  EXPECT_EQ(regs(plc.read_holding(modbus::kForcedStateRegister, 1)), std::vector<std::uint16_t>{3});
+  const std::uint32_t tx_before = u32(s, st::kTxFrames);
+  ASSERT_EQ(plc.write(86, {0x2222, 0x2222, 0x2222}), 0);
+  ASSERT_TRUE(eventually([&] { return u32(status(), st::kTxSuppressed) >= 1; }));
+  bus.send(F("289#AAAAAAAAAAAA"));
+  ASSERT_TRUE(eventually([&] { return u32(status(), st::kRxSuppressed) >= 1; }));
+  // The suppressed frame never reaches the bus, and the received one never reaches the image.
+  EXPECT_EQ(bus.frame(200ms), std::nullopt);
+  EXPECT_EQ(regs(plc.read_input(86, 3)), (std::vector<std::uint16_t>{0, 0, 0}));
+  EXPECT_EQ(u32(status(), st::kIrqLost), 0u);  // off the bus: nothing lost by the controller
+
+  // Back to the real state: the next change is sent again (the one made during bus-off is not).
+  ASSERT_EQ(plc.write_one(modbus::kForcedStateRegister, 0), 0);
+  s = status();
+  EXPECT_EQ(s[st::kBusState], 0);
+  EXPECT_EQ(s[st::kDiag + 8], 0);
+  EXPECT_EQ(s[st::kLedC], modbus::led::kOn);
+  EXPECT_FALSE(s[st::kDiag + 0] & 0x08);
+  EXPECT_EQ(u32(s, st::kTxFrames), tx_before + 1);  // the engine counted the dropped send
+  ASSERT_EQ(plc.write(86, {0x3333, 0x3333, 0x3333}), 0);
+  EXPECT_EQ(bus.frame(), "309#333333333333");
+
+  // 8194: the next 2 received frames are lost, counted in IRQ_LOST (diagnosis byte 9).
+  ASSERT_EQ(plc.write_one(modbus::kDropRxRegister, 2), 0);
+  EXPECT_EQ(regs(plc.read_holding(modbus::kDropRxRegister, 1)), std::vector<std::uint16_t>{2});
+  bus.send(F("289#010101010101"));
+  bus.send(F("289#020202020202"));
+  bus.send(F("289#030303030303"));
+  EXPECT_TRUE(eventually([&] {
+    return regs(plc.read_input(86, 3)) == std::vector<std::uint16_t>{0x0303, 0x0303, 0x0303};
+  }));
+  s = status();
+  EXPECT_EQ(u32(s, st::kIrqLost), 2u);
+  EXPECT_EQ(s[st::kDiag + 9], 2);
+  EXPECT_EQ(s[st::kRxDropRemaining], 0);
+  EXPECT_EQ(regs(plc.read_holding(modbus::kDropRxRegister, 1)), std::vector<std::uint16_t>{0});
+
+  // Control 3: the master stops; the watchdog (200 ms) expires, the gateway drops to Wait_Prm.
+  ASSERT_EQ(plc.write_one(modbus::kControlRegister, 3), 0);
+  EXPECT_TRUE(eventually([&] {
+    const auto v = status();
+    return v[st::kDpState] == 0 && v[st::kAddressed] == 0 && v[st::kLedE] == 3;
+  }));
+  // Control 4: the master parameterizes it again and exchanges data.
+  ASSERT_EQ(plc.write_one(modbus::kControlRegister, 4), 0);
+  EXPECT_TRUE(d.in_data_exchange());
+  EXPECT_EQ(status()[st::kAddressed], 1);
+  d.thread.stop();
+  EXPECT_TRUE(d.log.contains("forced to bus-off over Modbus"));
+  EXPECT_TRUE(d.log.contains("no longer addressed"));
+}
+
 TEST(Daemon, BadRequestsAreAnsweredAndTheDaemonServesOn) {
   Running d(load(manual_514()));
   ModbusClient plc(d.modbus(), 5);
