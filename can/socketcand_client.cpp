@@ -125,7 +125,7 @@ class Handshake {
   std::deque<std::string> elements_;
 };
 
-class SocketcandChannel final : public Channel {
+class SocketcandChannel final : public SocketcandClientChannel {
  public:
   static constexpr std::size_t kMaxOutput = 256 * 1024;  // queued `< send >` bytes
 
@@ -213,6 +213,7 @@ class SocketcandChannel final : public Channel {
   std::uint32_t rx_lost() const override { return rx_lost_; }
   std::uint32_t tx_dropped() const override { return tx_dropped_; }
   int poll_fd() const override { return epoll_.get(); }
+  std::uint32_t reconnects() const override { return reconnects_; }
   std::string_view name() const override { return name_; }
 
  private:
@@ -301,6 +302,7 @@ class SocketcandChannel final : public Channel {
   std::uint32_t rx_lost_ = 0;
   std::uint32_t tx_dropped_ = 0;
   std::uint32_t remote_dropped_ = 0;
+  std::uint32_t reconnects_ = 0;
 };
 
 }  // namespace

@@ -19,6 +19,13 @@ namespace candp2::can {
 // output can be written; call receive() until nullopt then. Remote frames cannot be sent (counted
 // in tx_dropped() and logged). `< error CLASS ... >` lines from the server update bus_state();
 // a lost connection reports BusOff and drops further sends (no automatic reconnect).
+// The channel connect_socketcand() returns, for owners that show its connection statistics.
+class SocketcandClientChannel : public Channel {
+ public:
+  // Connections re-established after the server went away.
+  virtual std::uint32_t reconnects() const = 0;
+};
+
 std::unique_ptr<Channel> connect_socketcand(const std::string& host, std::uint16_t port,
                                             const std::string& channel, std::string* error,
                                             int timeout_ms = 3000, LogSink* log = nullptr);

@@ -19,6 +19,7 @@
 #include <utility>
 
 #include "can/socketcand_net.hpp"
+#include "common/idle_clients.hpp"
 
 namespace candp2::can {
 
@@ -52,7 +53,8 @@ class Server final : public SocketcandServer {
         log_(log, "socketcand-server"),
         listener_(std::move(listener)),
         epoll_(std::move(epoll)),
-        port_(port) {}
+        port_(port),
+        pending_(options_.idle_timeout) {}
 
   std::uint16_t port() const override { return port_; }
   std::vector<int> poll_fds() const override { return {epoll_.get()}; }
@@ -70,7 +72,7 @@ class Server final : public SocketcandServer {
     for (int i = 0; i < n; ++i) {
       const std::uint64_t id = events[i].data.u64;
       if (id == kListenerId) {
-        accept_clients();
+        accept_clients(now);
         continue;
       }
       Client* c = find(id);
@@ -131,7 +133,42 @@ class Server final : public SocketcandServer {
     listener_watched_ = on;
   }
 
-  void accept_clients() {
+  std::optional<Time> next_deadline() const override { return pending_.next_expiry(); }
+
+  void advance(Time now) override {
+    for (const auto id : pending_.expired(now)) {
+      Client* c = find(id);
+      if (!c || c->dead) continue;
+      ++stats_.clients_timed_out;
+      log_.info(
+          "client " + c->peer + " closed: no raw mode after " +
+          std::to_string(
+              std::chrono::duration_cast<std::chrono::seconds>(options_.idle_timeout).count()) +
+          " s idle");
+      c->dead = true;
+    }
+    reap();
+  }
+
+  // At max_clients: close the client idle longest (those not in raw mode first) for `peer`.
+  bool evict_for(const std::string& peer, Time now) {
+    auto victim = pending_.longest_idle();
+    if (!victim) victim = raw_.longest_idle();
+    Client* c = victim ? find(*victim) : nullptr;
+    if (!c) return false;
+    const auto idle =
+        now - pending_.last_activity(*victim).value_or(raw_.last_activity(*victim).value_or(now));
+    log_.warn("client " + c->peer + " evicted for " + peer + " (limit " +
+              std::to_string(options_.max_clients) + " clients; idle longest, " +
+              std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(idle).count()) +
+              " ms)");
+    ++stats_.clients_evicted;
+    c->dead = true;
+    reap();
+    return true;
+  }
+
+  void accept_clients(Time now) {
     for (int i = 0; i < 16; ++i) {  // bounded: other clients get their turn
       sockaddr_storage addr{};
       socklen_t len = sizeof addr;
@@ -152,7 +189,7 @@ class Server final : public SocketcandServer {
         return;
       }
       const std::string peer = address_text(reinterpret_cast<const sockaddr*>(&addr));
-      if (client_count() >= options_.max_clients) {
+      if (client_count() >= options_.max_clients && !evict_for(peer, now)) {
         static constexpr char kBusy[] = "< error too many clients >";
         [[maybe_unused]] const auto n =
             ::send(fd.get(), kBusy, sizeof kBusy - 1, MSG_DONTWAIT | MSG_NOSIGNAL);
@@ -176,6 +213,7 @@ class Server final : public SocketcandServer {
       ++stats_.clients_accepted;
       log_.info("client " + peer + " connected");
       Client& ref = *c;
+      pending_.touch(c->id, now);
       clients_.emplace(c->id, std::move(c));
       queue(ref, "< hi >");  // state_nobus.c greets every new connection
     }
@@ -197,6 +235,7 @@ class Server final : public SocketcandServer {
       return;
     }
     if (c.close_after_flush) return;  // answered with an error and closing: ignore the rest
+    (c.mode == Mode::Raw ? raw_ : pending_).touch(c.id, now);
     items_.clear();
     c.splitter.feed(std::string_view(buf, static_cast<std::size_t>(n)), items_);
     for (auto& item : items_) {
@@ -279,6 +318,10 @@ class Server final : public SocketcandServer {
       for (auto& [id, other] : clients_)
         if (other.get() != &c && forwards_to(*other)) queue(*other, line);
     } else if (cmd == "rawmode" && w.size() == 1) {
+      if (c.mode != Mode::Raw) {
+        pending_.remove(c.id);
+        raw_.touch(c.id, now);
+      }
       c.mode = Mode::Raw;
       queue(c, "< ok >");
     } else if (cmd == "bcmmode" && w.size() == 1) {
@@ -375,6 +418,8 @@ class Server final : public SocketcandServer {
     for (auto it = clients_.begin(); it != clients_.end();) {
       if (it->second->dead) {
         ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, it->second->fd.get(), nullptr);
+        pending_.remove(it->first);
+        raw_.remove(it->first);
         it = clients_.erase(it);
         any = true;
       } else {
@@ -393,6 +438,8 @@ class Server final : public SocketcandServer {
   std::uint16_t port_;
   bool listener_watched_ = true;
   std::uint64_t next_id_ = 1;
+  IdleClients pending_;  // clients not in raw mode yet (idle timeout applies)
+  IdleClients raw_;      // raw-mode clients (never timed out; evicted only after pending ones)
   std::map<std::uint64_t, std::unique_ptr<Client>> clients_;
   std::vector<ElementSplitter::Item> items_;
   Stats stats_;
@@ -433,7 +480,7 @@ std::unique_ptr<SocketcandServer> SocketcandServer::listen(Options options, Fram
     set_error(error, "socketcand server: cannot listen on " + where + ": " + errno_text(errno));
     return nullptr;
   }
-  if (::listen(fd.get(), 16) < 0) {
+  if (::listen(fd.get(), 128) < 0) {  // connection bursts queue instead of retrying SYNs
     set_error(error, "socketcand server: listen() on " + where + " failed: " + errno_text(errno));
     return nullptr;
   }

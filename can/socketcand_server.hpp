@@ -3,6 +3,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,7 +20,12 @@ class SocketcandServer {
     std::string host = "127.0.0.1";                 // numeric address to bind
     std::uint16_t port = socketcand::kDefaultPort;  // 0 = pick a free one (tests)
     std::string channel = "vcan0";                  // the bus name clients must open
-    std::size_t max_clients = 32;  // further connections get `< error too many clients >`
+    // At the limit a new connection evicts a client: the one idle longest among those that have
+    // not opened the bus in raw mode, else the raw-mode client whose last command is oldest.
+    std::size_t max_clients = 32;
+    // A client that has not reached raw mode within this time of its last command is closed;
+    // raw-mode clients receive bus traffic and are never closed for idleness. 0 = never.
+    Duration idle_timeout = seconds(60);
     // A client is dropped (after a log line) when one command exceeds max_command_bytes, when it
     // sent more than max_stray_bytes outside `< >` in total, or when more than max_output_bytes
     // wait in its output buffer (it does not read: slow clients never block the loop).
@@ -32,7 +38,9 @@ class SocketcandServer {
     std::uint64_t frames_from_clients = 0;    // valid `< send >` put onto the bus
     std::uint64_t remote_frames_skipped = 0;  // RTR frames the protocol cannot carry
     std::uint64_t clients_accepted = 0;
-    std::uint64_t clients_dropped = 0;  // for misbehaviour or slowness (not normal closes)
+    std::uint64_t clients_dropped = 0;    // for misbehaviour or slowness (not normal closes)
+    std::uint64_t clients_evicted = 0;    // closed to make room at max_clients
+    std::uint64_t clients_timed_out = 0;  // closed after idle_timeout before raw mode
   };
   // `bus` is where frames sent by clients go; the owner feeds bus traffic with publish().
   static std::unique_ptr<SocketcandServer> listen(Options options, FrameSink& bus, LogSink* log,
@@ -55,6 +63,9 @@ class SocketcandServer {
   virtual void publish(const Frame& frame, Time wall_time) = 0;
   virtual std::size_t client_count() const = 0;
   virtual Stats stats() const = 0;
+  // Idle timeouts: when advance() must run next, in the clock of on_readable()'s `now`.
+  virtual std::optional<Time> next_deadline() const = 0;
+  virtual void advance(Time now) = 0;
 };
 
 }  // namespace candp2::can

@@ -403,10 +403,15 @@ BusConfig parse_bus(const json& j, const std::string& path, const std::string& n
   if (!type) fail(path, "missing key \"type\" (\"virtual\", \"socketcan\" or \"socketcand\")");
   const std::string t = type->is_string() ? type->get<std::string>() : "";
   if (t == "virtual") {
-    const Object o(j, path, {"type", "socketcand", "channel"});
+    const Object o(
+        j, path,
+        {"type", "socketcand", "channel", "socketcand_max_clients", "socketcand_idle_timeout_s"});
     b.type = BusType::Virtual;
     if (const json* l = o.find("socketcand"))
       b.socketcand_listen = get_endpoint(*l, o.path("socketcand"));
+    b.socketcand_max_clients = get_uint<std::uint32_t>(o, "socketcand_max_clients", 32, 1, 10000);
+    b.socketcand_idle_timeout_s =
+        get_uint<std::uint32_t>(o, "socketcand_idle_timeout_s", 60, 0, 86400, "s");
     b.channel = find_string(o, "channel", "a socketcand bus name").value_or(name);
     if (!valid_name(b.channel, 16))  // socketcand.h MAX_BUSNAME
       fail(o.has("channel") ? o.path("channel") : path,
@@ -453,8 +458,10 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   const Object top(root, "$",
                    {"modbus", "master", "buses", "gateways", "drives", "log", "state_file"});
   if (const json* m = top.find("modbus")) {
-    const Object o(*m, top.path("modbus"), {"listen"});
+    const Object o(*m, top.path("modbus"), {"listen", "max_clients", "idle_timeout_s"});
     if (const json* l = o.find("listen")) c.modbus_listen = get_endpoint(*l, o.path("listen"));
+    c.modbus_max_clients = get_uint<std::uint32_t>(o, "max_clients", 64, 1, 10000);
+    c.modbus_idle_timeout_s = get_uint<std::uint32_t>(o, "idle_timeout_s", 60, 0, 86400, "s");
   }
   if (const json* m = top.find("master")) {
     const Object o(*m, top.path("master"), {"address", "cycle_ms", "retry_ms"});

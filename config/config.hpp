@@ -39,7 +39,9 @@ struct BusConfig {
   // socketcand client: the bus to open on the server; virtual bus export: the bus name clients
   // open (defaults to the bus's own name).
   std::string channel;
-  std::optional<Endpoint> socketcand_listen;  // virtual: export the bus over socketcand
+  std::optional<Endpoint> socketcand_listen;     // virtual: export the bus over socketcand
+  std::uint32_t socketcand_max_clients = 32;     // export: at the limit the idlest is evicted
+  std::uint32_t socketcand_idle_timeout_s = 60;  // export: close silent clients; 0 = never
   std::string json_path;
 };
 
@@ -95,6 +97,8 @@ struct DriveConfig {
 struct DaemonConfig {
   std::string file;  // where it was loaded from
   Endpoint modbus_listen{"127.0.0.1", 1502};
+  std::uint32_t modbus_max_clients = 64;     // at the limit the client idle longest is evicted
+  std::uint32_t modbus_idle_timeout_s = 60;  // close clients silent this long; 0 = never
   std::uint8_t master_address = 1;
   std::uint32_t cycle_ms = 10;
   std::uint32_t retry_ms = 1000;  // between parameterization attempts after a fault

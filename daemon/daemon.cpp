@@ -88,6 +88,8 @@ struct Bus {
   std::unique_ptr<can::VirtualBus> vbus;
   std::unique_ptr<can::VirtualEndpoint> export_endpoint;
   std::unique_ptr<can::SocketcandServer> export_server;
+  EventLoop::TimerId export_timer = 0;  // the export's idle timeouts
+  std::optional<Time> export_armed;
 };
 
 // One emulated gateway: its CAN channel, the gateway engine and its Modbus face.
@@ -147,6 +149,8 @@ class DaemonImpl final : public Daemon {
       if (g->timer) loop_.cancel_timer(g->timer);
     for (auto& d : drives_)
       if (d->timer) loop_.cancel_timer(d->timer);
+    for (auto& b : buses_)
+      if (b->export_timer) loop_.cancel_timer(b->export_timer);
     for (int fd : watched_) loop_.remove_fd(fd);
     modbus_.reset();
   }
@@ -191,6 +195,7 @@ class DaemonImpl final : public Daemon {
   bool drain_in_process();  // the deferred hook
   void rearm(GatewayUnit& g);
   void rearm(DriveUnit& d);
+  void rearm_export(Bus& b);
   void check_stored();
 
   config::DaemonConfig config_;
@@ -302,6 +307,8 @@ bool DaemonImpl::open_bus(Bus& b, std::string* error) {
     o.host = b.cfg.socketcand_listen->host;
     o.port = b.cfg.socketcand_listen->port;
     o.channel = b.cfg.channel;
+    o.max_clients = b.cfg.socketcand_max_clients;
+    o.idle_timeout = seconds(b.cfg.socketcand_idle_timeout_s);
     std::string e;
     b.export_server = can::SocketcandServer::listen(o, *b.export_endpoint, log_sink_, &e);
     if (!b.export_server) {
@@ -309,9 +316,15 @@ bool DaemonImpl::open_bus(Bus& b, std::string* error) {
       return false;
     }
     can::SocketcandServer* server = b.export_server.get();
+    Bus* bp = &b;
     for (int fd : server->poll_fds())
       if (!watch(
-              fd, [server, fd] { server->on_readable(fd, EventLoop::wall_now()); }, error))
+              fd,
+              [this, bp, server, fd] {
+                server->on_readable(fd, EventLoop::wall_now());
+                rearm_export(*bp);
+              },
+              error))
         return false;
     log_.info("bus " + b.cfg.name + ": socketcand export on " + b.cfg.socketcand_listen->host +
               ":" + std::to_string(server->port()) + ", bus name \"" + b.cfg.channel + "\"");
@@ -448,9 +461,11 @@ bool DaemonImpl::start(std::string* error) {
   for (auto& g : gateways_) faces.push_back(g.get());
   map_ = std::make_unique<modbus::ProcessImageMap>(master_->image(), std::move(faces));
   std::string e;
-  modbus_ = modbus::ModbusServer::listen(
-      {.host = config_.modbus_listen.host, .port = config_.modbus_listen.port}, loop_, *map_,
-      log_sink_, &e);
+  modbus_ = modbus::ModbusServer::listen({.host = config_.modbus_listen.host,
+                                          .port = config_.modbus_listen.port,
+                                          .max_clients = config_.modbus_max_clients,
+                                          .idle_timeout = seconds(config_.modbus_idle_timeout_s)},
+                                         loop_, *map_, log_sink_, &e);
   if (!modbus_) {
     *error = "Modbus/TCP ($.modbus.listen): " + e;
     return false;
@@ -530,6 +545,23 @@ void DaemonImpl::rearm(DriveUnit& d) {
     unit->armed.reset();
     unit->drive->advance(loop_.now(), *unit->endpoint);
   });
+}
+
+// The socketcand export's idle timeouts run on the wall clock its on_readable() is given.
+void DaemonImpl::rearm_export(Bus& b) {
+  const auto next = b.export_server->next_deadline();
+  if (next == b.export_armed && (b.export_timer || !next)) return;
+  if (b.export_timer) loop_.cancel_timer(b.export_timer);
+  b.export_timer = 0;
+  b.export_armed = next;
+  if (!next) return;
+  b.export_timer =
+      loop_.add_timer(std::max(Duration(0), *next - EventLoop::wall_now()), [this, bus = &b] {
+        bus->export_timer = 0;
+        bus->export_armed.reset();
+        bus->export_server->advance(EventLoop::wall_now());
+        rearm_export(*bus);
+      });
 }
 
 void DaemonImpl::check_stored() {

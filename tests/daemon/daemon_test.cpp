@@ -3,6 +3,7 @@
 #include "daemon/daemon.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <filesystem>
 #include <fstream>
@@ -241,6 +242,88 @@ TEST(Daemon, FaultControlsThroughModbusAndSocketcand) {
   d.thread.stop();
   EXPECT_TRUE(d.log.contains("forced to bus-off over Modbus"));
   EXPECT_TRUE(d.log.contains("no longer addressed"));
+}
+
+// Raises the descriptor limit for tests that hold hundreds of connections.
+void raise_nofile(rlim_t want) {
+  rlimit r{};
+  ::getrlimit(RLIMIT_NOFILE, &r);
+  if (r.rlim_cur < want) {
+    r.rlim_cur = std::min(want, r.rlim_max);
+    ::setrlimit(RLIMIT_NOFILE, &r);
+  }
+}
+
+// Issue 12: 300 idle Modbus connections must not lock a new client out. At modbus.max_clients the
+// new connection evicts the one idle longest; the new client is answered at once.
+TEST(Daemon, HundredsOfIdleModbusConnectionsDoNotLockOthersOut) {
+  raise_nofile(4096);
+  json j = manual_514();
+  j["modbus"]["max_clients"] = 64;
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange());
+  std::vector<int> idle;
+  for (int i = 0; i < 300; ++i) idle.push_back(connect_tcp(d.modbus()));
+  const auto t0 = std::chrono::steady_clock::now();
+  ModbusClient plc(d.modbus(), 5);
+  const auto r = plc.read_input(modbus::kStatusBase, 1);
+  const auto took = std::chrono::steady_clock::now() - t0;
+  EXPECT_EQ(regs(r), std::vector<std::uint16_t>{2});
+  EXPECT_LT(took, 2s) << "a new client must be served at once";
+  // The earliest idle connections were closed to make room; the newest ones are still open.
+  EXPECT_TRUE(closed_by_peer(idle.front(), 2000ms));
+  for (int fd : idle) ::close(fd);
+  d.thread.stop();
+  EXPECT_TRUE(d.log.contains("evicted for"));
+  EXPECT_FALSE(d.log.contains("refused"));
+}
+
+TEST(Daemon, IdleModbusConnectionsCloseAfterTheTimeout) {
+  json j = manual_514();
+  j["modbus"]["idle_timeout_s"] = 1;
+  Running d(load(j));
+  const int fd = connect_tcp(d.modbus());
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_TRUE(closed_by_peer(fd, 5000ms));
+  EXPECT_GE(std::chrono::steady_clock::now() - t0, 900ms);
+  ::close(fd);
+  d.thread.stop();
+  EXPECT_TRUE(d.log.contains("idle for 1 s"));
+}
+
+// The same for the socketcand export: idle connections that never open the bus are evicted first;
+// a new client completes the handshake and sees bus traffic.
+TEST(Daemon, HundredsOfIdleSocketcandConnectionsDoNotLockOthersOut) {
+  raise_nofile(4096);
+  json j = manual_514();
+  j["buses"]["can0"]["socketcand_max_clients"] = 32;
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange());
+  SocketcandClient listener(d.socketcand(), "can0");  // a raw-mode client: kept over idle ones
+  std::vector<int> idle;
+  for (int i = 0; i < 300; ++i) idle.push_back(connect_tcp(d.socketcand()));
+  const auto t0 = std::chrono::steady_clock::now();
+  SocketcandClient fresh(d.socketcand(), "can0");
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 2s);
+  ModbusClient plc(d.modbus(), 5);
+  ASSERT_EQ(plc.write(86, {0x0102, 0x0304, 0x0506}), 0);
+  EXPECT_EQ(fresh.frame(), "309#020106050403");
+  EXPECT_EQ(listener.frame(), "309#020106050403");
+  for (int fd : idle) ::close(fd);
+  d.thread.stop();
+  EXPECT_TRUE(d.log.contains("evicted for"));
+}
+
+TEST(Daemon, SocketcandClientsThatNeverOpenTheBusTimeOut) {
+  json j = manual_514();
+  j["buses"]["can0"]["socketcand_idle_timeout_s"] = 1;
+  Running d(load(j));
+  const int fd = connect_tcp(d.socketcand());
+  EXPECT_EQ(read_bytes(fd, 6), (std::vector<std::uint8_t>{'<', ' ', 'h', 'i', ' ', '>'}));
+  EXPECT_TRUE(closed_by_peer(fd, 5000ms));
+  ::close(fd);
+  d.thread.stop();
+  EXPECT_TRUE(d.log.contains("no raw mode after 1 s idle"));
 }
 
 TEST(Daemon, BadRequestsAreAnsweredAndTheDaemonServesOn) {
