@@ -130,13 +130,33 @@ class SocketcandChannel final : public SocketcandClientChannel {
   static constexpr std::size_t kMaxOutput = 256 * 1024;  // queued `< send >` bytes
 
   SocketcandChannel(UniqueFd sock, UniqueFd epoll, std::string who, LogSink* log,
-                    ElementSplitter splitter, std::deque<std::string> pending)
+                    ElementSplitter splitter, std::deque<std::string> pending, std::string host,
+                    std::uint16_t port, std::string channel)
       : sock_(std::move(sock)),
         epoll_(std::move(epoll)),
         name_("socketcand:" + who),
         log_(log, "socketcand " + who),
-        splitter_(std::move(splitter)) {
+        splitter_(std::move(splitter)),
+        host_(std::move(host)),
+        port_(port),
+        channel_(std::move(channel)) {
     for (const auto& e : pending) element(e);
+  }
+
+  // ---- reconnection (issue 12): exponential backoff through the owner's timers, never blocking.
+  std::optional<Time> next_deadline() const override {
+    if (link_ == Link::Down) return retry_at_;
+    if (link_ != Link::Up) return attempt_deadline_;
+    return std::nullopt;
+  }
+
+  void advance(Time now) override {
+    if (link_ == Link::Down && now >= retry_at_) {
+      start_connect(now);
+    } else if (link_ != Link::Up && link_ != Link::Down && now >= attempt_deadline_) {
+      attempt_failed("no answer within " + std::to_string(kAttemptTimeout.count() / 1000) + " ms",
+                     now);
+    }
   }
 
   void send(const Frame& frame) override {
@@ -167,6 +187,7 @@ class SocketcandChannel final : public SocketcandClientChannel {
   }
 
   std::optional<Frame> receive() override {
+    if (link_ == Link::Connecting) finish_connect();
     flush();
     for (;;) {
       if (!rx_.empty()) {
@@ -209,7 +230,10 @@ class SocketcandChannel final : public SocketcandClientChannel {
     }
   }
 
-  BusState bus_state() const override { return sock_ ? state_ : BusState::BusOff; }
+  // While the connection is down or being re-established the channel reports bus-off.
+  BusState bus_state() const override {
+    return sock_ && link_ == Link::Up ? state_ : BusState::BusOff;
+  }
   std::uint32_t rx_lost() const override { return rx_lost_; }
   std::uint32_t tx_dropped() const override { return tx_dropped_; }
   int poll_fd() const override { return epoll_.get(); }
@@ -220,6 +244,7 @@ class SocketcandChannel final : public SocketcandClientChannel {
   void element(const std::string& e) {
     const auto w = socketcand::words(e);
     const std::string_view cmd = w.empty() ? std::string_view() : w[0];
+    if (link_ != Link::Up) return handshake(e, w);
     if (cmd == "frame") {
       auto r = socketcand::parse_frame(e);
       if (r.frame) {
@@ -247,6 +272,87 @@ class SocketcandChannel final : public SocketcandClientChannel {
     } else {
       log_.debug("ignored '" + printable(e) + "'");
     }
+  }
+
+  // doc/protocol.md: `< hi >`, `< open BUS >` → `< ok >`, `< rawmode >` → `< ok >`.
+  void handshake(const std::string& e, const std::vector<std::string_view>& w) {
+    const bool ok = w.size() == 1 && w[0] == "ok";
+    if (link_ == Link::Hello && w.size() == 1 && w[0] == "hi") {
+      link_ = Link::OpenSent;
+      out_ += "< open " + channel_ + " >";
+    } else if (link_ == Link::OpenSent && ok) {
+      link_ = Link::RawSent;
+      out_ += "< rawmode >";
+    } else if (link_ == Link::RawSent && ok) {
+      link_ = Link::Up;
+      state_ = BusState::Ok;
+      ++reconnects_;
+      log_.warn("reconnected after " + std::to_string(attempts_) + " attempt(s), bus " + channel_ +
+                " in raw mode again (reconnection " + std::to_string(reconnects_) + ")");
+      attempts_ = 0;
+      backoff_ = kFirstBackoff;  // reset after a successful connection
+    } else {
+      attempt_failed("unexpected '" + printable(e) + "' during the handshake", now_estimate());
+      return;
+    }
+    flush();
+  }
+
+  static Time now_estimate() {
+    return std::chrono::duration_cast<Time>(Clock::now().time_since_epoch());
+  }
+
+  void start_connect(Time now) {
+    ++attempts_;
+    attempt_deadline_ = now + kAttemptTimeout;
+    addrinfo hints{};
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    hints.ai_flags = AI_NUMERICSERV;
+    addrinfo* res = nullptr;
+    // Numeric hosts resolve without I/O; a name is looked up here (not bounded, see the header).
+    if (::getaddrinfo(host_.c_str(), std::to_string(port_).c_str(), &hints, &res) != 0 || !res)
+      return attempt_failed("cannot resolve " + host_, now);
+    std::unique_ptr<addrinfo, decltype(&::freeaddrinfo)> guard(res, &::freeaddrinfo);
+    UniqueFd fd(::socket(res->ai_family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0));
+    if (!fd) return attempt_failed("socket() failed: " + errno_text(errno), now);
+    const bool done = ::connect(fd.get(), res->ai_addr, res->ai_addrlen) == 0;
+    if (!done && errno != EINPROGRESS) return attempt_failed(errno_text(errno), now);
+    const int on = 1;
+    ::setsockopt(fd.get(), IPPROTO_TCP, TCP_NODELAY, &on, sizeof on);
+    epoll_event ev{};
+    ev.events = done ? EPOLLIN : EPOLLOUT;  // EPOLLOUT: the non-blocking connect completed
+    if (::epoll_ctl(epoll_.get(), EPOLL_CTL_ADD, fd.get(), &ev) < 0)
+      return attempt_failed("epoll: " + errno_text(errno), now);
+    sock_ = std::move(fd);
+    want_write_ = false;
+    splitter_ = ElementSplitter();
+    link_ = done ? Link::Hello : Link::Connecting;
+  }
+
+  void finish_connect() {
+    pollfd p{sock_.get(), POLLOUT, 0};
+    if (::poll(&p, 1, 0) <= 0) return;  // still in progress
+    int soerr = 0;
+    socklen_t len = sizeof soerr;
+    ::getsockopt(sock_.get(), SOL_SOCKET, SO_ERROR, &soerr, &len);
+    if (soerr != 0) return attempt_failed(errno_text(soerr), now_estimate());
+    epoll_event ev{};
+    ev.events = EPOLLIN;
+    ::epoll_ctl(epoll_.get(), EPOLL_CTL_MOD, sock_.get(), &ev);
+    link_ = Link::Hello;
+  }
+
+  // A failed attempt: close, wait, try again with twice the delay (100 ms .. 5 s).
+  void attempt_failed(const std::string& why, Time now) {
+    if (sock_) ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, sock_.get(), nullptr);
+    sock_.reset();
+    out_.clear();
+    link_ = Link::Down;
+    retry_at_ = now + backoff_;
+    log_.debug("reconnection attempt " + std::to_string(attempts_) + " failed: " + why +
+               "; next in " + std::to_string(backoff_.count() / 1000) + " ms");
+    backoff_ = std::min(backoff_ * 2, kMaxBackoff);
   }
 
   void flush() {
@@ -282,12 +388,26 @@ class SocketcandChannel final : public SocketcandClientChannel {
 
   void disconnect(const std::string& why) {
     if (!sock_) return;
-    log_.error(why + "; channel is down (bus state bus-off)");
+    if (link_ != Link::Up) return attempt_failed(why, now_estimate());
+    // Logged once per transition; the attempts that follow log at debug level.
+    log_.error(why + "; channel is down (bus state bus-off), reconnecting in " +
+               std::to_string(kFirstBackoff.count() / 1000) + " ms with backoff up to " +
+               std::to_string(kMaxBackoff.count() / 1000000) + " s");
     ::epoll_ctl(epoll_.get(), EPOLL_CTL_DEL, sock_.get(), nullptr);
     sock_.reset();
     tx_dropped_ += static_cast<std::uint32_t>(std::count(out_.begin(), out_.end(), '<'));
     out_.clear();
+    link_ = Link::Down;
+    backoff_ = kFirstBackoff;
+    attempts_ = 0;
+    retry_at_ = now_estimate() + backoff_;
+    backoff_ = std::min(backoff_ * 2, kMaxBackoff);
   }
+
+  enum class Link { Up, Connecting, Hello, OpenSent, RawSent, Down };
+  static constexpr Duration kFirstBackoff = milliseconds(100);
+  static constexpr Duration kMaxBackoff = seconds(5);
+  static constexpr Duration kAttemptTimeout = seconds(3);  // connect + handshake
 
   UniqueFd sock_;
   UniqueFd epoll_;
@@ -303,6 +423,14 @@ class SocketcandChannel final : public SocketcandClientChannel {
   std::uint32_t tx_dropped_ = 0;
   std::uint32_t remote_dropped_ = 0;
   std::uint32_t reconnects_ = 0;
+  std::string host_;
+  std::uint16_t port_;
+  std::string channel_;
+  Link link_ = Link::Up;
+  Duration backoff_ = kFirstBackoff;
+  Time retry_at_{0};
+  Time attempt_deadline_{0};
+  std::uint32_t attempts_ = 0;
 };
 
 }  // namespace
@@ -392,7 +520,7 @@ std::unique_ptr<Channel> connect_socketcand(const std::string& host, std::uint16
   Logger(log, "socketcand " + who).info("connected, bus " + channel + " in raw mode");
   return std::make_unique<SocketcandChannel>(std::move(sock), std::move(ep), who + "/" + channel,
                                              log, std::move(hs.splitter()),
-                                             std::move(hs.elements()));
+                                             std::move(hs.elements()), host, port, channel);
 }
 
 }  // namespace candp2::can

@@ -103,7 +103,9 @@ struct GatewayUnit final : modbus::GatewayFace, can::FrameSink {
   std::unique_ptr<gw::Gateway> gateway;
   EventLoop::TimerId timer = 0;
   std::optional<Time> armed;
-  CanFaultLayer faults;  // between gateway and channel (docs/faults.md)
+  CanFaultLayer faults;               // between gateway and channel (docs/faults.md)
+  EventLoop::TimerId link_timer = 0;  // socketcand client reconnection
+  std::optional<Time> link_armed;
 
   void send(const can::Frame& frame) override;  // the gateway transmits
   std::uint8_t dp_address() const override { return gateway->address(); }
@@ -145,8 +147,10 @@ class DaemonImpl final : public Daemon {
     // Unregister everything from the loop before the parts go away.
     if (deferred_) loop_.remove_deferred(deferred_);
     if (cycle_timer_) loop_.cancel_timer(cycle_timer_);
-    for (auto& g : gateways_)
+    for (auto& g : gateways_) {
       if (g->timer) loop_.cancel_timer(g->timer);
+      if (g->link_timer) loop_.cancel_timer(g->link_timer);
+    }
     for (auto& d : drives_)
       if (d->timer) loop_.cancel_timer(d->timer);
     for (auto& b : buses_)
@@ -196,6 +200,7 @@ class DaemonImpl final : public Daemon {
   void rearm(GatewayUnit& g);
   void rearm(DriveUnit& d);
   void rearm_export(Bus& b);
+  void rearm_link(GatewayUnit& g);
   void check_stored();
 
   config::DaemonConfig config_;
@@ -489,6 +494,7 @@ void DaemonImpl::drain_channel(GatewayUnit& g) {
     g.receive(*f, now);
   }
   g.update_controller();
+  rearm_link(g);
 }
 
 bool DaemonImpl::drain_in_process() {
@@ -545,6 +551,25 @@ void DaemonImpl::rearm(DriveUnit& d) {
     unit->armed.reset();
     unit->drive->advance(loop_.now(), *unit->endpoint);
   });
+}
+
+// A socketcand client channel's reconnection timer (can/socketcand_client.hpp).
+void DaemonImpl::rearm_link(GatewayUnit& g) {
+  auto* link = dynamic_cast<can::SocketcandClientChannel*>(g.channel.get());
+  if (!link) return;
+  const auto next = link->next_deadline();
+  if (next == g.link_armed && (g.link_timer || !next)) return;
+  if (g.link_timer) loop_.cancel_timer(g.link_timer);
+  g.link_timer = 0;
+  g.link_armed = next;
+  if (!next) return;
+  g.link_timer =
+      loop_.add_timer(std::max(Duration(0), *next - loop_.now()), [this, link, unit = &g] {
+        unit->link_timer = 0;
+        unit->link_armed.reset();
+        link->advance(loop_.now());
+        drain_channel(*unit);  // shows the state and rearms
+      });
 }
 
 // The socketcand export's idle timeouts run on the wall clock its on_readable() is given.

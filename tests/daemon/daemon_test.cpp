@@ -487,6 +487,77 @@ TEST(Daemon, GatewaysOnARemoteSocketcandBus) {
   EXPECT_EQ(count(" far 289#020106050403\n"), 1u) << text;
 }
 
+// Issue 12: the socketcand server behind a `socketcand` bus restarts; the client reconnects with
+// backoff, shows bus-off while disconnected (status block, LED C 'O'), and traffic resumes.
+TEST(Daemon, SocketcandBusReconnectsAfterTheServerRestarts) {
+  EventLoop remote_loop;
+  can::VirtualBus remote_bus;
+  auto remote_ep = remote_bus.endpoint("server");
+  std::string error;
+  auto serve = [&](std::uint16_t port) {
+    auto server = can::SocketcandServer::listen(
+        {.host = "127.0.0.1", .port = port, .channel = "can1"}, *remote_ep, nullptr, &error);
+    if (server)
+      for (int fd : server->poll_fds())
+        remote_loop.add_fd(fd, EventLoop::kReadable, [s = server.get(), fd](std::uint32_t) {
+          s->on_readable(fd, EventLoop::wall_now());
+        });
+    return server;
+  };
+  auto server = serve(0);
+  ASSERT_TRUE(server) << error;
+  const std::uint16_t port = server->port();
+  LoopThread remote_thread(remote_loop);
+  remote_thread.start();
+
+  json j = manual_514();
+  j["buses"] = {
+      {"far",
+       {{"type", "socketcand"}, {"host", "127.0.0.1"}, {"port", port}, {"channel", "can1"}}}};
+  j["gateways"][0]["bus"] = "far";
+  j["gateways"][0]["parameters"]["can_diagnosis"] = true;
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange(5));
+  ModbusClient plc(d.modbus(), 5);
+  namespace st = modbus::status;
+  auto status = [&] { return regs(plc.read_input(modbus::kStatusBase, st::kCount)); };
+  {
+    SocketcandClient peer(port, "can1");
+    ASSERT_EQ(plc.write(86, {0x0102, 0x0304, 0x0506}), 0);
+    EXPECT_EQ(peer.frame(), "309#020106050403");
+  }
+
+  // The server goes away: the gateway sees bus-off (diagnosis byte 8 = 0xC0, LED C 'O').
+  remote_thread.stop();
+  for (int fd : server->poll_fds()) remote_loop.remove_fd(fd);
+  server.reset();
+  EXPECT_TRUE(eventually([&] {
+    const auto s = status();
+    return s[st::kBusState] == 3 && s[st::kDiag + 8] == 0xC0 &&
+           s[st::kLedC] == modbus::led::kMorseO;
+  }));
+  // Then it is back on the same port (attempts before that were refused; the backoff grows).
+  server = serve(port);
+  ASSERT_TRUE(server) << error;
+  remote_thread.start();
+  EXPECT_TRUE(eventually([&] {
+    const auto s = status();
+    return s[st::kBusState] == 0 && s[st::kReconnects + 1] == 1 && s[st::kLedC] == modbus::led::kOn;
+  }));
+  SocketcandClient peer(port, "can1");
+  ASSERT_EQ(plc.write(86, {0x0A0B, 0x0C0D, 0x0E0F}), 0);
+  EXPECT_EQ(peer.frame(), "309#0B0A0F0E0D0C");  // traffic resumes
+  peer.send(F("289#0B0A0F0E0D0C"));
+  EXPECT_TRUE(eventually([&] {
+    return regs(plc.read_input(86, 3)) == std::vector<std::uint16_t>{0x0A0B, 0x0C0D, 0x0E0F};
+  }));
+  d.thread.stop();
+  remote_thread.stop();
+  for (int fd : server->poll_fds()) remote_loop.remove_fd(fd);
+  EXPECT_TRUE(d.log.contains("channel is down"));
+  EXPECT_TRUE(d.log.contains("reconnected after"));
+}
+
 TEST(ModbusMapText, NamesSlotsRegistersAndUnits) {
   const auto text = modbus_map_text(load(manual_514()));
   EXPECT_NE(text.find("5, 0, 255  gw5"), std::string::npos) << text;
