@@ -437,7 +437,7 @@ BusConfig parse_bus(const json& j, const std::string& path, const std::string& n
 }
 
 DriveConfig parse_drive(const json& j, const std::string& path, const std::string& file) {
-  const Object o(j, path, {"type", "name", "bus", "rx_id", "tx_id", "state_file"});
+  const Object o(j, path, {"type", "name", "bus", "rx_id", "tx_id", "state_file", "modbus_unit"});
   DriveConfig d;
   d.json_path = path;
   d.type = get_enum<std::string>(o, "type", "unitek", {{"unitek", "unitek"}});
@@ -449,6 +449,7 @@ DriveConfig parse_drive(const json& j, const std::string& path, const std::strin
   d.rx_id = get_uint<std::uint32_t>(o, "rx_id", 0x201, 0x201, 0x27F);
   d.tx_id = get_uint<std::uint32_t>(o, "tx_id", 0x181, 0x181, 0x1FF);
   if (auto s = find_string(o, "state_file", "a file name")) d.state_file = resolve(file, *s);
+  if (o.has("modbus_unit")) d.modbus_unit = get_uint<std::uint8_t>(o, "modbus_unit", 1, 1, 254);
   return d;
 }
 
@@ -537,10 +538,19 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
         fail(path + ".bus",
              "simulated drives run on virtual buses only (use candp2-drive on a "
              "SocketCAN or socketcand bus)");
-      for (const auto& other : c.drives)
+      for (const auto& other : c.drives) {
         if (other.name == drive.name)
           fail(path + ".name",
                "the name \"" + drive.name + "\" is already used by " + other.json_path);
+        if (drive.modbus_unit && other.modbus_unit == drive.modbus_unit)
+          fail(path + ".modbus_unit", "unit ID " + std::to_string(*drive.modbus_unit) +
+                                          " is already used by " + other.json_path);
+      }
+      if (drive.modbus_unit)
+        if (const auto* g = c.gateway_by_dp_address(*drive.modbus_unit))
+          fail(path + ".modbus_unit", "unit ID " + std::to_string(*drive.modbus_unit) +
+                                          " is the DP address of " + g->json_path +
+                                          " (the gateway's Modbus unit ID)");
       c.drives.push_back(std::move(drive));
     }
   }

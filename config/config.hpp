@@ -91,6 +91,9 @@ struct DriveConfig {
   std::uint32_t rx_id = 0x201;
   std::uint32_t tx_id = 0x181;
   std::optional<std::string> state_file;
+  // Modbus unit ID of the drive's fault registers (docs/faults.md); must not be a gateway's DP
+  // address or 0/255 (those address the first gateway).
+  std::optional<std::uint8_t> modbus_unit;
   std::string json_path;
 };
 

@@ -129,13 +129,24 @@ struct GatewayUnit final : modbus::GatewayFace, can::FrameSink {
   std::uint32_t reconnects() const;
 };
 
-struct DriveUnit {
+struct DriveUnit final : modbus::DriveFace {
+  LogSink* log_sink = nullptr;
   config::DriveConfig cfg;
   std::unique_ptr<can::VirtualEndpoint> endpoint;
   std::unique_ptr<drive::FileParameterStore> store;
   std::unique_ptr<drive::UnitekDrive> drive;
+  drive::UnitekDrive::Options options;
   EventLoop::TimerId timer = 0;
   std::optional<Time> armed;
+  // Fault injection (docs/faults.md).
+  bool muted = false;
+  std::uint16_t errors = 0, warnings = 0;
+
+  std::uint8_t modbus_unit() const override { return cfg.modbus_unit.value_or(0); }
+  std::uint16_t fault_register(std::uint16_t index) const override {
+    return index == 0 ? (muted ? 1 : 0) : index == 1 ? errors : index == 2 ? warnings : 0;
+  }
+  void set_fault_register(std::uint16_t index, std::uint16_t value, Time now) override;
 };
 
 class DaemonImpl final : public Daemon {
@@ -295,6 +306,31 @@ void GatewayUnit::control(modbus::Control command, Time now) {
   }
 }
 
+void DriveUnit::set_fault_register(std::uint16_t index, std::uint16_t value, Time now) {
+  Logger log(log_sink, "daemon");
+  switch (index) {
+    case 0:
+      muted = value != 0;
+      log.warn("drive " + cfg.name + (muted ? ": stops answering" : ": answers again") +
+               " (requested over Modbus)");
+      return;
+    case 1:
+    case 2:
+      (index == 1 ? errors : warnings) = value;
+      // ERR_BITMAP1 0x8F: errors in bits 0..15, warnings in bits 16..31.
+      drive->set_errors((static_cast<std::uint32_t>(warnings) << 16) | errors, now, *endpoint);
+      return;
+    case 3:
+      if (value != 1) return;
+      log.warn("drive " + cfg.name + ": restart requested over Modbus (cyclic requests lost)");
+      // Power-on state: stored parameters reloaded, cyclic transmissions and errors gone.
+      drive = std::make_unique<drive::UnitekDrive>(options, log_sink, store.get());
+      errors = warnings = 0;
+      muted = false;
+      return;
+  }
+}
+
 bool DaemonImpl::watch(int fd, std::function<void()> on_readable, std::string* error) {
   if (!loop_.add_fd(
           fd, EventLoop::kReadable, [cb = std::move(on_readable)](std::uint32_t) { cb(); }, error))
@@ -411,6 +447,8 @@ bool DaemonImpl::open_drive(DriveUnit& d, std::string* error) {
   o.rx_id = d.cfg.rx_id;
   o.tx_id = d.cfg.tx_id;
   o.name = d.cfg.name;
+  d.options = o;
+  d.log_sink = log_sink_;
   try {
     d.drive = std::make_unique<drive::UnitekDrive>(o, log_sink_, d.store.get());
   } catch (const std::exception& e) {
@@ -464,7 +502,11 @@ bool DaemonImpl::start(std::string* error) {
 
   std::vector<modbus::GatewayFace*> faces;
   for (auto& g : gateways_) faces.push_back(g.get());
-  map_ = std::make_unique<modbus::ProcessImageMap>(master_->image(), std::move(faces));
+  std::vector<modbus::DriveFace*> drive_faces;
+  for (auto& d : drives_)
+    if (d->cfg.modbus_unit) drive_faces.push_back(d.get());
+  map_ = std::make_unique<modbus::ProcessImageMap>(master_->image(), std::move(faces),
+                                                   std::move(drive_faces));
   std::string e;
   modbus_ = modbus::ModbusServer::listen({.host = config_.modbus_listen.host,
                                           .port = config_.modbus_listen.port,
@@ -511,7 +553,7 @@ bool DaemonImpl::drain_in_process() {
   }
   for (auto& d : drives_) {
     while (auto f = d->endpoint->receive()) {
-      d->drive->on_frame(*f, now, *d->endpoint);
+      if (!d->muted) d->drive->on_frame(*f, now, *d->endpoint);  // muted: stops answering
       work = true;
     }
   }
@@ -540,7 +582,7 @@ void DaemonImpl::rearm(GatewayUnit& g) {
 }
 
 void DaemonImpl::rearm(DriveUnit& d) {
-  const auto next = d.drive->next_deadline();
+  const auto next = d.muted ? std::nullopt : d.drive->next_deadline();
   if (next == d.armed && (d.timer || !next)) return;
   if (d.timer) loop_.cancel_timer(d.timer);
   d.timer = 0;

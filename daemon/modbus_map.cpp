@@ -299,8 +299,12 @@ StatusBlock encode_status(const StatusInputs& in) {
 
 // -------------------------------------------------------------------------------------- map
 
-ProcessImageMap::ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways)
-    : image_(image), gateways_(std::move(gateways)), last_control_(gateways_.size(), 0) {}
+ProcessImageMap::ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways,
+                                 std::vector<DriveFace*> drives)
+    : image_(image),
+      gateways_(std::move(gateways)),
+      last_control_(gateways_.size(), 0),
+      drives_(std::move(drives)) {}
 
 GatewayFace* ProcessImageMap::resolve(std::uint8_t unit) const {
   if (gateways_.empty()) return nullptr;
@@ -364,6 +368,28 @@ std::optional<DecodeFailure> ProcessImageMap::read_registers(Table t, GatewayFac
 }
 
 std::optional<DecodeFailure> ProcessImageMap::handle(const Request& r, ReadResult& out, Time now) {
+  for (DriveFace* d : drives_) {
+    if (d->modbus_unit() != r.unit) continue;
+    // docs/faults.md: holding registers 0..3 of the drive's unit ID.
+    if (r.function == Function::ReadHoldingRegisters) {
+      if (!within(r.address, r.count, 0, kDriveRegisters))
+        return address_error(r.table, r.address, r.count);
+      for (std::uint32_t i = 0; i < r.count; ++i)
+        out.registers[i] = d->fault_register(static_cast<std::uint16_t>(r.address + i));
+      return std::nullopt;
+    }
+    if (r.function == Function::WriteSingleRegister ||
+        r.function == Function::WriteMultipleRegisters) {
+      if (!within(r.write_address, r.write_count, 0, kDriveRegisters))
+        return address_error(Table::HoldingRegisters, r.write_address, r.write_count);
+      for (std::uint32_t i = 0; i < r.write_count; ++i)
+        d->set_fault_register(static_cast<std::uint16_t>(r.write_address + i), r.register_value(i),
+                              now);
+      return std::nullopt;
+    }
+    return DecodeFailure{Exception::IllegalFunction,
+                         "a drive's fault registers take FC 03, 06 and 16 only"};
+  }
   GatewayFace* g = resolve(r.unit);
   if (!g)
     return DecodeFailure{Exception::GatewayTargetFailed,

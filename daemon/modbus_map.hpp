@@ -220,6 +220,18 @@ class GatewayFace {
   virtual std::uint16_t drop_remaining() const { return 0; }
 };
 
+// A simulated drive's fault registers (docs/faults.md), holding registers 0..3 of its own unit ID:
+// 0 mute (1 = stops answering), 1 error bits (ERR_BITMAP1 0x8F bits 0..15), 2 warning bits
+// (0x8F bits 16..31), 3 restart (write 1; reads 0).
+inline constexpr std::uint16_t kDriveRegisters = 4;
+class DriveFace {
+ public:
+  virtual ~DriveFace() = default;
+  virtual std::uint8_t modbus_unit() const = 0;
+  virtual std::uint16_t fault_register(std::uint16_t index) const = 0;
+  virtual void set_fault_register(std::uint16_t index, std::uint16_t value, Time now) = 0;
+};
+
 class Handler {
  public:
   virtual ~Handler() = default;
@@ -233,7 +245,8 @@ class Handler {
 class ProcessImageMap final : public Handler {
  public:
   // The first gateway is the one unit IDs 0 and 255 address.
-  ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways);
+  ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways,
+                  std::vector<DriveFace*> drives = {});
   std::optional<DecodeFailure> handle(const Request& request, ReadResult& out, Time now) override;
   // The last command written to a gateway's control register (reads of holding register 8192).
   std::uint16_t last_control(std::uint8_t dp_address) const;
@@ -246,6 +259,7 @@ class ProcessImageMap final : public Handler {
   dp::ProcessImage& image_;
   std::vector<GatewayFace*> gateways_;
   std::vector<std::uint16_t> last_control_;  // per gateway
+  std::vector<DriveFace*> drives_;
 };
 
 // The status block's fields, for `candp2d --print-modbus-map` and logs.

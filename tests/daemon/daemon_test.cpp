@@ -409,6 +409,66 @@ TEST(Daemon, SimulatedUnitekDriveAnswersThroughTheGateway) {
   }));
 }
 
+// docs/faults.md: a simulated drive's fault registers on its own unit ID (drives[].modbus_unit).
+TEST(Daemon, DriveFaultsThroughItsModbusUnit) {
+  json j = manual_514();
+  j["drives"] =
+      json::parse(R"([{"type": "unitek", "name": "axis1", "bus": "can0", "modbus_unit": 20}])");
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange());
+  SocketcandClient bus(d.socketcand(), "can0");
+  ModbusClient drive(d.modbus(), 20);
+  auto next_181 = [&](std::chrono::milliseconds timeout) -> std::optional<std::string> {
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    while (true) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+          end - std::chrono::steady_clock::now());
+      if (left.count() <= 0) return std::nullopt;
+      auto f = bus.frame(left);
+      if (!f) return std::nullopt;
+      if (f->rfind("181#", 0) == 0) return f;
+    }
+  };
+  // Error bits 0x0004 and warning bits 0x0001: ERR_BITMAP1 0x8F = 0x00010004 (little-endian).
+  ASSERT_EQ(drive.write(1, {0x0004, 0x0001}), 0);
+  EXPECT_EQ(regs(drive.read_holding(0, 4)), (std::vector<std::uint16_t>{0, 4, 1, 0}));
+  bus.send(F("201#3D8F00"));  // Unitek REGID 0x3D: read 0x8F once
+  auto f = next_181(2000ms);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->rfind("181#8F04000100", 0), 0u) << *f;
+  // Mute: requests get no answer.
+  ASSERT_EQ(drive.write_one(0, 1), 0);
+  bus.send(F("201#3D8F00"));
+  EXPECT_EQ(next_181(300ms), std::nullopt);
+  ASSERT_EQ(drive.write_one(0, 0), 0);
+  // A cyclic request (every 100 ms), then a restart: the cyclic replies stop, the errors are gone.
+  bus.send(F("201#3D8F64"));
+  ASSERT_TRUE(next_181(2000ms));
+  ASSERT_EQ(drive.write_one(3, 1), 0);
+  EXPECT_TRUE(eventually([&] { return !next_181(300ms).has_value(); }, 3000ms));
+  EXPECT_EQ(regs(drive.read_holding(0, 4)), (std::vector<std::uint16_t>{0, 0, 0, 0}));
+  bus.send(F("201#3D8F00"));
+  f = next_181(2000ms);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->rfind("181#8F00000000", 0), 0u) << *f;
+  // Other registers and functions get the protocol's exceptions.
+  EXPECT_EQ(std::get<int>(drive.read_holding(4, 1)), EMBXILADD);
+  EXPECT_EQ(std::get<int>(drive.read_input(0, 1)), EMBXILFUN);
+}
+
+TEST(Daemon, DriveUnitMustNotBeAGatewayAddress) {
+  json j = manual_514();
+  j["drives"] =
+      json::parse(R"([{"type": "unitek", "name": "axis1", "bus": "can0", "modbus_unit": 5}])");
+  try {
+    load(j);
+    ADD_FAILURE() << "accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("$.drives[0].modbus_unit"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("DP address"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Daemon, BuiltInDefaultGatewayWithTwoDrives) {
   // config/demo.json (compiled into candp2d as its default) on free ports.
   std::ifstream in(CANDP2_SOURCE_DIR "/config/demo.json");
