@@ -409,10 +409,15 @@ BusConfig parse_bus(const json& j, const std::string& path, const std::string& n
   if (!type) fail(path, "missing key \"type\" (\"virtual\", \"socketcan\" or \"socketcand\")");
   const std::string t = type->is_string() ? type->get<std::string>() : "";
   if (t == "virtual") {
-    const Object o(j, path, {"type", "socketcand", "channel"});
+    const Object o(
+        j, path,
+        {"type", "socketcand", "channel", "socketcand_max_clients", "socketcand_idle_timeout_s"});
     b.type = BusType::Virtual;
     if (const json* l = o.find("socketcand"))
       b.socketcand_listen = get_endpoint(*l, o.path("socketcand"));
+    b.socketcand_max_clients = get_uint<std::uint32_t>(o, "socketcand_max_clients", 32, 1, 10000);
+    b.socketcand_idle_timeout_s =
+        get_uint<std::uint32_t>(o, "socketcand_idle_timeout_s", 60, 0, 86400, "s");
     b.channel = find_string(o, "channel", "a socketcand bus name").value_or(name);
     if (!valid_name(b.channel, 16))  // socketcand.h MAX_BUSNAME
       fail(o.has("channel") ? o.path("channel") : path,
@@ -448,7 +453,7 @@ BusConfig parse_bus(const json& j, const std::string& path, const std::string& n
 }
 
 DriveConfig parse_drive(const json& j, const std::string& path, const std::string& file) {
-  const Object o(j, path, {"type", "name", "bus", "rx_id", "tx_id", "state_file"});
+  const Object o(j, path, {"type", "name", "bus", "rx_id", "tx_id", "state_file", "modbus_unit"});
   DriveConfig d;
   d.json_path = path;
   d.type = get_enum<std::string>(o, "type", "unitek", {{"unitek", "unitek"}});
@@ -460,6 +465,7 @@ DriveConfig parse_drive(const json& j, const std::string& path, const std::strin
   d.rx_id = get_uint<std::uint32_t>(o, "rx_id", 0x201, 0x201, 0x27F);
   d.tx_id = get_uint<std::uint32_t>(o, "tx_id", 0x181, 0x181, 0x1FF);
   if (auto s = find_string(o, "state_file", "a file name")) d.state_file = resolve(file, *s);
+  if (o.has("modbus_unit")) d.modbus_unit = get_uint<std::uint8_t>(o, "modbus_unit", 1, 1, 254);
   return d;
 }
 
@@ -546,8 +552,10 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
     c.profibus = parse_profibus(*p, top.path("profibus"), file);
   const bool remote = c.remote_gateways();
   if (const json* m = top.find("modbus")) {
-    const Object o(*m, top.path("modbus"), {"listen"});
+    const Object o(*m, top.path("modbus"), {"listen", "max_clients", "idle_timeout_s"});
     if (const json* l = o.find("listen")) c.modbus_listen = get_endpoint(*l, o.path("listen"));
+    c.modbus_max_clients = get_uint<std::uint32_t>(o, "max_clients", 64, 1, 10000);
+    c.modbus_idle_timeout_s = get_uint<std::uint32_t>(o, "idle_timeout_s", 60, 0, 86400, "s");
   }
   if (const json* h = top.find("http")) {
     const Object o(*h, top.path("http"), {"listen"});
@@ -644,10 +652,19 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
         fail(path + ".bus",
              "simulated drives run on virtual buses only (use candp2-drive on a "
              "SocketCAN or socketcand bus)");
-      for (const auto& other : c.drives)
+      for (const auto& other : c.drives) {
         if (other.name == drive.name)
           fail(path + ".name",
                "the name \"" + drive.name + "\" is already used by " + other.json_path);
+        if (drive.modbus_unit && other.modbus_unit == drive.modbus_unit)
+          fail(path + ".modbus_unit", "unit ID " + std::to_string(*drive.modbus_unit) +
+                                          " is already used by " + other.json_path);
+      }
+      if (drive.modbus_unit)
+        if (const auto* g = c.gateway_by_dp_address(*drive.modbus_unit))
+          fail(path + ".modbus_unit", "unit ID " + std::to_string(*drive.modbus_unit) +
+                                          " is the DP address of " + g->json_path +
+                                          " (the gateway's Modbus unit ID)");
       c.drives.push_back(std::move(drive));
     }
   }

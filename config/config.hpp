@@ -46,7 +46,9 @@ struct BusConfig {
   // socketcand client: the bus to open on the server; virtual bus export: the bus name clients
   // open (defaults to the bus's own name).
   std::string channel;
-  std::optional<Endpoint> socketcand_listen;  // virtual: export the bus over socketcand
+  std::optional<Endpoint> socketcand_listen;     // virtual: export the bus over socketcand
+  std::uint32_t socketcand_max_clients = 32;     // export: at the limit the idlest is evicted
+  std::uint32_t socketcand_idle_timeout_s = 60;  // export: close silent clients; 0 = never
   std::string json_path;
 };
 
@@ -96,6 +98,9 @@ struct DriveConfig {
   std::uint32_t rx_id = 0x201;
   std::uint32_t tx_id = 0x181;
   std::optional<std::string> state_file;
+  // Modbus unit ID of the drive's fault registers (docs/faults.md); must not be a gateway's DP
+  // address or 0/255 (those address the first gateway).
+  std::optional<std::uint8_t> modbus_unit;
   std::string json_path;
 };
 
@@ -119,7 +124,9 @@ struct ProfibusConfig {
 struct DaemonConfig {
   std::string file;  // where it was loaded from
   Endpoint modbus_listen{"127.0.0.1", 1502};
-  std::optional<Endpoint> http_listen;  // status page, JSON API, /metrics (absent = off)
+  std::optional<Endpoint> http_listen;       // status page, JSON API, /metrics (absent = off)
+  std::uint32_t modbus_max_clients = 64;     // at the limit the client idle longest is evicted
+  std::uint32_t modbus_idle_timeout_s = 60;  // close clients silent this long; 0 = never
   std::uint8_t master_address = 1;
   std::uint32_t cycle_ms = 10;
   std::uint32_t retry_ms = 1000;  // between parameterization attempts after a fault

@@ -12,6 +12,7 @@
 #include "can/socketcan.hpp"
 #include "can/socketcand.hpp"
 #include "daemon/bitrate_supervisor.hpp"
+#include "daemon/can_fault.hpp"
 #include "daemon/can_log.hpp"
 #include "daemon/cycle_stats.hpp"
 #include "daemon/http_server.hpp"
@@ -92,7 +93,9 @@ struct Bus {
   std::unique_ptr<can::VirtualBus> vbus;
   std::unique_ptr<can::VirtualEndpoint> export_endpoint;
   std::unique_ptr<can::SocketcandServer> export_server;
-  BusMonitor monitor;  // every frame once: counts, bus load, trace (HTTP face)
+  BusMonitor monitor;                   // every frame once: counts, bus load, trace (HTTP face)
+  EventLoop::TimerId export_timer = 0;  // the export's idle timeouts
+  std::optional<Time> export_armed;
 };
 
 // One emulated gateway: its CAN channel, the gateway engine and its Modbus face.
@@ -108,20 +111,50 @@ struct GatewayUnit final : modbus::GatewayFace, can::FrameSink {
   std::optional<Time> armed;
   BitrateSupervisor* link = nullptr;  // SocketCAN: the interface's bit rate (docs/transports.md)
   std::size_t link_index = 0;
+  CanFaultLayer faults;               // between gateway and channel (docs/faults.md)
+  EventLoop::TimerId link_timer = 0;  // socketcand client reconnection
+  std::optional<Time> link_armed;
 
   void send(const can::Frame& frame) override;  // the gateway transmits
   std::uint8_t dp_address() const override { return gateway->address(); }
   modbus::StatusBlock status(Time now) override;
   void control(modbus::Control command, Time now) override;
+  bool force_bus_state(std::uint16_t code, Time now) override;
+  std::uint16_t forced_bus_state() const override { return faults.forced_code(); }
+  void drop_received(std::uint16_t n, Time now) override;
+  std::uint16_t drop_remaining() const override {
+    return static_cast<std::uint16_t>(std::min<std::uint32_t>(faults.drop_remaining(), 0xFFFF));
+  }
+  // Gives the gateway the controller state and IRQ_LOST total through the fault layer.
+  void update_controller() {
+    gateway->set_controller_status(faults.state(channel->bus_state()),
+                                   faults.rx_lost(channel->rx_lost()));
+  }
+  // A received frame through the fault layer.
+  void receive(const can::Frame& frame, Time now) {
+    if (faults.pass_rx()) gateway->on_can_frame(frame, now);
+  }
+  std::uint32_t reconnects() const;
 };
 
-struct DriveUnit {
+struct DriveUnit final : modbus::DriveFace {
+  LogSink* log_sink = nullptr;
   config::DriveConfig cfg;
   std::unique_ptr<can::VirtualEndpoint> endpoint;
   std::unique_ptr<drive::FileParameterStore> store;
   std::unique_ptr<drive::UnitekDrive> drive;
+  drive::UnitekDrive::Options options;
   EventLoop::TimerId timer = 0;
   std::optional<Time> armed;
+  // Fault injection (docs/faults.md).
+  bool muted = false;
+  std::uint16_t errors = 0, warnings = 0;
+
+  std::uint8_t modbus_unit() const override { return cfg.modbus_unit.value_or(0); }
+  std::uint16_t fault_register(std::uint16_t index) const override {
+    return index == 0 ? (muted ? 1 : 0) : index == 1 ? errors : index == 2 ? warnings : 0;
+  }
+  void set_fault_register(std::uint16_t index, std::uint16_t value, Time now) override;
 };
 
 class DaemonImpl final : public Daemon {
@@ -134,10 +167,14 @@ class DaemonImpl final : public Daemon {
     http_.reset();
     if (deferred_) loop_.remove_deferred(deferred_);
     if (cycle_timer_) loop_.cancel_timer(cycle_timer_);
-    for (auto& g : gateways_)
+    for (auto& g : gateways_) {
       if (g->timer) loop_.cancel_timer(g->timer);
+      if (g->link_timer) loop_.cancel_timer(g->link_timer);
+    }
     for (auto& d : drives_)
       if (d->timer) loop_.cancel_timer(d->timer);
+    for (auto& b : buses_)
+      if (b->export_timer) loop_.cancel_timer(b->export_timer);
     for (int fd : watched_) loop_.remove_fd(fd);
     modbus_.reset();
   }
@@ -192,6 +229,8 @@ class DaemonImpl final : public Daemon {
   bool drain_in_process();  // the deferred hook
   void rearm(GatewayUnit& g);
   void rearm(DriveUnit& d);
+  void rearm_export(Bus& b);
+  void rearm_link(GatewayUnit& g);
   void check_stored();
   void update_links();
   bool start_http(std::string* error);
@@ -222,8 +261,32 @@ void GatewayUnit::send(const can::Frame& frame) {
   // Virtual buses log every frame through their tap. On SocketCAN and socketcand buses the first
   // gateway's channel logs what it sends and receives: it receives what the other gateways on
   // that bus send (separate sockets/connections), so every frame is logged once.
+  if (!faults.pass_tx()) return;  // forced bus-off: dropped, counted (docs/faults.md)
   if (logs_bus) daemon->log_frame(frame, *bus);
   channel->send(frame);
+}
+
+std::uint32_t GatewayUnit::reconnects() const {
+  if (const auto* c = dynamic_cast<const can::SocketcandClientChannel*>(channel.get()))
+    return c->reconnects();
+  return 0;
+}
+
+bool GatewayUnit::force_bus_state(std::uint16_t code, Time) {
+  if (!faults.force(code)) return false;
+  daemon->logger().warn(cfg.name + ": CAN controller state " +
+                        (code == kForceReal
+                             ? std::string("no longer forced (real state)")
+                             : "forced to " + std::string(can::to_string(*faults.forced()))) +
+                        " over Modbus");
+  update_controller();
+  return true;
+}
+
+void GatewayUnit::drop_received(std::uint16_t n, Time) {
+  faults.drop_next(n);
+  daemon->logger().warn(cfg.name + ": the next " + std::to_string(n) +
+                        " received frame(s) will be dropped (IRQ_LOST)");
 }
 
 modbus::StatusBlock GatewayUnit::status(Time now) {
@@ -235,8 +298,14 @@ modbus::StatusBlock GatewayUnit::status(Time now) {
   if (const auto view = daemon->dp_master().slave(gateway->address())) {
     in.master_state = view->state;
     in.parameterizations = view->parameterizations;
+    in.addressed = view->addressed;
   }
   in.line = daemon->line_status(gateway->address());
+  in.forced_state = faults.forced_code();
+  in.tx_suppressed = faults.tx_suppressed();
+  in.rx_suppressed = faults.rx_suppressed();
+  in.rx_drop_remaining = faults.drop_remaining();
+  in.reconnects = reconnects();
   return modbus::encode_status(in);
 }
 
@@ -261,6 +330,39 @@ void GatewayUnit::control(modbus::Control command, Time now) {
       daemon->logger().info(cfg.name + ": re-parameterization requested over Modbus");
       daemon->dp_master().reparameterize(gateway->address(), now);
       return;
+    case modbus::Control::MasterStops:
+      daemon->logger().warn(cfg.name + ": the master stops addressing it (requested over Modbus)");
+      daemon->dp_master().set_addressed(gateway->address(), false, now);
+      return;
+    case modbus::Control::MasterResumes:
+      daemon->logger().info(cfg.name + ": the master addresses it again (requested over Modbus)");
+      daemon->dp_master().set_addressed(gateway->address(), true, now);
+      return;
+  }
+}
+
+void DriveUnit::set_fault_register(std::uint16_t index, std::uint16_t value, Time now) {
+  Logger log(log_sink, "daemon");
+  switch (index) {
+    case 0:
+      muted = value != 0;
+      log.warn("drive " + cfg.name + (muted ? ": stops answering" : ": answers again") +
+               " (requested over Modbus)");
+      return;
+    case 1:
+    case 2:
+      (index == 1 ? errors : warnings) = value;
+      // ERR_BITMAP1 0x8F: errors in bits 0..15, warnings in bits 16..31.
+      drive->set_errors((static_cast<std::uint32_t>(warnings) << 16) | errors, now, *endpoint);
+      return;
+    case 3:
+      if (value != 1) return;
+      log.warn("drive " + cfg.name + ": restart requested over Modbus (cyclic requests lost)");
+      // Power-on state: stored parameters reloaded, cyclic transmissions and errors gone.
+      drive = std::make_unique<drive::UnitekDrive>(options, log_sink, store.get());
+      errors = warnings = 0;
+      muted = false;
+      return;
   }
 }
 
@@ -281,6 +383,8 @@ bool DaemonImpl::open_bus(Bus& b, std::string* error) {
     o.host = b.cfg.socketcand_listen->host;
     o.port = b.cfg.socketcand_listen->port;
     o.channel = b.cfg.channel;
+    o.max_clients = b.cfg.socketcand_max_clients;
+    o.idle_timeout = seconds(b.cfg.socketcand_idle_timeout_s);
     std::string e;
     b.export_server = can::SocketcandServer::listen(o, *b.export_endpoint, log_sink_, &e);
     if (!b.export_server) {
@@ -288,9 +392,15 @@ bool DaemonImpl::open_bus(Bus& b, std::string* error) {
       return false;
     }
     can::SocketcandServer* server = b.export_server.get();
+    Bus* bp = &b;
     for (int fd : server->poll_fds())
       if (!watch(
-              fd, [server, fd] { server->on_readable(fd, EventLoop::wall_now()); }, error))
+              fd,
+              [this, bp, server, fd] {
+                server->on_readable(fd, EventLoop::wall_now());
+                rearm_export(*bp);
+              },
+              error))
         return false;
     log_.info("bus " + b.cfg.name + ": socketcand export on " + b.cfg.socketcand_listen->host +
               ":" + std::to_string(server->port()) + ", bus name \"" + b.cfg.channel + "\"");
@@ -377,6 +487,8 @@ bool DaemonImpl::open_drive(DriveUnit& d, std::string* error) {
   o.rx_id = d.cfg.rx_id;
   o.tx_id = d.cfg.tx_id;
   o.name = d.cfg.name;
+  d.options = o;
+  d.log_sink = log_sink_;
   try {
     d.drive = std::make_unique<drive::UnitekDrive>(o, log_sink_, d.store.get());
   } catch (const std::exception& e) {
@@ -445,12 +557,18 @@ bool DaemonImpl::start(std::string* error) {
 
   std::vector<modbus::GatewayFace*> faces;
   for (auto& g : gateways_) faces.push_back(g.get());
-  map_ = std::make_unique<modbus::ProcessImageMap>(master_->image(), std::move(faces));
+  std::vector<modbus::DriveFace*> drive_faces;
+  for (auto& d : drives_)
+    if (d->cfg.modbus_unit) drive_faces.push_back(d.get());
+  map_ = std::make_unique<modbus::ProcessImageMap>(master_->image(), std::move(faces),
+                                                   std::move(drive_faces));
   map_->set_outputs_read_only(line_ != nullptr);
   std::string e;
-  modbus_ = modbus::ModbusServer::listen(
-      {.host = config_.modbus_listen.host, .port = config_.modbus_listen.port}, loop_, *map_,
-      log_sink_, &e);
+  modbus_ = modbus::ModbusServer::listen({.host = config_.modbus_listen.host,
+                                          .port = config_.modbus_listen.port,
+                                          .max_clients = config_.modbus_max_clients,
+                                          .idle_timeout = seconds(config_.modbus_idle_timeout_s)},
+                                         loop_, *map_, log_sink_, &e);
   if (!modbus_) {
     *error = "Modbus/TCP ($.modbus.listen): " + e;
     return false;
@@ -518,9 +636,10 @@ void DaemonImpl::drain_channel(GatewayUnit& g) {
   const Time now = loop_.now();
   while (auto f = g.channel->receive()) {
     if (g.logs_bus) log_frame(*f, *g.bus);
-    g.gateway->on_can_frame(*f, now);
+    g.receive(*f, now);
   }
-  g.gateway->set_controller_status(g.channel->bus_state(), g.channel->rx_lost());
+  g.update_controller();
+  rearm_link(g);
 }
 
 bool DaemonImpl::drain_in_process() {
@@ -529,15 +648,15 @@ bool DaemonImpl::drain_in_process() {
   for (auto& g : gateways_) {
     if (g->endpoint) {
       while (auto f = g->endpoint->receive()) {
-        g->gateway->on_can_frame(*f, now);
+        g->receive(*f, now);
         work = true;
       }
-      g->gateway->set_controller_status(g->endpoint->bus_state(), g->endpoint->rx_lost());
+      g->update_controller();
     }
   }
   for (auto& d : drives_) {
     while (auto f = d->endpoint->receive()) {
-      d->drive->on_frame(*f, now, *d->endpoint);
+      if (!d->muted) d->drive->on_frame(*f, now, *d->endpoint);  // muted: stops answering
       work = true;
     }
   }
@@ -566,7 +685,7 @@ void DaemonImpl::rearm(GatewayUnit& g) {
 }
 
 void DaemonImpl::rearm(DriveUnit& d) {
-  const auto next = d.drive->next_deadline();
+  const auto next = d.muted ? std::nullopt : d.drive->next_deadline();
   if (next == d.armed && (d.timer || !next)) return;
   if (d.timer) loop_.cancel_timer(d.timer);
   d.timer = 0;
@@ -589,6 +708,42 @@ void DaemonImpl::update_links() {
         prm ? std::optional<std::uint32_t>(gw::kBitrates.at(prm->bitrate_index)) : std::nullopt,
         now);
   }
+}
+
+// A socketcand client channel's reconnection timer (can/socketcand_client.hpp).
+void DaemonImpl::rearm_link(GatewayUnit& g) {
+  auto* link = dynamic_cast<can::SocketcandClientChannel*>(g.channel.get());
+  if (!link) return;
+  const auto next = link->next_deadline();
+  if (next == g.link_armed && (g.link_timer || !next)) return;
+  if (g.link_timer) loop_.cancel_timer(g.link_timer);
+  g.link_timer = 0;
+  g.link_armed = next;
+  if (!next) return;
+  g.link_timer =
+      loop_.add_timer(std::max(Duration(0), *next - loop_.now()), [this, link, unit = &g] {
+        unit->link_timer = 0;
+        unit->link_armed.reset();
+        link->advance(loop_.now());
+        drain_channel(*unit);  // shows the state and rearms
+      });
+}
+
+// The socketcand export's idle timeouts run on the wall clock its on_readable() is given.
+void DaemonImpl::rearm_export(Bus& b) {
+  const auto next = b.export_server->next_deadline();
+  if (next == b.export_armed && (b.export_timer || !next)) return;
+  if (b.export_timer) loop_.cancel_timer(b.export_timer);
+  b.export_timer = 0;
+  b.export_armed = next;
+  if (!next) return;
+  b.export_timer =
+      loop_.add_timer(std::max(Duration(0), *next - EventLoop::wall_now()), [this, bus = &b] {
+        bus->export_timer = 0;
+        bus->export_armed.reset();
+        bus->export_server->advance(EventLoop::wall_now());
+        rearm_export(*bus);
+      });
 }
 
 void DaemonImpl::check_stored() {
@@ -709,8 +864,11 @@ std::string modbus_map_text(const config::DaemonConfig& config) {
     out << line << f.name << ": " << f.meaning << "\n";
   }
   out << "\nControl (holding register " << modbus::kControlRegister
-      << ", unit ID = DP address): write 1 = power cycle, 2 = re-parameterize; reads the last "
-         "command\n";
+      << ", unit ID = DP address): write 1 = power cycle, 2 = re-parameterize, 3 = the master "
+         "stops addressing the gateway, 4 = it resumes; reads the last command\n";
+  out << "Faults (docs/faults.md): holding register " << modbus::kForcedStateRegister
+      << " = forced CAN state (0 real, 1 warning, 2 error-passive, 3 bus-off), "
+      << modbus::kDropRxRegister << " = drop the next N received frames (IRQ_LOST)\n";
   out << "Exceptions: 0x01 unsupported function, 0x02 address outside the tables, 0x03 bad "
          "quantity/value, 0x0B unknown unit ID\n";
   return out.str();

@@ -254,6 +254,14 @@ std::span<const StatusField> status_fields() {
       {kResponseMaxUs, 1, "response_max_us", "highest response time since start, µs"},
       {kStationPresent, 1, "station_present",
        "role slaves: 1 while a master talks to the station; role master: 1 while it answers"},
+      {kForcedState, 1, "forced_can_state",
+       "holding register 8193: 0 real, 1 warning, 2 error-passive, 3 bus-off (docs/faults.md)"},
+      {kTxSuppressed, 2, "tx_suppressed", "frames not sent because of a forced bus-off"},
+      {kRxSuppressed, 2, "rx_suppressed", "frames not received because of a forced bus-off"},
+      {kRxDropRemaining, 1, "rx_drop_remaining",
+       "holding register 8194: received frames still to drop (each counts in IRQ_LOST)"},
+      {kAddressed, 1, "addressed", "1 the master addresses the gateway, 0 stopped (control 3)"},
+      {kReconnects, 2, "reconnects", "socketcand client: connections re-established"},
   };
   return kFields;
 }
@@ -331,13 +339,24 @@ StatusBlock encode_status(const StatusInputs& in) {
   }
   b[kDpAddress] = in.dp_address;
   put32(kParameterizations, in.parameterizations);
+  b[kForcedState] = in.forced_state;
+  put32(kTxSuppressed, in.tx_suppressed);
+  put32(kRxSuppressed, in.rx_suppressed);
+  b[kRxDropRemaining] =
+      static_cast<std::uint16_t>(std::min<std::uint32_t>(in.rx_drop_remaining, 0xFFFF));
+  b[kAddressed] = in.addressed ? 1 : 0;
+  put32(kReconnects, in.reconnects);
   return b;
 }
 
 // -------------------------------------------------------------------------------------- map
 
-ProcessImageMap::ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways)
-    : image_(image), gateways_(std::move(gateways)), last_control_(gateways_.size(), 0) {}
+ProcessImageMap::ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways,
+                                 std::vector<DriveFace*> drives)
+    : image_(image),
+      gateways_(std::move(gateways)),
+      last_control_(gateways_.size(), 0),
+      drives_(std::move(drives)) {}
 
 GatewayFace* ProcessImageMap::resolve(std::uint8_t unit) const {
   if (gateways_.empty()) return nullptr;
@@ -388,8 +407,13 @@ std::optional<DecodeFailure> ProcessImageMap::read_registers(Table t, GatewayFac
     std::copy_n(block.begin() + (address - kStatusBase), count, out.registers.begin());
     return std::nullopt;
   }
-  if (t == Table::HoldingRegisters && within(address, count, kControlRegister, 1)) {
-    out.registers[0] = last_control(g.dp_address());
+  if (t == Table::HoldingRegisters && within(address, count, kControlRegister, kControlRegisters)) {
+    for (std::uint32_t i = 0; i < count; ++i) {
+      const std::uint32_t a = address + i;
+      out.registers[i] = a == kControlRegister       ? last_control(g.dp_address())
+                         : a == kForcedStateRegister ? g.forced_bus_state()
+                                                     : g.drop_remaining();
+    }
     return std::nullopt;
   }
   return address_error(t, address, count);
@@ -405,6 +429,28 @@ DecodeFailure read_only_error() {
 }  // namespace
 
 std::optional<DecodeFailure> ProcessImageMap::handle(const Request& r, ReadResult& out, Time now) {
+  for (DriveFace* d : drives_) {
+    if (d->modbus_unit() != r.unit) continue;
+    // docs/faults.md: holding registers 0..3 of the drive's unit ID.
+    if (r.function == Function::ReadHoldingRegisters) {
+      if (!within(r.address, r.count, 0, kDriveRegisters))
+        return address_error(r.table, r.address, r.count);
+      for (std::uint32_t i = 0; i < r.count; ++i)
+        out.registers[i] = d->fault_register(static_cast<std::uint16_t>(r.address + i));
+      return std::nullopt;
+    }
+    if (r.function == Function::WriteSingleRegister ||
+        r.function == Function::WriteMultipleRegisters) {
+      if (!within(r.write_address, r.write_count, 0, kDriveRegisters))
+        return address_error(Table::HoldingRegisters, r.write_address, r.write_count);
+      for (std::uint32_t i = 0; i < r.write_count; ++i)
+        d->set_fault_register(static_cast<std::uint16_t>(r.write_address + i), r.register_value(i),
+                              now);
+      return std::nullopt;
+    }
+    return DecodeFailure{Exception::IllegalFunction,
+                         "a drive's fault registers take FC 03, 06 and 16 only"};
+  }
   GatewayFace* g = resolve(r.unit);
   if (!g)
     return DecodeFailure{Exception::GatewayTargetFailed,
@@ -446,29 +492,52 @@ std::optional<DecodeFailure> ProcessImageMap::handle(const Request& r, ReadResul
     case Function::ReadWriteMultipleRegisters: {
       const std::uint16_t wa = r.write_address, wc = r.write_count;
       const bool image = within(wa, wc, 0, kImageRegisters);
-      const bool control = within(wa, wc, kControlRegister, 1);
+      const bool control = within(wa, wc, kControlRegister, kControlRegisters);
       if (!image && !control) return address_error(Table::HoldingRegisters, wa, wc);
       if (image && outputs_read_only_) return read_only_error();
       // FC 23: both ranges are checked before anything is written (all or nothing).
       if (r.function == Function::ReadWriteMultipleRegisters &&
           !within(r.address, r.count, 0, kImageRegisters) &&
-          !within(r.address, r.count, kControlRegister, 1))
+          !within(r.address, r.count, kControlRegister, kControlRegisters))
         return address_error(Table::HoldingRegisters, r.address, r.count);
       auto value = [&](std::size_t i) -> std::uint16_t {
         if (r.function != Function::MaskWriteRegister) return r.register_value(i);
         // MB spec §6.16: (current AND and_mask) OR (or_mask AND NOT and_mask).
-        const std::uint16_t current = image ? image_register(q, wa) : last_control(g->dp_address());
+        const std::uint16_t current = image                        ? image_register(q, wa)
+                                      : wa == kControlRegister     ? last_control(g->dp_address())
+                                      : wa == kForcedStateRegister ? g->forced_bus_state()
+                                                                   : g->drop_remaining();
         return static_cast<std::uint16_t>((current & r.and_mask) | (r.or_mask & ~r.and_mask));
       };
       if (control) {
-        const std::uint16_t command = value(0);
-        if (command > static_cast<std::uint16_t>(Control::Reparameterize))
-          return DecodeFailure{Exception::IllegalDataValue,
-                               "control command " + std::to_string(command) +
-                                   " (1 = power cycle, 2 = re-parameterize)"};
-        for (std::size_t i = 0; i < gateways_.size(); ++i)
-          if (gateways_[i] == g) last_control_[i] = command;
-        g->control(static_cast<Control>(command), now);
+        // All values are checked before any is applied (all or nothing).
+        for (std::uint32_t i = 0; i < wc; ++i) {
+          const std::uint16_t v = value(i);
+          const std::uint32_t a = wa + i;
+          if (a == kControlRegister && v > static_cast<std::uint16_t>(Control::MasterResumes))
+            return DecodeFailure{Exception::IllegalDataValue,
+                                 "control command " + std::to_string(v) +
+                                     " (1 power cycle, 2 re-parameterize, 3 master stops, 4 "
+                                     "master resumes)"};
+          if (a == kForcedStateRegister && v > 3)
+            return DecodeFailure{Exception::IllegalDataValue,
+                                 "forced CAN state " + std::to_string(v) +
+                                     " (0 real, 1 warning, 2 error-passive, 3 bus-off)"};
+        }
+        for (std::uint32_t i = 0; i < wc; ++i) {
+          const std::uint16_t v = value(i);
+          const std::uint32_t a = wa + i;
+          if (a == kControlRegister) {
+            for (std::size_t k = 0; k < gateways_.size(); ++k)
+              if (gateways_[k] == g) last_control_[k] = v;
+            g->control(static_cast<Control>(v), now);
+          } else if (a == kForcedStateRegister) {
+            if (!g->force_bus_state(v, now))
+              return DecodeFailure{Exception::IllegalDataValue, "forcing not supported"};
+          } else {
+            g->drop_received(v, now);
+          }
+        }
       } else {
         for (std::uint32_t i = 0; i < wc; ++i) {
           const std::uint16_t v = value(i);

@@ -127,6 +127,12 @@ inline constexpr std::uint16_t kImageRegisters = 4096;   // registers 0..4095 = 
 inline constexpr std::uint32_t kImageBits = 65536;       // coils / discrete inputs 0..65535
 inline constexpr std::uint16_t kStatusBase = 8192;       // input registers 8192.. per gateway
 inline constexpr std::uint16_t kControlRegister = 8192;  // holding register 8192
+// Fault injection (docs/faults.md): holding register 8193 = forced CAN controller state (0 real,
+// 1 warning, 2 error-passive, 3 bus-off), 8194 = drop the next N received frames (reads:
+// remaining).
+inline constexpr std::uint16_t kForcedStateRegister = 8193;
+inline constexpr std::uint16_t kDropRxRegister = 8194;
+inline constexpr std::uint16_t kControlRegisters = 3;  // 8192..8194
 
 // The status block from input register 8192 (docs/modbus.md). Offsets from kStatusBase.
 namespace status {
@@ -168,7 +174,14 @@ inline constexpr std::uint16_t kStationRetries = 52;   // 52-53 repetitions (FCB
 inline constexpr std::uint16_t kResponseUs = 54;       // last response time, µs (max 65535)
 inline constexpr std::uint16_t kResponseMaxUs = 55;    // highest response time, µs
 inline constexpr std::uint16_t kStationPresent = 56;   // 1 talking to a master / answering
-inline constexpr std::uint16_t kCount = 57;
+// Fault injection and transport faults (docs/faults.md).
+inline constexpr std::uint16_t kForcedState = 57;   // holding register 8193 as written (0 = real)
+inline constexpr std::uint16_t kTxSuppressed = 58;  // 58-59 frames not sent in a forced bus-off
+inline constexpr std::uint16_t kRxSuppressed = 60;  // 60-61 not received in a forced bus-off
+inline constexpr std::uint16_t kRxDropRemaining = 62;  // holding register 8194 (saturates 0xFFFF)
+inline constexpr std::uint16_t kAddressed = 63;   // 1 = the master addresses it, 0 = stopped (3)
+inline constexpr std::uint16_t kReconnects = 64;  // 64-65 socketcand client reconnections
+inline constexpr std::uint16_t kCount = 66;
 }  // namespace status
 
 // LED codes in the status block (manual §3.3, table 3.3.1).
@@ -189,7 +202,13 @@ Codes codes(const gw::GatewayStatus& g);
 }  // namespace led
 
 // Holding register 8192 commands (emulator-spec §8).
-enum class Control : std::uint16_t { None = 0, PowerCycle = 1, Reparameterize = 2 };
+enum class Control : std::uint16_t {
+  None = 0,
+  PowerCycle = 1,
+  Reparameterize = 2,
+  MasterStops = 3,    // the master stops addressing this gateway (docs/faults.md)
+  MasterResumes = 4,  // the master addresses it again and parameterizes it
+};
 
 using StatusBlock = std::array<std::uint16_t, status::kCount>;
 
@@ -217,6 +236,13 @@ struct StatusInputs {
     bool present = false;
   };
   std::optional<Line> line;
+  bool addressed = true;
+  // Fault injection (docs/faults.md).
+  std::uint16_t forced_state = 0;
+  std::uint32_t tx_suppressed = 0;
+  std::uint32_t rx_suppressed = 0;
+  std::uint32_t rx_drop_remaining = 0;
+  std::uint32_t reconnects = 0;
 };
 StatusBlock encode_status(const StatusInputs& in);
 
@@ -227,6 +253,24 @@ class GatewayFace {
   virtual std::uint8_t dp_address() const = 0;
   virtual StatusBlock status(Time now) = 0;
   virtual void control(Control command, Time now) = 0;
+  // Holding register 8193: forced CAN controller state; false = value refused (exception 0x03).
+  virtual bool force_bus_state(std::uint16_t /*code*/, Time /*now*/) { return false; }
+  virtual std::uint16_t forced_bus_state() const { return 0; }
+  // Holding register 8194: drop the next n received frames; reads give the remaining count.
+  virtual void drop_received(std::uint16_t /*n*/, Time /*now*/) {}
+  virtual std::uint16_t drop_remaining() const { return 0; }
+};
+
+// A simulated drive's fault registers (docs/faults.md), holding registers 0..3 of its own unit ID:
+// 0 mute (1 = stops answering), 1 error bits (ERR_BITMAP1 0x8F bits 0..15), 2 warning bits
+// (0x8F bits 16..31), 3 restart (write 1; reads 0).
+inline constexpr std::uint16_t kDriveRegisters = 4;
+class DriveFace {
+ public:
+  virtual ~DriveFace() = default;
+  virtual std::uint8_t modbus_unit() const = 0;
+  virtual std::uint16_t fault_register(std::uint16_t index) const = 0;
+  virtual void set_fault_register(std::uint16_t index, std::uint16_t value, Time now) = 0;
 };
 
 class Handler {
@@ -242,7 +286,8 @@ class Handler {
 class ProcessImageMap final : public Handler {
  public:
   // The first gateway is the one unit IDs 0 and 255 address.
-  ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways);
+  ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways,
+                  std::vector<DriveFace*> drives = {});
   // profibus role slaves (emulator-spec §10): the output image shows what an external master
   // sent; writes to it (holding registers 0..4095, coils) get exception 0x04.
   void set_outputs_read_only(bool read_only) { outputs_read_only_ = read_only; }
@@ -259,6 +304,7 @@ class ProcessImageMap final : public Handler {
   std::vector<GatewayFace*> gateways_;
   std::vector<std::uint16_t> last_control_;  // per gateway
   bool outputs_read_only_ = false;
+  std::vector<DriveFace*> drives_;
 };
 
 // The status block's fields, for `candp2d --print-modbus-map` and logs.

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "common/hex.hpp"
+#include "common/idle_clients.hpp"
 
 namespace candp2::modbus {
 
@@ -37,9 +38,11 @@ class Server final : public ModbusServer {
         loop_(loop),
         handler_(handler),
         log_(log, "modbus"),
-        scratch_(65536, 0) {}
+        scratch_(65536, 0),
+        idle_(options_.idle_timeout) {}
 
   ~Server() override {
+    if (idle_timer_) loop_.cancel_timer(idle_timer_);
     for (auto& [fd, c] : clients_) {
       loop_.remove_fd(fd);
       ::close(fd);
@@ -106,11 +109,26 @@ class Server final : public ModbusServer {
       }
       const std::string name = peer_name(peer);
       if (clients_.size() >= options_.max_clients) {
-        ++stats_.clients_refused;
-        log_.warn("client " + name + " refused: already " + std::to_string(clients_.size()) +
-                  " clients (limit " + std::to_string(options_.max_clients) + ")");
-        ::close(fd);
-        continue;
+        // Many Modbus/TCP devices do this: the client idle longest makes room for the new one.
+        const auto victim = idle_.longest_idle();
+        if (!victim || options_.max_clients == 0) {
+          ++stats_.clients_refused;
+          log_.warn("client " + name + " refused: limit of " +
+                    std::to_string(options_.max_clients) + " clients");
+          ::close(fd);
+          continue;
+        }
+        const int vfd = static_cast<int>(*victim);
+        const auto idle_s = (loop_.now() - idle_.last_activity(*victim).value_or(loop_.now()));
+        ++stats_.clients_evicted;
+        close_client(
+            vfd,
+            "evicted for " + name + " (limit " + std::to_string(options_.max_clients) +
+                " clients; idle longest, " +
+                std::to_string(
+                    std::chrono::duration_cast<std::chrono::milliseconds>(idle_s).count()) +
+                " ms)",
+            false, LogLevel::Warn);
       }
       // Answers are small; without TCP_NODELAY Nagle's algorithm would hold back an answer while
       // an earlier one is unacknowledged.
@@ -126,23 +144,49 @@ class Server final : public ModbusServer {
       auto& c = clients_[fd];
       c.fd = fd;
       c.name = name;
+      idle_.touch(static_cast<IdleClients::Id>(fd), loop_.now());
+      arm_idle_timer();
       ++stats_.clients_accepted;
       log_.info("client " + name + " connected (" + std::to_string(clients_.size()) + " now)");
     }
   }
 
-  void close_client(int fd, std::string_view why, bool dropped) {
+  void close_client(int fd, std::string_view why, bool dropped, LogLevel level = LogLevel::Info) {
     const auto it = clients_.find(fd);
     if (it == clients_.end()) return;
     if (dropped) {
       ++stats_.clients_dropped;
       log_.warn("client " + it->second.name + " dropped: " + std::string(why));
     } else {
-      log_.info("client " + it->second.name + " disconnected (" + std::string(why) + ")");
+      log_.log(level, "client " + it->second.name + " disconnected (" + std::string(why) + ")");
     }
     loop_.remove_fd(fd);
     ::close(fd);
     clients_.erase(it);
+    idle_.remove(static_cast<IdleClients::Id>(fd));
+  }
+
+  // One timer for the earliest idle expiry; closes every client idle for idle_timeout.
+  void arm_idle_timer() {
+    const auto next = idle_.next_expiry();
+    if (!next || (idle_timer_ && idle_armed_ && *idle_armed_ <= *next)) return;
+    if (idle_timer_) loop_.cancel_timer(idle_timer_);
+    idle_armed_ = *next;
+    idle_timer_ = loop_.add_timer(std::max(Duration(0), *next - loop_.now()), [this] {
+      idle_timer_ = 0;
+      idle_armed_.reset();
+      for (const auto id : idle_.expired(loop_.now())) {
+        ++stats_.clients_timed_out;
+        close_client(static_cast<int>(id),
+                     "idle for " +
+                         std::to_string(
+                             std::chrono::duration_cast<std::chrono::seconds>(options_.idle_timeout)
+                                 .count()) +
+                         " s",
+                     false);
+      }
+      arm_idle_timer();
+    });
   }
 
   void on_readable(int fd) {
@@ -156,6 +200,7 @@ class Server final : public ModbusServer {
       return close_client(fd, std::strerror(errno), false);
     }
     Client& c = it->second;
+    idle_.touch(static_cast<IdleClients::Id>(fd), loop_.now());
     c.framer.append(std::span(buf.data(), static_cast<std::size_t>(n)));
     for (;;) {
       const auto next = c.framer.next();
@@ -264,6 +309,9 @@ class Server final : public ModbusServer {
   Stats stats_;
   ReadResult result_;
   std::vector<std::uint16_t> scratch_;
+  IdleClients idle_;  // keyed by descriptor
+  EventLoop::TimerId idle_timer_ = 0;
+  std::optional<Time> idle_armed_;
 };
 
 }  // namespace

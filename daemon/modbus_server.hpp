@@ -10,7 +10,9 @@
 // are never taken.
 //
 // A client that sends garbage (not Modbus/TCP framing) or does not read its answers is dropped
-// with a log line; the server serves on. Many clients at once; each request is handled completely
+// with a log line; the server serves on. Idle clients cannot lock others out: at max_clients a new
+// connection evicts the client idle longest, and a client silent for idle_timeout is closed
+// (common/idle_clients.hpp). Many clients at once; each request is handled completely
 // inside one callback, so it never interleaves with a master cycle.
 #pragma once
 
@@ -29,15 +31,20 @@ class ModbusServer {
   struct Options {
     std::string host = "127.0.0.1";  // numeric IPv4; "0.0.0.0" = every interface
     std::uint16_t port = 1502;       // 0 = any free port (see port())
-    std::size_t max_clients = 64;    // further connections are accepted and closed at once
-    int backlog = 16;
+    // At the limit a new connection evicts the client idle longest (docs/modbus.md).
+    std::size_t max_clients = 64;
+    // A client without a request for this long is closed; 0 = never.
+    Duration idle_timeout = seconds(60);
+    int backlog = 128;  // connection bursts queue instead of retrying SYNs after 1 s
   };
   struct Stats {
     std::uint64_t requests = 0;    // answered normally
     std::uint64_t exceptions = 0;  // answered with an exception
     std::uint64_t clients_accepted = 0;
-    std::uint64_t clients_refused = 0;  // over max_clients
-    std::uint64_t clients_dropped = 0;  // for garbage or not reading
+    std::uint64_t clients_refused = 0;    // not served (no connection could be evicted)
+    std::uint64_t clients_evicted = 0;    // closed to make room for a new one (idle longest)
+    std::uint64_t clients_timed_out = 0;  // closed after idle_timeout without a request
+    std::uint64_t clients_dropped = 0;    // for garbage or not reading
   };
 
   // nullptr and *error ("cannot listen on 127.0.0.1:1502: Address already in use") on failure.

@@ -70,11 +70,13 @@ class Checker {
   void mandatory() {
     // GSD spec: keywords marked (M) for every DP slave.
     static constexpr std::string_view kMandatory[] = {
-        "GSD_Revision",     "Vendor_Name",        "Model_Name",   "Revision",
-        "Ident_Number",     "Protocol_Ident",     "Station_Type", "Hardware_Release",
-        "Software_Release", "Min_Slave_Intervall"};
+        "Vendor_Name",      "Model_Name",       "Revision",
+        "Ident_Number",     "Protocol_Ident",   "Station_Type",
+        "Hardware_Release", "Software_Release", "Min_Slave_Intervall"};
     for (auto k : kMandatory)
       if (!m_.find(k)) err(0, "mandatory keyword " + std::string(k) + " is missing");
+    // GSD_Revision came with revision 1 of the GSD specification: files written before it (real
+    // Siemens files of the 1990s) have none and are revision 0 (the summary says so).
     if (auto id = m_.ident_number(); id && (*id < 0 || *id > 0xFFFF))
       err(line_of("Ident_Number"), "Ident_Number " + std::to_string(*id) + " exceeds 0xFFFF");
     for (auto k : {"Vendor_Name", "Model_Name"})

@@ -201,6 +201,9 @@ struct ParseResult {
   Model model;
   std::vector<Diagnostic> diagnostics;  // in line order
   bool ok() const;                      // no Error diagnostics
+  // The input is not a GSD at all (binary, or neither the '#Profibus_DP' header nor any GSD
+  // keyword): diagnostics then hold one line "not a GSD file: ..." and the model is empty.
+  bool not_gsd = false;
 };
 
 ParseResult parse(std::string_view text);

@@ -1020,7 +1020,40 @@ bool ParseResult::ok() const {
                       [](const Diagnostic& d) { return d.severity == Severity::Error; });
 }
 
+namespace {
+
+// A file that is not a GSD gets one line instead of one error per line (issue 12).
+std::optional<std::string> not_a_gsd(std::string_view text) {
+  const std::string_view head = text.substr(0, 4096);
+  std::size_t control = 0;
+  for (const char ch : head) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c == 0) return "binary data (NUL bytes)";
+    if (c < 0x20 && c != '\t' && c != '\r' && c != '\n' && c != '\f' && c != 0x1A) ++control;
+  }
+  if (control * 10 > head.size()) return "binary data (control characters)";
+  // Case-insensitive search for the header or any keyword every DP slave GSD has (GSD spec (M)).
+  std::string lower(text);
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](char c) {
+    return static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  });
+  static constexpr std::string_view kSigns[] = {"#profibus_dp", "vendor_name",    "model_name",
+                                                "ident_number", "protocol_ident", "station_type",
+                                                "gsd_revision"};
+  for (auto sign : kSigns)
+    if (lower.find(sign) != std::string::npos) return std::nullopt;
+  return "no '#Profibus_DP' header and no GSD keyword (Vendor_Name, Ident_Number, ...)";
+}
+
+}  // namespace
+
 ParseResult parse(std::string_view text) {
+  if (auto why = not_a_gsd(text)) {
+    ParseResult r;
+    r.not_gsd = true;
+    r.diagnostics.push_back({0, Severity::Error, "not a GSD file: " + *why});
+    return r;
+  }
   return Parser().run(text);
 }
 

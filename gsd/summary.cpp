@@ -86,7 +86,10 @@ std::string summary(const Model& m) {
     std::snprintf(buf, sizeof buf, "0x%04llX", static_cast<unsigned long long>(*id));
     line("Ident_Number", buf);
   }
-  if (auto r = m.gsd_revision()) line("GSD_Revision", std::to_string(*r));
+  if (auto r = m.gsd_revision())
+    line("GSD_Revision", std::to_string(*r));
+  else
+    line("GSD_Revision", "0 (no GSD_Revision keyword: a revision 0 file)");
   std::string rev = shown(m.string("Revision").value_or(""));
   const std::string hw = shown(m.string("Hardware_Release").value_or(""));
   const std::string sw = shown(m.string("Software_Release").value_or(""));

@@ -286,7 +286,24 @@ void DpMaster::refused_diag_answered(Entry& e, const Response& r, Time now) {
 
 void DpMaster::cycle(Time now) {
   if (program_) program_->scan(image_, now);
-  for (auto& e : entries_) step(*e, now);
+  for (auto& e : entries_)
+    if (e->addressed) step(*e, now);
+}
+
+void DpMaster::set_addressed(std::uint8_t slave_address, bool addressed, Time now) {
+  for (auto& e : entries_) {
+    if (e->address() != slave_address || e->addressed == addressed) continue;
+    e->addressed = addressed;
+    if (addressed) {
+      e->retry_at = now;
+      e->diag_due = false;
+      ++e->generation;  // an answer still outstanding belongs to the time before the stop
+      go(*e, MasterSlaveState::Init, "addressed again");
+    } else {
+      log_.warn("slave " + std::to_string(slave_address) +
+                ": no longer addressed (the PLC stopped)");
+    }
+  }
 }
 
 void DpMaster::reparameterize(std::uint8_t slave_address, Time now) {
@@ -303,7 +320,7 @@ std::vector<DpMaster::SlaveView> DpMaster::slaves() const {
   std::vector<SlaveView> out;
   for (const auto& e : entries_)
     out.push_back({e->address(), e->state, e->last_diag, e->data_exchanges, e->parameterizations,
-                   e->station_lost});
+                   e->station_lost, e->addressed});
   return out;
 }
 

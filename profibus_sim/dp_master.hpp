@@ -92,6 +92,11 @@ class DpMaster {
   // Start parameterization of a slave again (Modbus control register 8192 = 2).
   void reparameterize(std::uint8_t slave_address, Time now);
 
+  // Stop addressing a slave (addressed = false; Modbus control 8192 = 3: the PLC stops, the slave's
+  // watchdog expires if it has one) or address it again (true; 8192 = 4): the master starts over
+  // with Slave_Diag → Set_Prm → Chk_Cfg, as a real master does with a slave back in Wait_Prm.
+  void set_addressed(std::uint8_t slave_address, bool addressed, Time now);
+
   ProcessImage& image() { return image_; }
   const ProcessImage& image() const { return image_; }
 
@@ -102,6 +107,7 @@ class DpMaster {
     std::uint32_t data_exchanges;
     std::uint32_t parameterizations;
     std::uint32_t station_lost = 0;  // times the station stopped answering
+    bool addressed = true;
   };
   std::vector<SlaveView> slaves() const;
   std::optional<SlaveView> slave(std::uint8_t address) const;
@@ -130,6 +136,7 @@ class DpMaster {
     bool diag_due = false;         // Data_Exchange answered DH: read the diagnosis next
     std::uint32_t generation = 0;  // bumped by reparameterize(): older answers are dropped
     std::uint8_t address() const { return link->address(); }
+    bool addressed = true;
   };
   using Handler = void (DpMaster::*)(Entry&, Time);
   struct StateRow {

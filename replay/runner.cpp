@@ -7,6 +7,7 @@
 
 #include "can/virtual_bus.hpp"
 #include "common/hex.hpp"
+#include "daemon/can_fault.hpp"
 #include "gateway/gateway.hpp"
 #include "profibus_sim/dp_master.hpp"
 #include "profibus_sim/page_driver.hpp"
@@ -52,6 +53,19 @@ class TimedLog final : public LogSink {
   std::vector<LogEntry>& out_;
 };
 
+// The gateway transmits through the fault layer (docs/faults.md), as in the daemon.
+class FaultSink final : public can::FrameSink {
+ public:
+  explicit FaultSink(can::FrameSink& out) : out_(out) {}
+  void send(const can::Frame& f) override {
+    if (layer.pass_tx()) out_.send(f);
+  }
+  daemon::CanFaultLayer layer;
+
+ private:
+  can::FrameSink& out_;
+};
+
 class Sim {
  public:
   Sim(const Scenario& sc, RunResult& res, LogLevel level)
@@ -73,7 +87,8 @@ class Sim {
     o.stored_wakeup_s = g.stored_wakeup_s;
     o.stored_sync_ms = g.stored_sync_ms;
     o.log = &log_;
-    gw_ = std::make_unique<gw::Gateway>(o, *gw_ep_, now_);
+    faults_ = std::make_unique<FaultSink>(*gw_ep_);
+    gw_ = std::make_unique<gw::Gateway>(o, *faults_, now_);
     master_.add_slave(gw_->dp(), config::slave_parameters(g));
     if (sc.driver) setup_driver(*sc.driver);
   }
@@ -143,8 +158,10 @@ class Sim {
   }
 
   void drain() {
-    gw_->set_controller_status(gw_ep_->bus_state(), gw_ep_->rx_lost());
-    while (auto f = gw_ep_->receive()) gw_->on_can_frame(*f, now_);
+    auto& fl = faults_->layer;
+    gw_->set_controller_status(fl.state(gw_ep_->bus_state()), fl.rx_lost(gw_ep_->rx_lost()));
+    while (auto f = gw_ep_->receive())
+      if (fl.pass_rx()) gw_->on_can_frame(*f, now_);
     while (node_ep_->receive()) {
     }
   }
@@ -203,6 +220,7 @@ class Sim {
   TimedLog log_;
   can::VirtualBus bus_;
   std::unique_ptr<can::VirtualEndpoint> gw_ep_, node_ep_;
+  std::unique_ptr<FaultSink> faults_;
   std::unique_ptr<gw::Gateway> gw_;
   dp::DpMaster master_;
   std::optional<plc::PageDriver> driver_;
@@ -411,6 +429,47 @@ StepResult Sim::execute(const Step& s, std::size_t index) {
       if (!r.passed) r.detail = "got " + r.detail;
       break;
     }
+    case Action::PowerCycle:
+      gw_->power_cycle(now_);
+      drain();
+      break;
+    case Action::Reparameterize:
+      master_.reparameterize(gw_->address(), now_);
+      break;
+    case Action::MasterStop:
+    case Action::MasterResume:
+      master_.set_addressed(gw_->address(), s.action == Action::MasterResume, now_);
+      break;
+    case Action::ForceCanState:
+      faults_->layer.force(s.can_state);
+      drain();
+      break;
+    case Action::DropRx:
+      faults_->layer.drop_next(s.count);
+      break;
+    case Action::ExpectCounters:
+      r.passed = poll(
+          s,
+          [&](std::string& d) {
+            const auto st = gw_->status();
+            const auto& fl = faults_->layer;
+            bool all = true;
+            d.clear();
+            for (const auto& [name, want] : s.counters) {
+              const std::uint32_t got = name == "irq_lost"        ? st.irq_lost
+                                        : name == "msg_lost"      ? st.msg_lost
+                                        : name == "rx_frames"     ? st.rx_frames
+                                        : name == "tx_frames"     ? st.tx_frames
+                                        : name == "tx_suppressed" ? fl.tx_suppressed()
+                                                                  : fl.rx_suppressed();
+              d += (d.empty() ? "" : ", ") + name + " " + std::to_string(got);
+              all = all && got == want;
+            }
+            return all;
+          },
+          r.detail);
+      if (!r.passed) r.detail = "got " + r.detail;
+      break;
     case Action::ExpectRetValue:
       r.passed = poll(
           s,

@@ -84,7 +84,17 @@ constexpr ActionName kActions[] = {
     {Action::SetTx, "set_tx"},
     {Action::ExpectRx, "expect_rx"},
     {Action::ExpectRetValue, "expect_ret_value"},
+    {Action::PowerCycle, "power_cycle"},
+    {Action::Reparameterize, "reparameterize"},
+    {Action::MasterStop, "master_stop"},
+    {Action::MasterResume, "master_resume"},
+    {Action::ForceCanState, "force_can_state"},
+    {Action::DropRx, "drop_rx"},
+    {Action::ExpectCounters, "expect_counters"},
 };
+
+// force_can_state values, as holding register 8193 (docs/faults.md).
+constexpr const char* kCanStates[] = {"real", "warning", "error-passive", "bus-off"};
 
 }  // namespace
 
@@ -107,6 +117,7 @@ bool Step::expectation() const {
     case Action::ExpectDb:
     case Action::ExpectRx:
     case Action::ExpectRetValue:
+    case Action::ExpectCounters:
       return true;
     default:
       return false;
@@ -184,6 +195,21 @@ std::string Step::describe() const {
              (has_data ? " data " + pattern.text() : std::string()) + window_text("within");
     case Action::ExpectRetValue:
       return s + " " + std::to_string(ret_value) + window_text("within");
+    case Action::PowerCycle:
+    case Action::Reparameterize:
+    case Action::MasterStop:
+    case Action::MasterResume:
+      return s;
+    case Action::ForceCanState:
+      return s + " " + kCanStates[can_state];
+    case Action::DropRx:
+      return s + " " + std::to_string(count);
+    case Action::ExpectCounters: {
+      std::string c;
+      for (const auto& [name, value] : counters)
+        c += (c.empty() ? " " : ", ") + name + " " + std::to_string(value);
+      return s + c + window_text("within");
+    }
   }
   return s;
 }
@@ -529,6 +555,39 @@ Step parse_step(const json& j, const std::string& path, const Scenario& sc) {
       need_driver();
       s.ret_value = static_cast<std::uint16_t>(as_uint(v, vp, 0, 4, "(manual table 6.5.7)"));
       break;
+    case Action::PowerCycle:
+    case Action::Reparameterize:
+    case Action::MasterStop:
+    case Action::MasterResume:
+      if (!v.is_boolean() || !v.get<bool>()) fail(vp, "expected true, got " + kind_of(v));
+      break;
+    case Action::ForceCanState: {
+      const std::string t = v.is_string() ? v.get<std::string>() : "";
+      bool ok = false;
+      for (std::uint16_t i = 0; i < 4; ++i)
+        if (t == kCanStates[i]) {
+          s.can_state = i;
+          ok = true;
+        }
+      if (!ok)
+        fail(vp,
+             "expected \"real\", \"warning\", \"error-passive\" or \"bus-off\", got " + kind_of(v));
+      break;
+    }
+    case Action::DropRx:
+      s.count = static_cast<std::uint32_t>(as_uint(v, vp, 0, 65535, "frames"));
+      break;
+    case Action::ExpectCounters: {
+      static const std::vector<std::string> kNames = {
+          "irq_lost", "msg_lost", "rx_frames", "tx_frames", "tx_suppressed", "rx_suppressed"};
+      const Object w(v, vp, kNames);
+      for (const auto& n : kNames)
+        if (w.has(n))
+          s.counters.emplace_back(
+              n, static_cast<std::uint32_t>(as_uint(w.at(n), w.path(n), 0, 0xFFFFFFFFull)));
+      if (s.counters.empty()) fail(vp, "give at least one counter (" + join(kNames) + ")");
+      break;
+    }
   }
   return s;
 }

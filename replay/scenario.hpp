@@ -66,6 +66,14 @@ enum class Action : std::uint8_t {
   SetTx,           // set_tx: force and/or data of Tx identifier n in WRITE_DB
   ExpectRx,        // expect_rx: count_in and/or data of Rx identifier n in READ_DB
   ExpectRetValue,  // expect_ret_value: the driver's RET_VALUE (manual table 6.5.7)
+  // Faults (docs/faults.md).
+  PowerCycle,      // power_cycle: the gateway restarts (Modbus control 1)
+  Reparameterize,  // reparameterize: the master parameterizes again (control 2)
+  MasterStop,      // master_stop: the master stops addressing the gateway (control 3)
+  MasterResume,    // master_resume: it addresses it again (control 4)
+  ForceCanState,   // force_can_state: real / warning / error-passive / bus-off (register 8193)
+  DropRx,          // drop_rx: the next N received frames are lost, IRQ_LOST (register 8194)
+  ExpectCounters,  // expect_counters: irq_lost, msg_lost, rx/tx_frames, rx/tx_suppressed
 };
 std::string_view to_string(Action a);
 
@@ -92,6 +100,10 @@ struct Step {
   std::optional<std::uint8_t> count_in;  // expect_rx
   bool has_data = false;                 // set_tx / expect_rx carry data
   std::uint16_t ret_value = 0;
+  std::uint16_t can_state = 0;  // force_can_state: 0 real, 1 warning, 2 error-passive, 3 bus-off
+  std::uint32_t count = 0;      // drop_rx
+  // expect_counters: name → value, names as the Modbus status block (docs/modbus.md).
+  std::vector<std::pair<std::string, std::uint32_t>> counters;
 
   bool expectation() const;
   std::string describe() const;  // one line for the report

@@ -3,6 +3,7 @@
 #include "daemon/daemon.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <filesystem>
 #include <fstream>
@@ -155,6 +156,176 @@ TEST(Daemon, ControlRegisterPowerCycleAndReparameterize) {
   EXPECT_TRUE(d.log.contains("power cycle requested over Modbus"));
 }
 
+// docs/faults.md: holding registers 8193 (forced CAN state), 8194 (drop received frames) and
+// control 3/4 (the master stops / resumes), seen through Modbus and the socketcand export.
+TEST(Daemon, FaultControlsThroughModbusAndSocketcand) {
+  json j = manual_514();
+  j["gateways"][0]["parameters"]["can_diagnosis"] = true;  // diagnosis bytes 8..10 (manual §3.4.2)
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange());
+  SocketcandClient bus(d.socketcand(), "can0");
+  ModbusClient plc(d.modbus(), 5);
+  namespace st = modbus::status;
+  auto status = [&] { return regs(plc.read_input(modbus::kStatusBase, st::kCount)); };
+  auto u32 = [](const std::vector<std::uint16_t>& s, std::uint16_t at) {
+    return (static_cast<std::uint32_t>(s[at]) << 16) | s[at + 1];
+  };
+
+  // Warning and error-passive: byte 8 = 0x40 / 0x80, Ext_Diag, LED C 'W' / 'E' (manual table
+  // 3.3.1, table 3.4.5); the gateway still sends.
+  for (auto [code, byte8, led] :
+       {std::tuple{1, 0x40, modbus::led::kMorseW}, std::tuple{2, 0x80, modbus::led::kMorseE}}) {
+    ASSERT_EQ(plc.write_one(modbus::kForcedStateRegister, static_cast<std::uint16_t>(code)), 0);
+    const auto s = status();
+    EXPECT_EQ(s[st::kBusState], code);
+    EXPECT_EQ(s[st::kDiag + 8], byte8);
+    EXPECT_TRUE(s[st::kDiag + 0] & 0x08) << "Ext_Diag";
+    EXPECT_EQ(s[st::kLedC], led);
+    EXPECT_EQ(s[st::kForcedState], code);
+  }
+  ASSERT_EQ(plc.write(86, {0x1111, 0x1111, 0x1111}), 0);
+  EXPECT_EQ(bus.frame(), "309#111111111111");
+
+  // Bus-off: byte 8 = 0xC0, LED C 'O'; nothing sent, nothing received.
+  ASSERT_EQ(plc.write_one(modbus::kForcedStateRegister, 3), 0);
+  auto s = status();
+  EXPECT_EQ(s[st::kBusState], 3);
+  EXPECT_EQ(s[st::kDiag + 8], 0xC0);
+  EXPECT_EQ(s[st::kLedC], modbus::led::kMorseO);
+  EXPECT_EQ(regs(plc.read_holding(modbus::kForcedStateRegister, 1)), std::vector<std::uint16_t>{3});
+  const std::uint32_t tx_before = u32(s, st::kTxFrames);
+  ASSERT_EQ(plc.write(86, {0x2222, 0x2222, 0x2222}), 0);
+  ASSERT_TRUE(eventually([&] { return u32(status(), st::kTxSuppressed) >= 1; }));
+  bus.send(F("289#AAAAAAAAAAAA"));
+  ASSERT_TRUE(eventually([&] { return u32(status(), st::kRxSuppressed) >= 1; }));
+  // The suppressed frame never reaches the bus, and the received one never reaches the image.
+  EXPECT_EQ(bus.frame(200ms), std::nullopt);
+  EXPECT_EQ(regs(plc.read_input(86, 3)), (std::vector<std::uint16_t>{0, 0, 0}));
+  EXPECT_EQ(u32(status(), st::kIrqLost), 0u);  // off the bus: nothing lost by the controller
+
+  // Back to the real state: the next change is sent again (the one made during bus-off is not).
+  ASSERT_EQ(plc.write_one(modbus::kForcedStateRegister, 0), 0);
+  s = status();
+  EXPECT_EQ(s[st::kBusState], 0);
+  EXPECT_EQ(s[st::kDiag + 8], 0);
+  EXPECT_EQ(s[st::kLedC], modbus::led::kOn);
+  EXPECT_FALSE(s[st::kDiag + 0] & 0x08);
+  EXPECT_EQ(u32(s, st::kTxFrames), tx_before + 1);  // the engine counted the dropped send
+  ASSERT_EQ(plc.write(86, {0x3333, 0x3333, 0x3333}), 0);
+  EXPECT_EQ(bus.frame(), "309#333333333333");
+
+  // 8194: the next 2 received frames are lost, counted in IRQ_LOST (diagnosis byte 9).
+  ASSERT_EQ(plc.write_one(modbus::kDropRxRegister, 2), 0);
+  EXPECT_EQ(regs(plc.read_holding(modbus::kDropRxRegister, 1)), std::vector<std::uint16_t>{2});
+  bus.send(F("289#010101010101"));
+  bus.send(F("289#020202020202"));
+  bus.send(F("289#030303030303"));
+  EXPECT_TRUE(eventually([&] {
+    return regs(plc.read_input(86, 3)) == std::vector<std::uint16_t>{0x0303, 0x0303, 0x0303};
+  }));
+  s = status();
+  EXPECT_EQ(u32(s, st::kIrqLost), 2u);
+  EXPECT_EQ(s[st::kDiag + 9], 2);
+  EXPECT_EQ(s[st::kRxDropRemaining], 0);
+  EXPECT_EQ(regs(plc.read_holding(modbus::kDropRxRegister, 1)), std::vector<std::uint16_t>{0});
+
+  // Control 3: the master stops; the watchdog (200 ms) expires, the gateway drops to Wait_Prm.
+  ASSERT_EQ(plc.write_one(modbus::kControlRegister, 3), 0);
+  EXPECT_TRUE(eventually([&] {
+    const auto v = status();
+    return v[st::kDpState] == 0 && v[st::kAddressed] == 0 && v[st::kLedE] == 3;
+  }));
+  // Control 4: the master parameterizes it again and exchanges data.
+  ASSERT_EQ(plc.write_one(modbus::kControlRegister, 4), 0);
+  EXPECT_TRUE(d.in_data_exchange());
+  EXPECT_EQ(status()[st::kAddressed], 1);
+  d.thread.stop();
+  EXPECT_TRUE(d.log.contains("forced to bus-off over Modbus"));
+  EXPECT_TRUE(d.log.contains("no longer addressed"));
+}
+
+// Raises the descriptor limit for tests that hold hundreds of connections.
+void raise_nofile(rlim_t want) {
+  rlimit r{};
+  ::getrlimit(RLIMIT_NOFILE, &r);
+  if (r.rlim_cur < want) {
+    r.rlim_cur = std::min(want, r.rlim_max);
+    ::setrlimit(RLIMIT_NOFILE, &r);
+  }
+}
+
+// Issue 12: 300 idle Modbus connections must not lock a new client out. At modbus.max_clients the
+// new connection evicts the one idle longest; the new client is answered at once.
+TEST(Daemon, HundredsOfIdleModbusConnectionsDoNotLockOthersOut) {
+  raise_nofile(4096);
+  json j = manual_514();
+  j["modbus"]["max_clients"] = 64;
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange());
+  std::vector<int> idle;
+  for (int i = 0; i < 300; ++i) idle.push_back(connect_tcp(d.modbus()));
+  const auto t0 = std::chrono::steady_clock::now();
+  ModbusClient plc(d.modbus(), 5);
+  const auto r = plc.read_input(modbus::kStatusBase, 1);
+  const auto took = std::chrono::steady_clock::now() - t0;
+  EXPECT_EQ(regs(r), std::vector<std::uint16_t>{2});
+  EXPECT_LT(took, 2s) << "a new client must be served at once";
+  // The earliest idle connections were closed to make room; the newest ones are still open.
+  EXPECT_TRUE(closed_by_peer(idle.front(), 2000ms));
+  for (int fd : idle) ::close(fd);
+  d.thread.stop();
+  EXPECT_TRUE(d.log.contains("evicted for"));
+  EXPECT_FALSE(d.log.contains("refused"));
+}
+
+TEST(Daemon, IdleModbusConnectionsCloseAfterTheTimeout) {
+  json j = manual_514();
+  j["modbus"]["idle_timeout_s"] = 1;
+  Running d(load(j));
+  const int fd = connect_tcp(d.modbus());
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_TRUE(closed_by_peer(fd, 5000ms));
+  EXPECT_GE(std::chrono::steady_clock::now() - t0, 900ms);
+  ::close(fd);
+  d.thread.stop();
+  EXPECT_TRUE(d.log.contains("idle for 1 s"));
+}
+
+// The same for the socketcand export: idle connections that never open the bus are evicted first;
+// a new client completes the handshake and sees bus traffic.
+TEST(Daemon, HundredsOfIdleSocketcandConnectionsDoNotLockOthersOut) {
+  raise_nofile(4096);
+  json j = manual_514();
+  j["buses"]["can0"]["socketcand_max_clients"] = 32;
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange());
+  SocketcandClient listener(d.socketcand(), "can0");  // a raw-mode client: kept over idle ones
+  std::vector<int> idle;
+  for (int i = 0; i < 300; ++i) idle.push_back(connect_tcp(d.socketcand()));
+  const auto t0 = std::chrono::steady_clock::now();
+  SocketcandClient fresh(d.socketcand(), "can0");
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 2s);
+  ModbusClient plc(d.modbus(), 5);
+  ASSERT_EQ(plc.write(86, {0x0102, 0x0304, 0x0506}), 0);
+  EXPECT_EQ(fresh.frame(), "309#020106050403");
+  EXPECT_EQ(listener.frame(), "309#020106050403");
+  for (int fd : idle) ::close(fd);
+  d.thread.stop();
+  EXPECT_TRUE(d.log.contains("evicted for"));
+}
+
+TEST(Daemon, SocketcandClientsThatNeverOpenTheBusTimeOut) {
+  json j = manual_514();
+  j["buses"]["can0"]["socketcand_idle_timeout_s"] = 1;
+  Running d(load(j));
+  const int fd = connect_tcp(d.socketcand());
+  EXPECT_EQ(read_bytes(fd, 6), (std::vector<std::uint8_t>{'<', ' ', 'h', 'i', ' ', '>'}));
+  EXPECT_TRUE(closed_by_peer(fd, 5000ms));
+  ::close(fd);
+  d.thread.stop();
+  EXPECT_TRUE(d.log.contains("no raw mode after 1 s idle"));
+}
+
 TEST(Daemon, BadRequestsAreAnsweredAndTheDaemonServesOn) {
   Running d(load(manual_514()));
   ModbusClient plc(d.modbus(), 5);
@@ -238,6 +409,66 @@ TEST(Daemon, SimulatedUnitekDriveAnswersThroughTheGateway) {
   }));
 }
 
+// docs/faults.md: a simulated drive's fault registers on its own unit ID (drives[].modbus_unit).
+TEST(Daemon, DriveFaultsThroughItsModbusUnit) {
+  json j = manual_514();
+  j["drives"] =
+      json::parse(R"([{"type": "unitek", "name": "axis1", "bus": "can0", "modbus_unit": 20}])");
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange());
+  SocketcandClient bus(d.socketcand(), "can0");
+  ModbusClient drive(d.modbus(), 20);
+  auto next_181 = [&](std::chrono::milliseconds timeout) -> std::optional<std::string> {
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    while (true) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+          end - std::chrono::steady_clock::now());
+      if (left.count() <= 0) return std::nullopt;
+      auto f = bus.frame(left);
+      if (!f) return std::nullopt;
+      if (f->rfind("181#", 0) == 0) return f;
+    }
+  };
+  // Error bits 0x0004 and warning bits 0x0001: ERR_BITMAP1 0x8F = 0x00010004 (little-endian).
+  ASSERT_EQ(drive.write(1, {0x0004, 0x0001}), 0);
+  EXPECT_EQ(regs(drive.read_holding(0, 4)), (std::vector<std::uint16_t>{0, 4, 1, 0}));
+  bus.send(F("201#3D8F00"));  // Unitek REGID 0x3D: read 0x8F once
+  auto f = next_181(2000ms);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->rfind("181#8F04000100", 0), 0u) << *f;
+  // Mute: requests get no answer.
+  ASSERT_EQ(drive.write_one(0, 1), 0);
+  bus.send(F("201#3D8F00"));
+  EXPECT_EQ(next_181(300ms), std::nullopt);
+  ASSERT_EQ(drive.write_one(0, 0), 0);
+  // A cyclic request (every 100 ms), then a restart: the cyclic replies stop, the errors are gone.
+  bus.send(F("201#3D8F64"));
+  ASSERT_TRUE(next_181(2000ms));
+  ASSERT_EQ(drive.write_one(3, 1), 0);
+  EXPECT_TRUE(eventually([&] { return !next_181(300ms).has_value(); }, 3000ms));
+  EXPECT_EQ(regs(drive.read_holding(0, 4)), (std::vector<std::uint16_t>{0, 0, 0, 0}));
+  bus.send(F("201#3D8F00"));
+  f = next_181(2000ms);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->rfind("181#8F00000000", 0), 0u) << *f;
+  // Other registers and functions get the protocol's exceptions.
+  EXPECT_EQ(std::get<int>(drive.read_holding(4, 1)), EMBXILADD);
+  EXPECT_EQ(std::get<int>(drive.read_input(0, 1)), EMBXILFUN);
+}
+
+TEST(Daemon, DriveUnitMustNotBeAGatewayAddress) {
+  json j = manual_514();
+  j["drives"] =
+      json::parse(R"([{"type": "unitek", "name": "axis1", "bus": "can0", "modbus_unit": 5}])");
+  try {
+    load(j);
+    ADD_FAILURE() << "accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("$.drives[0].modbus_unit"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("DP address"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Daemon, BuiltInDefaultGatewayWithTwoDrives) {
   // config/demo.json (compiled into candp2d as its default) on free ports.
   std::ifstream in(CANDP2_SOURCE_DIR "/config/demo.json");
@@ -315,6 +546,77 @@ TEST(Daemon, GatewaysOnARemoteSocketcandBus) {
   };
   EXPECT_EQ(count(" far 309#020106050403\n"), 1u) << text;
   EXPECT_EQ(count(" far 289#020106050403\n"), 1u) << text;
+}
+
+// Issue 12: the socketcand server behind a `socketcand` bus restarts; the client reconnects with
+// backoff, shows bus-off while disconnected (status block, LED C 'O'), and traffic resumes.
+TEST(Daemon, SocketcandBusReconnectsAfterTheServerRestarts) {
+  EventLoop remote_loop;
+  can::VirtualBus remote_bus;
+  auto remote_ep = remote_bus.endpoint("server");
+  std::string error;
+  auto serve = [&](std::uint16_t port) {
+    auto server = can::SocketcandServer::listen(
+        {.host = "127.0.0.1", .port = port, .channel = "can1"}, *remote_ep, nullptr, &error);
+    if (server)
+      for (int fd : server->poll_fds())
+        remote_loop.add_fd(fd, EventLoop::kReadable, [s = server.get(), fd](std::uint32_t) {
+          s->on_readable(fd, EventLoop::wall_now());
+        });
+    return server;
+  };
+  auto server = serve(0);
+  ASSERT_TRUE(server) << error;
+  const std::uint16_t port = server->port();
+  LoopThread remote_thread(remote_loop);
+  remote_thread.start();
+
+  json j = manual_514();
+  j["buses"] = {
+      {"far",
+       {{"type", "socketcand"}, {"host", "127.0.0.1"}, {"port", port}, {"channel", "can1"}}}};
+  j["gateways"][0]["bus"] = "far";
+  j["gateways"][0]["parameters"]["can_diagnosis"] = true;
+  Running d(load(j));
+  ASSERT_TRUE(d.in_data_exchange(5));
+  ModbusClient plc(d.modbus(), 5);
+  namespace st = modbus::status;
+  auto status = [&] { return regs(plc.read_input(modbus::kStatusBase, st::kCount)); };
+  {
+    SocketcandClient peer(port, "can1");
+    ASSERT_EQ(plc.write(86, {0x0102, 0x0304, 0x0506}), 0);
+    EXPECT_EQ(peer.frame(), "309#020106050403");
+  }
+
+  // The server goes away: the gateway sees bus-off (diagnosis byte 8 = 0xC0, LED C 'O').
+  remote_thread.stop();
+  for (int fd : server->poll_fds()) remote_loop.remove_fd(fd);
+  server.reset();
+  EXPECT_TRUE(eventually([&] {
+    const auto s = status();
+    return s[st::kBusState] == 3 && s[st::kDiag + 8] == 0xC0 &&
+           s[st::kLedC] == modbus::led::kMorseO;
+  }));
+  // Then it is back on the same port (attempts before that were refused; the backoff grows).
+  server = serve(port);
+  ASSERT_TRUE(server) << error;
+  remote_thread.start();
+  EXPECT_TRUE(eventually([&] {
+    const auto s = status();
+    return s[st::kBusState] == 0 && s[st::kReconnects + 1] == 1 && s[st::kLedC] == modbus::led::kOn;
+  }));
+  SocketcandClient peer(port, "can1");
+  ASSERT_EQ(plc.write(86, {0x0A0B, 0x0C0D, 0x0E0F}), 0);
+  EXPECT_EQ(peer.frame(), "309#0B0A0F0E0D0C");  // traffic resumes
+  peer.send(F("289#0B0A0F0E0D0C"));
+  EXPECT_TRUE(eventually([&] {
+    return regs(plc.read_input(86, 3)) == std::vector<std::uint16_t>{0x0A0B, 0x0C0D, 0x0E0F};
+  }));
+  d.thread.stop();
+  remote_thread.stop();
+  for (int fd : server->poll_fds()) remote_loop.remove_fd(fd);
+  EXPECT_TRUE(d.log.contains("channel is down"));
+  EXPECT_TRUE(d.log.contains("reconnected after"));
 }
 
 TEST(ModbusMapText, NamesSlotsRegistersAndUnits) {

@@ -203,9 +203,17 @@ struct FakeGateway : GatewayFace {
   std::uint8_t dp_address() const override { return address; }
   StatusBlock status(Time) override { return block; }
   void control(Control c, Time) override { commands.push_back(c); }
+  bool force_bus_state(std::uint16_t code, Time) override {
+    forced = code;
+    return true;
+  }
+  std::uint16_t forced_bus_state() const override { return forced; }
+  void drop_received(std::uint16_t n, Time) override { drop = n; }
+  std::uint16_t drop_remaining() const override { return drop; }
   std::uint8_t address;
   StatusBlock block{};
   std::vector<Control> commands;
+  std::uint16_t forced = 0, drop = 0;
 };
 
 struct MapFixture : ::testing::Test {
@@ -275,7 +283,10 @@ TEST_F(MapFixture, AddressBoundaries) {
   EXPECT_EQ(run(5, pdu(0x04, 8192 + status::kCount - 1, 1)), std::nullopt);
   EXPECT_EQ(run(5, pdu(0x04, 8192 + status::kCount, 1)), Exception::IllegalDataAddress);
   EXPECT_EQ(run(5, pdu(0x04, 8190, 4)), Exception::IllegalDataAddress);
-  EXPECT_EQ(run(5, pdu(0x03, 8193, 1)), Exception::IllegalDataAddress);
+  // Holding registers 8192..8194: control, forced CAN state, drop count (docs/faults.md).
+  EXPECT_EQ(run(5, pdu(0x03, 8192, 3)), std::nullopt);
+  EXPECT_EQ(run(5, pdu(0x03, 8192, 4)), Exception::IllegalDataAddress);
+  EXPECT_EQ(run(5, pdu(0x03, 8195, 1)), Exception::IllegalDataAddress);
   EXPECT_EQ(run(5, pdu(0x04, 65535, 1)), Exception::IllegalDataAddress);
 }
 
@@ -324,9 +335,33 @@ TEST_F(MapFixture, ControlRegister) {
   EXPECT_EQ(gw5.commands, std::vector<Control>{Control::Reparameterize});
   ASSERT_EQ(run(6, pdu(0x03, 8192, 1)), std::nullopt);
   EXPECT_EQ(out.registers[0], 1);  // reads the last command
-  EXPECT_EQ(run(6, {0x06, hi(8192), lo(8192), 0, 3}), Exception::IllegalDataValue);
-  EXPECT_EQ(run(6, write_regs(8192, {1, 1})), Exception::IllegalDataAddress);
+  EXPECT_EQ(run(6, {0x06, hi(8192), lo(8192), 0, 5}), Exception::IllegalDataValue);
+  EXPECT_EQ(run(6, write_regs(8192, {1, 1, 1, 1})), Exception::IllegalDataAddress);
   EXPECT_EQ(gw6.commands.size(), 1u);
+  // 3 = the master stops addressing the gateway, 4 = it resumes (docs/faults.md).
+  ASSERT_EQ(run(6, {0x06, hi(8192), lo(8192), 0, 3}), std::nullopt);
+  ASSERT_EQ(run(6, {0x06, hi(8192), lo(8192), 0, 4}), std::nullopt);
+  EXPECT_EQ(gw6.commands, (std::vector<Control>{Control::PowerCycle, Control::MasterStops,
+                                                Control::MasterResumes}));
+}
+
+TEST_F(MapFixture, FaultRegisters) {
+  // docs/faults.md: 8193 forced CAN state 0..3, 8194 drop the next N received frames.
+  ASSERT_EQ(run(5, {0x06, hi(8193), lo(8193), 0, 3}), std::nullopt);
+  EXPECT_EQ(gw5.forced, 3);
+  EXPECT_EQ(gw6.forced, 0);
+  EXPECT_EQ(run(5, {0x06, hi(8193), lo(8193), 0, 4}), Exception::IllegalDataValue);
+  EXPECT_EQ(gw5.forced, 3);
+  ASSERT_EQ(run(5, write_regs(8193, {2, 7})), std::nullopt);
+  EXPECT_EQ(gw5.forced, 2);
+  EXPECT_EQ(gw5.drop, 7);
+  ASSERT_EQ(run(5, pdu(0x03, 8192, 3)), std::nullopt);
+  EXPECT_EQ(out.registers[1], 2);
+  EXPECT_EQ(out.registers[2], 7);
+  // All or nothing: a bad forced state in a multi-register write changes nothing.
+  EXPECT_EQ(run(5, write_regs(8192, {2, 9, 1})), Exception::IllegalDataValue);
+  EXPECT_TRUE(gw5.commands.empty());
+  EXPECT_EQ(gw5.drop, 7);
 }
 
 TEST_F(MapFixture, MaskWriteRegister) {

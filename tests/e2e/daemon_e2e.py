@@ -227,7 +227,7 @@ class DaemonE2E(unittest.TestCase):
         rr = self.pymodbus.read_holding_registers(4096, 1, slave=UNIT)
         self.assertTrue(rr.isError())
         self.assertEqual(rr.exception_code, 0x02)
-        rr = self.pymodbus.read_input_registers(8192 + 57, 1, slave=UNIT)  # past the status block
+        rr = self.pymodbus.read_input_registers(8192 + 66, 1, slave=UNIT)  # past the status block
         self.assertEqual(rr.exception_code, 0x02)
         rr = self.pymodbus.read_holding_registers(0, 1, slave=9)
         self.assertTrue(rr.isError())

@@ -299,17 +299,24 @@ TEST(SocketcandServerLimits, SlowClientIsDroppedWithoutBlockingTheLoop) {
   slow.reset();
 }
 
-TEST(SocketcandServerLimits, ClientsBeyondTheLimitAreTurnedAway) {
+TEST(SocketcandServerLimits, ANewClientEvictsTheIdlestOneAtTheLimit) {
+  // Issue 12: idle clients cannot lock others out; clients not in raw mode go first.
   auto options = ServerRig::default_options();
-  options.max_clients = 1;
+  options.max_clients = 2;
   ServerRig rig(options);
-  RawClient first(rig.loop, rig.server->port());
-  EXPECT_EQ(first.take_like("< hi >"), "< hi >");
-  RawClient second(rig.loop, rig.server->port());
-  EXPECT_EQ(second.take_like("< error too many clients >"), "< error too many clients >");
-  EXPECT_TRUE(second.wait_closed());
-  EXPECT_TRUE(rig.log.contains("refused client"));
-  EXPECT_EQ(rig.server->client_count(), 1u);
+  RawClient raw(rig.loop, rig.server->port());
+  EXPECT_EQ(raw.take_like("< hi >"), "< hi >");
+  raw.send("< open vcan0 >< rawmode >");
+  EXPECT_EQ(raw.take_like("< ok >< ok >"), "< ok >< ok >");
+  RawClient idle(rig.loop, rig.server->port());
+  EXPECT_EQ(idle.take_like("< hi >"), "< hi >");
+  RawClient third(rig.loop, rig.server->port());
+  EXPECT_EQ(third.take_like("< hi >"), "< hi >");
+  EXPECT_TRUE(idle.wait_closed());  // never opened the bus: evicted before the raw-mode client
+  EXPECT_FALSE(raw.closed());
+  EXPECT_TRUE(rig.log.contains("evicted for"));
+  EXPECT_EQ(rig.server->client_count(), 2u);
+  EXPECT_EQ(rig.server->stats().clients_evicted, 1u);
 }
 
 TEST(SocketcandServerListen, BadAddressAndBusNameAreRefused) {

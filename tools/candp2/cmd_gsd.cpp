@@ -38,6 +38,10 @@ int run_gsd(const GsdArgs& a) {
     return 2;
   }
   const gsd::ParseResult parsed = gsd::parse_file(a.file);
+  if (parsed.not_gsd) {  // one line, not one error per line of the input
+    std::cout << a.file << ": " << gsd::to_utf8(parsed.diagnostics.front().message) << "\n";
+    return 1;
+  }
   std::vector<gsd::Diagnostic> all = parsed.diagnostics;
   const auto findings = gsd::check(parsed.model);
   all.insert(all.end(), findings.begin(), findings.end());
