@@ -64,3 +64,5 @@ void BM_FdlDataExchangeRoundTrip(benchmark::State& state) {
   state.counters["exchanges"] = static_cast<double>(master.slave(3)->data_exchanges - before);
 }
 BENCHMARK(BM_FdlDataExchangeRoundTrip);
+
+}  // namespace
