@@ -102,7 +102,10 @@ class Handshake {
     if (w.size() == 1 && w[0] == "ok") return true;
     if (!w.empty() && w[0] == "error") {
       std::string reason;
-      for (std::size_t i = 1; i < w.size(); ++i) reason += (i > 1 ? " " : "") + std::string(w[i]);
+      for (std::size_t i = 1; i < w.size(); ++i) {
+        if (i > 1) reason += ' ';
+        reason += w[i];
+      }
       return fail(error, "the server refused " + std::string(after) + ": " + reason);
     }
     return fail(error,

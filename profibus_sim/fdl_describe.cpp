@@ -312,9 +312,14 @@ Description describe(const Telegram& t, const Telegram* request) {
     s += "]";
   }
   const std::uint8_t fn = t.function();
-  if (!(d.request && fn == kFcFdlStatus)) s += " " + fc_name(t.fc);  // else the service says it
-  if (d.request && fn != kFcFdlStatus && fn != kFcSdnLow && fn != kFcSdnHigh)
-    s += std::string(" FCB=") + (t.fcb() ? "1" : "0") + " FCV=" + (t.fcv() ? "1" : "0");
+  if (!(d.request && fn == kFcFdlStatus)) {  // else the service says it
+    s += ' ';
+    s += fc_name(t.fc);
+  }
+  if (d.request && fn != kFcFdlStatus && fn != kFcSdnLow && fn != kFcSdnHigh) {
+    s += t.fcb() ? " FCB=1" : " FCB=0";
+    s += t.fcv() ? " FCV=1" : " FCV=0";
+  }
   if (t.da == kBroadcast && d.request) s += " broadcast";
   std::string service(to_string(d.service));
   if (d.service == Service::OtherSap) {
