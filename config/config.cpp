@@ -787,6 +787,15 @@ Result<GatewayConfig> parse_gateway(const json& j, const std::string& file,
   }
 }
 
+Result<DriveConfig> parse_drive_entry(const json& j, const std::string& file,
+                                      const std::string& path) {
+  try {
+    return parse_drive(j, path, file);
+  } catch (const Failure& f) {
+    return ConfigError{file, f.path, f.message};
+  }
+}
+
 std::optional<std::uint32_t> configured_bitrate(const GatewayConfig& g) {
   const auto prm = set_prm_bytes(g);
   if (prm.size() <= gw::kPrmBitrate || prm[gw::kPrmBitrate] > gw::kBitrateMax) return std::nullopt;

@@ -153,6 +153,10 @@ Result<DaemonConfig> load_daemon(const std::string& path);
 // the validator. `path` prefixes JSON paths in messages. The bus name is not checked here.
 Result<GatewayConfig> parse_gateway(const nlohmann::json& j, const std::string& file,
                                     const std::string& path = "$");
+// One drive entry (same shape as in the daemon's "drives" array), for the replay runner. The bus
+// name is not checked here.
+Result<DriveConfig> parse_drive_entry(const nlohmann::json& j, const std::string& file,
+                                      const std::string& path);
 
 // What the simulated master sends for a gateway entry.
 std::vector<std::uint8_t> set_prm_bytes(const GatewayConfig& g);

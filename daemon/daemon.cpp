@@ -15,6 +15,7 @@
 #include "daemon/can_fault.hpp"
 #include "daemon/can_log.hpp"
 #include "daemon/cycle_stats.hpp"
+#include "daemon/drive_fault.hpp"
 #include "daemon/http_server.hpp"
 #include "daemon/http_status.hpp"
 #include "daemon/modbus_map.hpp"
@@ -138,23 +139,21 @@ struct GatewayUnit final : modbus::GatewayFace, can::FrameSink {
 };
 
 struct DriveUnit final : modbus::DriveFace {
-  LogSink* log_sink = nullptr;
   config::DriveConfig cfg;
   std::unique_ptr<can::VirtualEndpoint> endpoint;
   std::unique_ptr<drive::FileParameterStore> store;
-  std::unique_ptr<drive::UnitekDrive> drive;
-  drive::UnitekDrive::Options options;
+  // The drive with its fault injection (docs/faults.md), shared with the replay runner.
+  std::unique_ptr<FaultyDrive> drive;
   EventLoop::TimerId timer = 0;
   std::optional<Time> armed;
-  // Fault injection (docs/faults.md).
-  bool muted = false;
-  std::uint16_t errors = 0, warnings = 0;
 
   std::uint8_t modbus_unit() const override { return cfg.modbus_unit.value_or(0); }
   std::uint16_t fault_register(std::uint16_t index) const override {
-    return index == 0 ? (muted ? 1 : 0) : index == 1 ? errors : index == 2 ? warnings : 0;
+    return drive->fault_register(index);
   }
-  void set_fault_register(std::uint16_t index, std::uint16_t value, Time now) override;
+  void set_fault_register(std::uint16_t index, std::uint16_t value, Time now) override {
+    drive->set_fault_register(index, value, now, *endpoint, "requested over Modbus");
+  }
 };
 
 class DaemonImpl final : public Daemon {
@@ -341,31 +340,6 @@ void GatewayUnit::control(modbus::Control command, Time now) {
   }
 }
 
-void DriveUnit::set_fault_register(std::uint16_t index, std::uint16_t value, Time now) {
-  Logger log(log_sink, "daemon");
-  switch (index) {
-    case 0:
-      muted = value != 0;
-      log.warn("drive " + cfg.name + (muted ? ": stops answering" : ": answers again") +
-               " (requested over Modbus)");
-      return;
-    case 1:
-    case 2:
-      (index == 1 ? errors : warnings) = value;
-      // ERR_BITMAP1 0x8F: errors in bits 0..15, warnings in bits 16..31.
-      drive->set_errors((static_cast<std::uint32_t>(warnings) << 16) | errors, now, *endpoint);
-      return;
-    case 3:
-      if (value != 1) return;
-      log.warn("drive " + cfg.name + ": restart requested over Modbus (cyclic requests lost)");
-      // Power-on state: stored parameters reloaded, cyclic transmissions and errors gone.
-      drive = std::make_unique<drive::UnitekDrive>(options, log_sink, store.get());
-      errors = warnings = 0;
-      muted = false;
-      return;
-  }
-}
-
 bool DaemonImpl::watch(int fd, std::function<void()> on_readable, std::string* error) {
   if (!loop_.add_fd(
           fd, EventLoop::kReadable, [cb = std::move(on_readable)](std::uint32_t) { cb(); }, error))
@@ -487,10 +461,8 @@ bool DaemonImpl::open_drive(DriveUnit& d, std::string* error) {
   o.rx_id = d.cfg.rx_id;
   o.tx_id = d.cfg.tx_id;
   o.name = d.cfg.name;
-  d.options = o;
-  d.log_sink = log_sink_;
   try {
-    d.drive = std::make_unique<drive::UnitekDrive>(o, log_sink_, d.store.get());
+    d.drive = std::make_unique<FaultyDrive>(o, log_sink_, d.store.get());
   } catch (const std::exception& e) {
     *error = "drive \"" + d.cfg.name + "\" (" + d.cfg.json_path + "): " + e.what();
     return false;
@@ -619,7 +591,7 @@ bool DaemonImpl::start_http(std::string* error) {
         bs.bitrate = gw::kBitrates[g->cfg.parameters.bitrate_index];
     src.buses.push_back(bs);
   }
-  for (auto& d : drives_) src.drives.push_back({&d->cfg, d->drive.get()});
+  for (auto& d : drives_) src.drives.push_back({&d->cfg, &d->drive->drive()});
   status_model_ = std::make_unique<StatusModel>(std::move(src));
   std::string e;
   http_ = HttpServer::listen(
@@ -656,7 +628,7 @@ bool DaemonImpl::drain_in_process() {
   }
   for (auto& d : drives_) {
     while (auto f = d->endpoint->receive()) {
-      if (!d->muted) d->drive->on_frame(*f, now, *d->endpoint);  // muted: stops answering
+      d->drive->on_frame(*f, now, *d->endpoint);  // muted: stops answering
       work = true;
     }
   }
@@ -685,7 +657,7 @@ void DaemonImpl::rearm(GatewayUnit& g) {
 }
 
 void DaemonImpl::rearm(DriveUnit& d) {
-  const auto next = d.muted ? std::nullopt : d.drive->next_deadline();
+  const auto next = d.drive->next_deadline();
   if (next == d.armed && (d.timer || !next)) return;
   if (d.timer) loop_.cancel_timer(d.timer);
   d.timer = 0;

@@ -79,7 +79,10 @@ std::string format_report(const Scenario& sc, const RunResult& r, const ReportOp
     if (o.traffic)
       for (; traffic < r.traffic.size() && r.traffic[traffic].time <= s.end; ++traffic) {
         const auto& t = r.traffic[traffic];
-        out += time_text(t.time) + "      " + (t.from_gateway ? "gateway -> " : "replay  -> ") +
+        out += time_text(t.time) + "      " +
+               (t.from_gateway    ? std::string("gateway -> ")
+                : t.drive.empty() ? std::string("replay  -> ")
+                                  : t.drive + " -> ") +
                can::format_candump(t.frame) + "\n";
       }
   }

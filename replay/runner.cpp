@@ -8,6 +8,7 @@
 #include "can/virtual_bus.hpp"
 #include "common/hex.hpp"
 #include "daemon/can_fault.hpp"
+#include "daemon/drive_fault.hpp"
 #include "gateway/gateway.hpp"
 #include "profibus_sim/dp_master.hpp"
 #include "profibus_sim/page_driver.hpp"
@@ -28,6 +29,7 @@ namespace {
 
 constexpr std::string_view kGatewayNode = "gateway";
 constexpr std::string_view kTesterNode = "replay";
+constexpr std::string_view kDrivePrefix = "drive:";  // endpoint names, as in the daemon
 // Events at one instant before the runner declares a livelock (a timer that never moves on).
 constexpr int kMaxEventsPerInstant = 100000;
 
@@ -78,7 +80,9 @@ class Sim {
     bus_.add_tap([this](const can::Frame& f, Time t, std::string_view sender) {
       const bool from_gw = sender == kGatewayNode;
       if (from_gw) gw_frames_.push_back(res_.traffic.size());
-      res_.traffic.push_back({t, f, from_gw});
+      std::string drive;
+      if (sender.starts_with(kDrivePrefix)) drive = sender.substr(kDrivePrefix.size());
+      res_.traffic.push_back({t, f, from_gw, std::move(drive)});
     });
     const auto& g = sc.gateway;
     gw::GatewayOptions o;
@@ -91,6 +95,15 @@ class Sim {
     gw_ = std::make_unique<gw::Gateway>(o, *faults_, now_);
     master_.add_slave(gw_->dp(), config::slave_parameters(g));
     if (sc.driver) setup_driver(*sc.driver);
+    // Simulated drives on the same bus, wired as the daemon wires its drives (daemon/daemon.cpp).
+    for (const auto& d : sc.drives) {
+      drive::UnitekDrive::Options o;
+      o.rx_id = d.rx_id;
+      o.tx_id = d.tx_id;
+      o.name = d.name;
+      drives_.push_back({bus_.endpoint(std::string(kDrivePrefix) + d.name),
+                         std::make_unique<daemon::FaultyDrive>(o, &log_)});
+    }
   }
 
   Time now() const { return now_; }
@@ -104,6 +117,8 @@ class Sim {
     while (true) {
       Time next = next_cycle_;
       if (auto d = gw_->next_deadline(); d && *d < next) next = std::max(*d, now_);
+      for (const auto& n : drives_)
+        if (auto d = n.drive->next_deadline(); d && *d < next) next = std::max(*d, now_);
       if (next > until) break;
       if (next == last && ++same_instant > kMaxEventsPerInstant) {
         log_.write(LogLevel::Error, "replay",
@@ -114,8 +129,7 @@ class Sim {
       last = next;
       now_ = next;
       bus_.set_now(now_);
-      gw_->advance(now_);
-      drain();
+      advance_nodes();
       if (now_ >= next_cycle_) {
         master_.cycle(now_);
         drain();
@@ -126,8 +140,7 @@ class Sim {
     }
     now_ = std::max(now_, until);
     bus_.set_now(now_);
-    gw_->advance(now_);
-    drain();
+    advance_nodes();
     return stop ? stop() : false;
   }
 
@@ -157,13 +170,32 @@ class Sim {
     master_.set_program(&*driver_);
   }
 
+  // The gateway's and the drives' timers up to now, then the frames they sent.
+  void advance_nodes() {
+    gw_->advance(now_);
+    for (auto& n : drives_) n.drive->advance(now_, *n.ep);
+    drain();
+  }
+
+  // Delivers queued frames until no node has any left (a drive answers a gateway frame at once).
   void drain() {
     auto& fl = faults_->layer;
-    gw_->set_controller_status(fl.state(gw_ep_->bus_state()), fl.rx_lost(gw_ep_->rx_lost()));
-    while (auto f = gw_ep_->receive())
-      if (fl.pass_rx()) gw_->on_can_frame(*f, now_);
-    while (node_ep_->receive()) {
+    for (bool work = true; work;) {
+      work = false;
+      gw_->set_controller_status(fl.state(gw_ep_->bus_state()), fl.rx_lost(gw_ep_->rx_lost()));
+      while (auto f = gw_ep_->receive()) {
+        work = true;
+        if (fl.pass_rx()) gw_->on_can_frame(*f, now_);
+      }
+      for (auto& n : drives_)
+        while (auto f = n.ep->receive()) {
+          work = true;
+          n.drive->on_frame(*f, now_, *n.ep);
+        }
+      while (node_ep_->receive()) {
+      }
     }
+    gw_->set_controller_status(fl.state(gw_ep_->bus_state()), fl.rx_lost(gw_ep_->rx_lost()));
   }
 
   // Gateway frames from the cursor on, for failure messages.
@@ -224,6 +256,11 @@ class Sim {
   std::unique_ptr<gw::Gateway> gw_;
   dp::DpMaster master_;
   std::optional<plc::PageDriver> driver_;
+  struct DriveNode {
+    std::unique_ptr<can::VirtualEndpoint> ep;
+    std::unique_ptr<daemon::FaultyDrive> drive;
+  };
+  std::vector<DriveNode> drives_;
   std::vector<std::size_t> gw_frames_;  // indices into res_.traffic of the gateway's frames
   std::size_t cursor_ = 0;              // first gateway frame not yet matched or passed
 };
@@ -447,6 +484,23 @@ StepResult Sim::execute(const Step& s, std::size_t index) {
     case Action::DropRx:
       faults_->layer.drop_next(s.count);
       break;
+    case Action::DriveMute:
+    case Action::DriveErrorBits:
+    case Action::DriveWarningBits:
+    case Action::DriveRestart: {
+      // The drive's Modbus fault registers 0..3 (docs/faults.md), one implementation.
+      auto& n = drives_[s.drive];
+      const std::uint16_t reg = s.action == Action::DriveMute          ? daemon::kDriveMute
+                                : s.action == Action::DriveErrorBits   ? daemon::kDriveErrorBits
+                                : s.action == Action::DriveWarningBits ? daemon::kDriveWarningBits
+                                                                       : daemon::kDriveRestart;
+      const std::uint16_t value = s.action == Action::DriveMute      ? (s.on ? 1 : 0)
+                                  : s.action == Action::DriveRestart ? 1
+                                                                     : s.bits;
+      n.drive->set_fault_register(reg, value, now_, *n.ep, "requested by a replay step");
+      drain();
+      break;
+    }
     case Action::ExpectCounters:
       r.passed = poll(
           s,

@@ -34,6 +34,7 @@ struct Traffic {
   Time time{0};
   can::Frame frame;
   bool from_gateway = false;
+  std::string drive;  // the simulated drive that sent it; empty for the gateway and injected frames
 };
 
 struct LogEntry {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -91,6 +92,10 @@ constexpr ActionName kActions[] = {
     {Action::ForceCanState, "force_can_state"},
     {Action::DropRx, "drop_rx"},
     {Action::ExpectCounters, "expect_counters"},
+    {Action::DriveMute, "drive_mute"},
+    {Action::DriveErrorBits, "drive_error_bits"},
+    {Action::DriveWarningBits, "drive_warning_bits"},
+    {Action::DriveRestart, "drive_restart"},
 };
 
 // force_can_state values, as holding register 8193 (docs/faults.md).
@@ -210,6 +215,16 @@ std::string Step::describe() const {
         c += (c.empty() ? " " : ", ") + name + " " + std::to_string(value);
       return s + c + window_text("within");
     }
+    case Action::DriveMute:
+      return s + " " + drive_name + (on ? " on" : " off");
+    case Action::DriveErrorBits:
+    case Action::DriveWarningBits: {
+      char b[8];
+      std::snprintf(b, sizeof b, "%04X", static_cast<unsigned>(bits));
+      return s + " " + drive_name + " 0x" + b;
+    }
+    case Action::DriveRestart:
+      return s + " " + drive_name;
   }
   return s;
 }
@@ -439,6 +454,9 @@ Step parse_step(const json& j, const std::string& path, const Scenario& sc) {
   const bool windowed = s.expectation() && s.action != Action::ExpectNoFrame;
   if (windowed) allowed.push_back("within_ms");
   if (s.action == Action::ExpectNoFrame) allowed.push_back("for_ms");
+  const bool drive_step = s.action == Action::DriveMute || s.action == Action::DriveErrorBits ||
+                          s.action == Action::DriveWarningBits || s.action == Action::DriveRestart;
+  if (drive_step) allowed.push_back("drive");
   if (!found && !j.contains("note")) {
     std::vector<std::string> keys;
     for (const auto& a : kActions) keys.push_back(a.key);
@@ -588,8 +606,58 @@ Step parse_step(const json& j, const std::string& path, const Scenario& sc) {
       if (s.counters.empty()) fail(vp, "give at least one counter (" + join(kNames) + ")");
       break;
     }
+    case Action::DriveMute:
+      s.on = v.is_boolean() ? v.get<bool>() : as_uint(v, vp, 0, 1) == 1;
+      break;
+    case Action::DriveErrorBits:
+    case Action::DriveWarningBits:
+      s.bits = static_cast<std::uint16_t>(as_uint(v, vp, 0, 0xFFFF, "(ERR_BITMAP1 0x8F bits)"));
+      break;
+    case Action::DriveRestart:
+      if (!v.is_boolean() || !v.get<bool>()) fail(vp, "expected true, got " + kind_of(v));
+      break;
+  }
+  if (drive_step) {
+    if (sc.drives.empty()) fail(vp, "\"" + key + "\" needs a \"drives\" entry in the scenario");
+    if (const json* d = o.find("drive")) {
+      const std::string name = as_string(*d, o.path("drive"), "a drive name");
+      const auto it = std::find_if(sc.drives.begin(), sc.drives.end(),
+                                   [&](const config::DriveConfig& c) { return c.name == name; });
+      if (it == sc.drives.end()) {
+        std::vector<std::string> names;
+        for (const auto& c : sc.drives) names.push_back("\"" + c.name + "\"");
+        fail(o.path("drive"), "no drive \"" + name + "\" in \"drives\" (" + join(names) + ")");
+      }
+      s.drive = static_cast<std::size_t>(it - sc.drives.begin());
+    } else if (sc.drives.size() > 1) {
+      fail(path, "\"" + key + "\" needs \"drive\": the name of one of the " +
+                     std::to_string(sc.drives.size()) + " drives");
+    }
+    s.drive_name = sc.drives[s.drive].name;
   }
   return s;
+}
+
+// "drives": entries as in the daemon's "drives" array, on the scenario's one bus (the gateway's).
+void parse_drives(const json& j, const std::string& path, Scenario& sc) {
+  if (!j.is_array()) fail(path, "expected an array of drives, got " + kind_of(j));
+  for (std::size_t i = 0; i < j.size(); ++i) {
+    const std::string p = element(path, i);
+    auto r = config::parse_drive_entry(j[i], sc.file, p);
+    if (auto* e = std::get_if<config::ConfigError>(&r)) throw Failure{e->json_path, e->message};
+    auto d = std::move(std::get<config::DriveConfig>(r));
+    if (d.bus != sc.gateway.bus)
+      fail(member(p, "bus"), "a scenario has one bus, the gateway's \"" + sc.gateway.bus +
+                                 "\"; got \"" + d.bus + "\"");
+    if (d.state_file)
+      fail(member(p, "state_file"),
+           "a replay keeps no state file (every run starts from the drive's defaults)");
+    for (const auto& other : sc.drives)
+      if (other.name == d.name)
+        fail(member(p, "name"),
+             "the name \"" + d.name + "\" is already used by " + other.json_path);
+    sc.drives.push_back(std::move(d));
+  }
 }
 
 Scenario parse_or_throw(const std::string& text, const std::string& file) {
@@ -601,7 +669,7 @@ Scenario parse_or_throw(const std::string& text, const std::string& file) {
   }
   const Object o(j, "$",
                  {"format", "version", "name", "description", "cycle_ms", "master_address",
-                  "gateway", "page_driver", "steps"});
+                  "gateway", "page_driver", "drives", "steps"});
   Scenario sc;
   sc.file = file;
   const std::string format = as_string(o.at("format"), o.path("format"), "\"candp2-replay\"");
@@ -627,6 +695,7 @@ Scenario parse_or_throw(const std::string& text, const std::string& file) {
   sc.warnings = sc.gateway.warnings;
   if (const json* d = o.find("page_driver"))
     sc.driver = parse_driver(*d, o.path("page_driver"), sc.gateway);
+  if (const json* d = o.find("drives")) parse_drives(*d, o.path("drives"), sc);
   const json& steps = o.at("steps");
   if (!steps.is_array()) fail(o.path("steps"), "expected an array of steps, got " + kind_of(steps));
   for (std::size_t i = 0; i < steps.size(); ++i)

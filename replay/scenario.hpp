@@ -1,8 +1,8 @@
 // A replay scenario (docs/replay-format.md, format "candp2-replay" version 1): one emulated gateway
 // configured exactly like a daemon "gateways" entry, the simulated DP master's cycle time, an
-// optional Page-Mode driver (the FB2 equivalent) and timed steps — write PLC outputs, inject CAN
-// frames, advance time, expect frames / input bytes / diagnosis. Parsing is strict: every error
-// names the file and the JSON path.
+// optional Page-Mode driver (the FB2 equivalent), optional simulated Unitek drives and timed steps
+// — write PLC outputs, inject CAN frames, advance time, expect frames / input bytes / diagnosis.
+// Parsing is strict: every error names the file and the JSON path.
 #pragma once
 
 #include <cstdint>
@@ -74,6 +74,11 @@ enum class Action : std::uint8_t {
   ForceCanState,   // force_can_state: real / warning / error-passive / bus-off (register 8193)
   DropRx,          // drop_rx: the next N received frames are lost, IRQ_LOST (register 8194)
   ExpectCounters,  // expect_counters: irq_lost, msg_lost, rx/tx_frames, rx/tx_suppressed
+  // Drive faults (docs/faults.md; the drive's Modbus holding registers 0..3).
+  DriveMute,         // drive_mute: the drive stops answering / answers again (register 0)
+  DriveErrorBits,    // drive_error_bits: ERR_BITMAP1 0x8F bits 0..15 (register 1)
+  DriveWarningBits,  // drive_warning_bits: ERR_BITMAP1 0x8F bits 16..31 (register 2)
+  DriveRestart,      // drive_restart: power-on state, cyclic requests lost (register 3)
 };
 std::string_view to_string(Action a);
 
@@ -102,6 +107,9 @@ struct Step {
   std::uint16_t ret_value = 0;
   std::uint16_t can_state = 0;  // force_can_state: 0 real, 1 warning, 2 error-passive, 3 bus-off
   std::uint32_t count = 0;      // drop_rx
+  std::size_t drive = 0;        // drive_*: index into Scenario::drives
+  std::string drive_name;       // drive_*: its name (for the report)
+  std::uint16_t bits = 0;       // drive_error_bits / drive_warning_bits
   // expect_counters: name → value, names as the Modbus status block (docs/modbus.md).
   std::vector<std::pair<std::string, std::uint32_t>> counters;
 
@@ -129,6 +137,8 @@ struct Scenario {
   std::uint8_t master_address = 1;
   config::GatewayConfig gateway;
   std::optional<DriverSpec> driver;
+  // Simulated Unitek drives on the gateway's bus (entries as in the daemon's "drives" array).
+  std::vector<config::DriveConfig> drives;
   std::vector<Step> steps;
   std::vector<config::ConfigError> warnings;
 };

@@ -85,7 +85,51 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"driver step without driver", slots_scenario(R"({"freigabe": true})"),
                 "$.steps[0].freigabe", "page_driver"},
         BadCase{"dp state", slots_scenario(R"({"expect_dp_state": "run"})"),
-                "$.steps[0].expect_dp_state", "data_exch"}));
+                "$.steps[0].expect_dp_state", "data_exch"},
+        // Simulated drives (docs/replay-format.md "drives"): entries as in the daemon's "drives".
+        BadCase{"drives not an array", slots_scenario("", R"("drives": {},)"), "$.drives",
+                "array of drives"},
+        BadCase{"drive key typo",
+                slots_scenario("", R"("drives": [{"bus": "can1", "nmae": "a"}],)"),
+                "$.drives[0].nmae", "unknown key"},
+        BadCase{"drive without bus", slots_scenario("", R"("drives": [{"name": "a"}],)"),
+                "$.drives[0]", "bus"},
+        BadCase{"drive rx_id",
+                slots_scenario("", R"("drives": [{"bus": "can1", "rx_id": "0x300"}],)"),
+                "$.drives[0].rx_id", "from 513 to 639"},
+        BadCase{"drive on another bus", slots_scenario("", R"("drives": [{"bus": "can0"}],)"),
+                "$.drives[0].bus", "one bus, the gateway's \"can1\""},
+        BadCase{"drive state file",
+                slots_scenario("", R"("drives": [{"bus": "can1", "state_file": "a.json"}],)"),
+                "$.drives[0].state_file", "no state file"},
+        BadCase{"drive names twice", slots_scenario("", R"("drives": [{"bus": "can1", "name": "a"},
+                                                  {"bus": "can1", "name": "a", "rx_id": "0x202"}],)"),
+                "$.drives[1].name", "already used by $.drives[0]"},
+        BadCase{"drive step without drives", slots_scenario(R"({"drive_mute": true})"),
+                "$.steps[0].drive_mute", "needs a \"drives\" entry"},
+        BadCase{"unknown drive",
+                slots_scenario(R"({"drive_restart": true, "drive": "b"})",
+                               R"("drives": [{"bus": "can1", "name": "a"}],)"),
+                "$.steps[0].drive", "no drive \"b\""},
+        BadCase{"which drive",
+                slots_scenario(R"({"drive_mute": true})",
+                               R"("drives": [{"bus": "can1", "name": "a"},
+                                             {"bus": "can1", "name": "b", "rx_id": "0x202"}],)"),
+                "$.steps[0]", "needs \"drive\""},
+        BadCase{
+            "error bits beyond 16",
+            slots_scenario(R"({"drive_error_bits": "0x10000"})", R"("drives": [{"bus": "can1"}],)"),
+            "$.steps[0].drive_error_bits", "0x8F"},
+        BadCase{"warning bits not a number",
+                slots_scenario(R"({"drive_warning_bits": "4"})", R"("drives": [{"bus": "can1"}],)"),
+                "$.steps[0].drive_warning_bits", "0x"},
+        BadCase{"restart false",
+                slots_scenario(R"({"drive_restart": false})", R"("drives": [{"bus": "can1"}],)"),
+                "$.steps[0].drive_restart", "expected true"},
+        BadCase{"drive key on another step",
+                slots_scenario(R"({"advance_ms": 1, "drive": "drive"})",
+                               R"("drives": [{"bus": "can1"}],)"),
+                "$.steps[0].drive", "unknown key"}));
 
 TEST(ScenarioParse, NumbersAsHexStringsAndComments) {
   const auto sc = parse_ok(slots_scenario(
@@ -176,6 +220,57 @@ TEST(ReplayRun, FailuresSayWhatWasSeen) {
   const auto junit = format_junit(sc, r);
   EXPECT_NE(junit.find(R"(tests="5" failures="4")"), std::string::npos) << junit;
   EXPECT_NE(junit.find("<failure message=\"no matching frame"), std::string::npos) << junit;
+}
+
+// A simulated Unitek drive (docs/replay-format.md "drives") on the scenario's bus answers the
+// gateway's frames at once; the drive fault steps act as its Modbus registers 0..3
+// (docs/faults.md): muted it neither answers nor sends its cyclic replies (and answering again does
+// not send the missed ones), restarted it has lost its cyclic request.
+TEST(ReplayRun, SimulatedDriveAnswersAndItsFaults) {
+  const auto sc = parse_ok(R"({"format": "candp2-replay", "version": 1, "cycle_ms": 10,
+    "gateway": {"address": 3, "bus": "can0", "parameters": {"can_bitrate": "500k"},
+      "slots": [{"io": "output", "address": 0, "length": 5, "comment": "02,01,00"},
+                {"io": "input", "address": 0, "length": 6, "comment": "01,81,00"}]},
+    "drives": [{"type": "unitek", "name": "axis1", "bus": "can0", "rx_id": "0x201",
+                "tx_id": "0x181"}],
+    "steps": [
+      {"expect_dp_state": "data_exch", "within_ms": 100},
+      {"write": {"address": 0, "bytes": "3D 8F 64 00 00"}},
+      {"expect_input": {"address": 0, "bytes": "8F 00 00 00 00 00"}, "within_ms": 20},
+      {"drive_error_bits": "0x0104"},
+      {"drive_warning_bits": 1},
+      {"expect_input": {"address": 0, "bytes": "8F 04 01 01 00 00"}, "within_ms": 100},
+      {"drive_mute": true},
+      {"advance_ms": 1000},
+      {"drive_mute": false},
+      {"advance_ms": 150},
+      {"drive_restart": true},
+      {"advance_ms": 500}]})");
+  const auto r = run(sc);
+  ASSERT_EQ(r.steps.size(), 12u);
+  EXPECT_TRUE(r.passed()) << format_report(sc, r);
+  EXPECT_EQ(sc.steps[6].describe(), "drive_mute axis1 on");
+  EXPECT_EQ(sc.steps[3].describe(), "drive_error_bits axis1 0x0104");
+  auto drive_frames = [&](Time from, Time to) {
+    std::vector<Time> at;
+    for (const auto& t : r.traffic)
+      if (!t.from_gateway && t.time > from && t.time <= to) {
+        EXPECT_EQ(t.drive, "axis1");
+        EXPECT_EQ(t.frame.id, 0x181u);  // the drive's Tx ID
+        at.push_back(t.time);
+      }
+    return at;
+  };
+  // The request went out at 30 ms (the first Data_Exchange); the drive answered at once.
+  EXPECT_EQ(drive_frames(Time{0}, milliseconds(30)), std::vector<Time>{milliseconds(30)});
+  // Muted: nothing for 1000 ms (10 periods); answering again: one reply per 100 ms, none missed.
+  EXPECT_TRUE(drive_frames(r.steps[6].start, r.steps[8].start).empty());
+  EXPECT_EQ(drive_frames(r.steps[8].start, r.steps[9].end).size(), 1u)
+      << "the missed cyclic replies are not sent in a burst";
+  // Restarted: the cyclic request is lost; the PLC's unchanged outputs do not repeat it.
+  EXPECT_TRUE(drive_frames(r.steps[10].start, r.end).empty());
+  const auto report = format_report(sc, r, {.traffic = true});
+  EXPECT_NE(report.find("axis1 -> 181#8F0401010000"), std::string::npos) << report;
 }
 
 TEST(ReplayRun, FrameExpectationsTakeFramesInOrder) {
