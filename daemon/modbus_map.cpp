@@ -466,6 +466,8 @@ std::optional<DecodeFailure> ProcessImageMap::handle(const Request& r, ReadResul
           return DecodeFailure{Exception::IllegalDataValue,
                                "control command " + std::to_string(command) +
                                    " (1 = power cycle, 2 = re-parameterize)"};
+        if (auto why = g->refuses(static_cast<Control>(command)))
+          return DecodeFailure{Exception::ServerDeviceFailure, std::move(*why)};
         for (std::size_t i = 0; i < gateways_.size(); ++i)
           if (gateways_[i] == g) last_control_[i] = command;
         g->control(static_cast<Control>(command), now);

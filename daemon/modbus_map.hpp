@@ -43,7 +43,7 @@ enum class Exception : std::uint8_t {
   IllegalFunction = 0x01,
   IllegalDataAddress = 0x02,
   IllegalDataValue = 0x03,
-  ServerDeviceFailure = 0x04,  // profibus role slaves: the output image is the wire's (§10)
+  ServerDeviceFailure = 0x04,  // role slaves: outputs are the wire's; role master: no power cycle
   GatewayTargetFailed = 0x0B,  // "gateway target device failed to respond": unknown unit ID
 };
 std::string_view to_string(Exception e);
@@ -227,6 +227,10 @@ class GatewayFace {
   virtual std::uint8_t dp_address() const = 0;
   virtual StatusBlock status(Time now) = 0;
   virtual void control(Control command, Time now) = 0;
+  // A command this gateway cannot carry out: the reason (the write gets exception 0x04 and the
+  // control register keeps its value). profibus role master: a power cycle cannot reach a remote
+  // device (emulator-spec §10, docs/modbus.md).
+  virtual std::optional<std::string> refuses(Control /*command*/) const { return std::nullopt; }
 };
 
 class Handler {
