@@ -203,9 +203,14 @@ struct FakeGateway : GatewayFace {
   std::uint8_t dp_address() const override { return address; }
   StatusBlock status(Time) override { return block; }
   void control(Control c, Time) override { commands.push_back(c); }
+  std::optional<std::string> refuses(Control c) const override {
+    if (refused && c == *refused) return "not possible here";
+    return std::nullopt;
+  }
   std::uint8_t address;
   StatusBlock block{};
   std::vector<Control> commands;
+  std::optional<Control> refused;
 };
 
 struct MapFixture : ::testing::Test {
@@ -295,6 +300,23 @@ TEST_F(MapFixture, RoleSlavesOutputImageIsReadOnly) {
   EXPECT_EQ(run(5, write_regs(4096, {1})), Exception::IllegalDataAddress);  // 0x02 stays first
   map.set_outputs_read_only(false);
   EXPECT_EQ(run(5, write_regs(86, {0x0A0B})), std::nullopt);
+}
+
+TEST_F(MapFixture, RefusedControlCommandIsException04AndNotExecuted) {
+  // emulator-spec §10 role master: a power cycle cannot reach a remote station (docs/modbus.md):
+  // exception 0x04, the command is not carried out and the register keeps its last value.
+  gw5.refused = Control::PowerCycle;
+  ASSERT_EQ(run(5, write_regs(8192, {2})), std::nullopt);
+  EXPECT_EQ(run(5, write_regs(8192, {1})), Exception::ServerDeviceFailure);
+  EXPECT_EQ(run(5, pdu(0x06, 8192, 1)), Exception::ServerDeviceFailure);
+  ASSERT_EQ(gw5.commands.size(), 1u);
+  EXPECT_EQ(gw5.commands[0], Control::Reparameterize);
+  ASSERT_EQ(run(5, pdu(0x03, 8192, 1)), std::nullopt);
+  EXPECT_EQ(out.registers[0], 2);
+  // Other gateways are not affected; out-of-range values are still 0x03.
+  ASSERT_EQ(run(6, write_regs(8192, {1})), std::nullopt);
+  EXPECT_EQ(gw6.commands.size(), 1u);
+  EXPECT_EQ(run(5, write_regs(8192, {3})), Exception::IllegalDataValue);
 }
 
 TEST_F(MapFixture, UnitIdsSelectTheGatewayOfStatusAndControl) {
