@@ -570,6 +570,8 @@ class TestTwoDaemons(unittest.TestCase):
                 status(client, 0, LINE + 14)))
             self.assertTrue(ok, "M shows no Station_Non_Existent:\n" + m.log())
             m.wait_for_line("station 3: lost")
+            # M's end of the pty is dead (S held the pty): M closes it and tries again.
+            m.wait_for_line("the PROFIBUS line is down")
             # S back on the same pty path: M parameterizes it again and exchanges data.
             s.start()
             self.wait_data_exch(m, client)
@@ -578,6 +580,7 @@ class TestTwoDaemons(unittest.TestCase):
             self.assertGreater(b[35] << 16 | b[36], prm)
             self.assertEqual(b[LINE + 13], 1)
             m.wait_for_line("station 3: answers again")
+            self.assertIn("port open again", m.log())
             # And the data flow again: Modbus write on M -> frame on S's bus.
             s.drain_bus()
             client.write_registers(86, [0x0102, 0x0304, 0x0506], slave=STATION)
