@@ -21,6 +21,7 @@
 #include "daemon/modbus_map.hpp"
 #include "daemon/modbus_server.hpp"
 #include "daemon/profibus_line.hpp"
+#include "daemon/profibus_master_line.hpp"
 #include "drive_sim/file_parameter_store.hpp"
 #include "drive_sim/unitek_drive.hpp"
 
@@ -233,6 +234,7 @@ class DaemonImpl final : public Daemon {
   void check_stored();
   void update_links();
   bool start_http(std::string* error);
+  bool start_remote(std::string* error);  // profibus role master
 
   config::DaemonConfig config_;
   EventLoop& loop_;
@@ -251,8 +253,10 @@ class DaemonImpl final : public Daemon {
   EventLoop::DeferredId deferred_ = 0;
   EventLoop::TimerId cycle_timer_ = 0;
   CycleStats cycle_stats_;
-  std::unique_ptr<ProfibusSlaveLine> line_;    // profibus role slaves
-  std::unique_ptr<StatusModel> status_model_;  // declared last: destroyed first
+  std::unique_ptr<ProfibusSlaveLine> line_;                  // profibus role slaves
+  std::unique_ptr<ProfibusMasterLine> master_line_;          // profibus role master
+  std::vector<std::unique_ptr<RemoteStationFace>> remotes_;  // role master: the remote stations
+  std::unique_ptr<StatusModel> status_model_;                // declared last: destroyed first
   std::unique_ptr<HttpServer> http_;
 };
 
@@ -475,10 +479,6 @@ bool DaemonImpl::open_drive(DriveUnit& d, std::string* error) {
 }
 
 bool DaemonImpl::start(std::string* error) {
-  if (config_.remote_gateways()) {
-    *error = "PROFIBUS line ($.profibus.role): role \"master\" is not available in this build";
-    return false;
-  }
   if (config_.state_file) stored_ = load_state(*config_.state_file, log_);
   if (config_.can_log && !can_log_.open(*config_.can_log, error)) return false;
 
@@ -492,7 +492,10 @@ bool DaemonImpl::start(std::string* error) {
       dp::MasterOptions{.address = config_.master_address,
                         .retry_delay = milliseconds(config_.retry_ms)},
       log_sink_);
+  // emulator-spec §10 role master: the gateways are remote stations on the line; nothing local.
+  if (config_.remote_gateways() && !start_remote(error)) return false;
   for (const auto& gc : config_.gateways) {
+    if (config_.remote_gateways()) break;
     auto g = std::make_unique<GatewayUnit>();
     g->daemon = this;
     g->cfg = gc;
@@ -516,7 +519,7 @@ bool DaemonImpl::start(std::string* error) {
   }
   check_stored();
 
-  if (config_.profibus) {
+  if (config_.profibus && !config_.remote_gateways()) {
     // emulator-spec §10 role slaves: the gateways answer FDL on the line; the built-in master
     // does not run.
     line_ = ProfibusSlaveLine::open(*config_.profibus, loop_, master_->image(), log_sink_, error);
@@ -529,6 +532,7 @@ bool DaemonImpl::start(std::string* error) {
 
   std::vector<modbus::GatewayFace*> faces;
   for (auto& g : gateways_) faces.push_back(g.get());
+  for (auto& r : remotes_) faces.push_back(r.get());
   std::vector<modbus::DriveFace*> drive_faces;
   for (auto& d : drives_)
     if (d->cfg.modbus_unit) drive_faces.push_back(d.get());
@@ -562,6 +566,10 @@ bool DaemonImpl::start(std::string* error) {
   cycle_timer_ = loop_.add_periodic(milliseconds(config_.cycle_ms), [this] {
     cycle_stats_.record(loop_.now());
     master_->cycle(loop_.now());
+    if (master_line_) {
+      master_line_->rearm();
+      master_line_->check_presence(*master_);
+    }
     update_links();
     if (http_) http_->after_cycle(loop_.now());
     check_stored();
@@ -569,6 +577,21 @@ bool DaemonImpl::start(std::string* error) {
   log_.info("master " + std::to_string(config_.master_address) + ": cycle " +
             std::to_string(config_.cycle_ms) + " ms, " + std::to_string(gateways_.size()) +
             " gateway(s)");
+  return true;
+}
+
+bool DaemonImpl::start_remote(std::string* error) {
+  master_line_ =
+      ProfibusMasterLine::open(*config_.profibus, config_.master_address, loop_, log_sink_, error);
+  if (!master_line_) return false;
+  for (const auto& gc : config_.gateways) {
+    master_->add_slave(master_line_->station(gc.dp_address()), config::slave_parameters(gc));
+    remotes_.push_back(std::make_unique<RemoteStationFace>(gc.dp_address(), gc.name, *master_,
+                                                           *master_line_, log_sink_));
+  }
+  log_.info("PROFIBUS line " + master_line_->describe() + ": master " +
+            std::to_string(config_.master_address) + " drives " + std::to_string(remotes_.size()) +
+            " remote station(s)");
   return true;
 }
 
@@ -742,6 +765,7 @@ std::string DaemonImpl::listening() const {
       out += ", bus " + b->cfg.name + " socketcand " + b->cfg.socketcand_listen->host + ":" +
              std::to_string(b->export_server->port());
   if (line_) out += ", profibus " + line_->describe();
+  if (master_line_) out += ", profibus " + master_line_->describe();
   return out;
 }
 

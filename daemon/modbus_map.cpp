@@ -519,6 +519,9 @@ std::optional<DecodeFailure> ProcessImageMap::handle(const Request& r, ReadResul
                                  "control command " + std::to_string(v) +
                                      " (1 power cycle, 2 re-parameterize, 3 master stops, 4 "
                                      "master resumes)"};
+          if (a == kControlRegister)
+            if (auto why = g->refuses(static_cast<Control>(v)))
+              return DecodeFailure{Exception::ServerDeviceFailure, std::move(*why)};
           if (a == kForcedStateRegister && v > 3)
             return DecodeFailure{Exception::IllegalDataValue,
                                  "forced CAN state " + std::to_string(v) +

@@ -43,7 +43,7 @@ enum class Exception : std::uint8_t {
   IllegalFunction = 0x01,
   IllegalDataAddress = 0x02,
   IllegalDataValue = 0x03,
-  ServerDeviceFailure = 0x04,  // profibus role slaves: the output image is the wire's (§10)
+  ServerDeviceFailure = 0x04,  // role slaves: outputs are the wire's; role master: no power cycle
   GatewayTargetFailed = 0x0B,  // "gateway target device failed to respond": unknown unit ID
 };
 std::string_view to_string(Exception e);
@@ -259,6 +259,10 @@ class GatewayFace {
   // Holding register 8194: drop the next n received frames; reads give the remaining count.
   virtual void drop_received(std::uint16_t /*n*/, Time /*now*/) {}
   virtual std::uint16_t drop_remaining() const { return 0; }
+  // A command this gateway cannot carry out: the reason (the write gets exception 0x04 and the
+  // control register keeps its value). profibus role master: a power cycle cannot reach a remote
+  // device (emulator-spec §10, docs/modbus.md).
+  virtual std::optional<std::string> refuses(Control /*command*/) const { return std::nullopt; }
 };
 
 // A simulated drive's fault registers (docs/faults.md), holding registers 0..3 of its own unit ID:

@@ -210,10 +210,15 @@ struct FakeGateway : GatewayFace {
   std::uint16_t forced_bus_state() const override { return forced; }
   void drop_received(std::uint16_t n, Time) override { drop = n; }
   std::uint16_t drop_remaining() const override { return drop; }
+  std::optional<std::string> refuses(Control c) const override {
+    if (refused && c == *refused) return "not possible here";
+    return std::nullopt;
+  }
   std::uint8_t address;
   StatusBlock block{};
   std::vector<Control> commands;
   std::uint16_t forced = 0, drop = 0;
+  std::optional<Control> refused;
 };
 
 struct MapFixture : ::testing::Test {
@@ -306,6 +311,23 @@ TEST_F(MapFixture, RoleSlavesOutputImageIsReadOnly) {
   EXPECT_EQ(run(5, write_regs(4096, {1})), Exception::IllegalDataAddress);  // 0x02 stays first
   map.set_outputs_read_only(false);
   EXPECT_EQ(run(5, write_regs(86, {0x0A0B})), std::nullopt);
+}
+
+TEST_F(MapFixture, RefusedControlCommandIsException04AndNotExecuted) {
+  // emulator-spec §10 role master: a power cycle cannot reach a remote station (docs/modbus.md):
+  // exception 0x04, the command is not carried out and the register keeps its last value.
+  gw5.refused = Control::PowerCycle;
+  ASSERT_EQ(run(5, write_regs(8192, {2})), std::nullopt);
+  EXPECT_EQ(run(5, write_regs(8192, {1})), Exception::ServerDeviceFailure);
+  EXPECT_EQ(run(5, pdu(0x06, 8192, 1)), Exception::ServerDeviceFailure);
+  ASSERT_EQ(gw5.commands.size(), 1u);
+  EXPECT_EQ(gw5.commands[0], Control::Reparameterize);
+  ASSERT_EQ(run(5, pdu(0x03, 8192, 1)), std::nullopt);
+  EXPECT_EQ(out.registers[0], 2);
+  // Other gateways are not affected; out-of-range values are still 0x03.
+  ASSERT_EQ(run(6, write_regs(8192, {1})), std::nullopt);
+  EXPECT_EQ(gw6.commands.size(), 1u);
+  EXPECT_EQ(run(5, write_regs(8192, {3})), Exception::IllegalDataValue);
 }
 
 TEST_F(MapFixture, UnitIdsSelectTheGatewayOfStatusAndControl) {

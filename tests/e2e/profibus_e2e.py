@@ -6,14 +6,17 @@ on a virtual CAN bus exported over socketcand. It is driven over the pty by:
 
   * a small FDL master written here (test code: telegrams built from emulator-spec §10's tables,
     the first telegrams byte for byte as in its capture), and
-  * when this build supports it, a second candp2d, process M, with `role: "master"` on the same pty
-    (the link path opened as a serial device) driving remote gateway 3.
+  * a second candp2d, process M, with `role: "master"` on the same pty (the link path opened as a
+    serial device) driving remote gateway 3.
 
 Shown: (a) the manual §5.1.4 round trip (outputs over FDL -> frame on S's bus; a frame injected on
 S's bus -> the inputs in the Data_Exchange answer, in S's and in M's Modbus image); (b) a Cfg
 fault diagnosis read over FDL (Cfg_Fault, 3E slot code); (c) watchdog expiry when the master
-stops (S's status block: DP state 0 = Wait_Prm; no more CAN Tx). Plus: S refuses Modbus writes to
-its output image with exception 0x04, and its status block shows the line counters.
+stops (S's status block: DP state 0 = Wait_Prm; no more CAN Tx); (d) S killed -> M's status block
+shows Station_Non_Existent; S restarted on the same pty path -> M parameterizes it again. Plus: S
+refuses Modbus writes to its output image with exception 0x04, M refuses a power cycle of a remote
+station with exception 0x04 and re-parameterizes it on request, and both status blocks show the
+line counters.
 
 Run by ctest (label e2e) with Debian's /usr/bin/python3 (python3-pymodbus, python3-can):
     /usr/bin/python3 tests/e2e/profibus_e2e.py --candp2d build/bin/candp2d
@@ -267,7 +270,12 @@ class SlaveSide:
         self.socketcand_port = free_port()
         while self.socketcand_port == self.modbus_port:
             self.socketcand_port = free_port()
-        self.daemon = Candp2d(self.tmp, "S",
+        self.starts = 0
+        self.start()
+
+    def start(self):
+        self.starts += 1
+        self.daemon = Candp2d(self.tmp, "S%d" % self.starts,
                               slaves_config(self.link, self.modbus_port, self.socketcand_port))
         self.daemon.wait_for_port(self.modbus_port)
         self.daemon.wait_for_port(self.socketcand_port)
@@ -277,10 +285,15 @@ class SlaveSide:
         self.bus = can.Bus(interface="socketcand", host="127.0.0.1", port=self.socketcand_port,
                            channel="can0")
 
-    def close(self):
+    def stop(self, sig=signal.SIGTERM):
+        if self.daemon.proc.poll() is not None and self.daemon.log_file.closed:
+            return
         self.modbus.close()
         self.bus.shutdown()
-        self.daemon.kill()
+        self.daemon.kill(sig)
+
+    def close(self):
+        self.stop()
         shutil.rmtree(self.tmp, ignore_errors=True)
 
     def expect_frame(self, arbitration_id, data, timeout=WAIT):
@@ -440,29 +453,11 @@ class TestStartErrors(unittest.TestCase):
         self.assertIn("not a symbolic link", out)
 
 
-def role_master_supported():
-    tmp = tempfile.mkdtemp(prefix="candp2-pb-probe-")
-    try:
-        cfg = {"modbus": {"listen": "127.0.0.1:0"},
-               "profibus": {"port": "/dev/null", "baud": 19200, "role": "master"},
-               "gateways": [{"address": STATION, "slots": slots_514()}]}
-        path = os.path.join(tmp, "m.json")
-        with open(path, "w") as f:
-            json.dump(cfg, f)
-        r = subprocess.run([CANDP2D, "--config", path], capture_output=True, text=True,
-                           timeout=WAIT)
-        return "not available in this build" not in (r.stdout + r.stderr)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-
-
 class TestTwoDaemons(unittest.TestCase):
     """Process M (role master) drives process S (role slaves) over the pty."""
 
     @classmethod
     def setUpClass(cls):
-        if not role_master_supported():
-            raise unittest.SkipTest("candp2d role master not in this build")
         cls.s = SlaveSide()
         cls.tmp = tempfile.mkdtemp(prefix="candp2-pb-m-")
         cls.m_port = free_port()
@@ -526,6 +521,72 @@ class TestTwoDaemons(unittest.TestCase):
             s.drain_bus()
             self.assertIsNone(s.bus.recv(timeout=0.5), "S's gateway still sends on CAN")
         finally:
+            m.kill()
+
+    def wait_data_exch(self, m, client):
+        s = self.s
+        ok = eventually(lambda: status(client)[0] == 2 and status(s.modbus)[0] == 2)
+        self.assertTrue(ok, "not in Data_Exch:\nM:\n" + m.log() + "\nS:\n" + s.daemon.log())
+
+    def test_3_status_block_and_control_on_m(self):
+        m, client = self.start_master(slots_514(), "Mctl")
+        try:
+            self.wait_data_exch(m, client)
+            st = status(client, 0, LINE + 14)
+            # docs/modbus.md: line group, role 2 = master; FdlMaster statistics of station 3.
+            self.assertEqual(st[LINE], 2)
+            self.assertGreater((st[LINE + 1] << 16) | st[LINE + 2], 0)   # telegrams on the line
+            self.assertGreater((st[LINE + 7] << 16) | st[LINE + 8], 0)   # requests to station 3
+            self.assertGreater(st[LINE + 12], 0)                          # highest response time
+            self.assertEqual(st[LINE + 13], 1)                            # station present
+            self.assertEqual(st[34], STATION)                             # DP address
+            self.assertEqual(st[16:24], [0] * 8)  # CAN counters of a remote station read 0
+            prm = (st[35] << 16) | st[36]
+            self.assertGreaterEqual(prm, 1)
+            # Control register 8192 = 1: a power cycle cannot reach a remote device (0x04).
+            rr = client.write_register(8192, 1, slave=STATION)
+            self.assertTrue(rr.isError(), rr)
+            self.assertEqual(rr.exception_code, 0x04)
+            m.wait_for_line("power cycle requested over Modbus refused")
+            # 8192 = 2: the master parameterizes the remote station again (over FDL).
+            rr = client.write_register(8192, 2, slave=STATION)
+            self.assertFalse(rr.isError(), rr)
+            ok = eventually(lambda: (lambda b: (b[35] << 16 | b[36]) > prm and b[0] == 2)(
+                status(client, 0, 37)))
+            self.assertTrue(ok, "not parameterized again:\n" + m.log())
+        finally:
+            client.close()
+            m.kill()
+
+    def test_4_station_lost_and_back(self):
+        s = self.s
+        m, client = self.start_master(slots_514(), "Mlost")
+        try:
+            self.wait_data_exch(m, client)
+            prm = (lambda b: b[35] << 16 | b[36])(status(client, 0, 37))
+            # S dies: M's diagnosis of station 3 shows Station_Non_Existent (diag byte 0 bit 0).
+            s.stop(signal.SIGKILL)
+            ok = eventually(lambda: (lambda b: b[1] & 0x01 and b[0] == 0 and b[LINE + 13] == 0)(
+                status(client, 0, LINE + 14)))
+            self.assertTrue(ok, "M shows no Station_Non_Existent:\n" + m.log())
+            m.wait_for_line("station 3: lost")
+            # M's end of the pty is dead (S held the pty): M closes it and tries again.
+            m.wait_for_line("the PROFIBUS line is down")
+            # S back on the same pty path: M parameterizes it again and exchanges data.
+            s.start()
+            self.wait_data_exch(m, client)
+            b = status(client, 0, LINE + 14)
+            self.assertEqual(b[1] & 0x01, 0)
+            self.assertGreater(b[35] << 16 | b[36], prm)
+            self.assertEqual(b[LINE + 13], 1)
+            m.wait_for_line("station 3: answers again")
+            self.assertIn("port open again", m.log())
+            # And the data flow again: Modbus write on M -> frame on S's bus.
+            s.drain_bus()
+            client.write_registers(86, [0x0102, 0x0304, 0x0506], slave=STATION)
+            s.expect_frame(0x309, bytes.fromhex("02 01 06 05 04 03"))
+        finally:
+            client.close()
             m.kill()
 
 

@@ -1,0 +1,157 @@
+// candp2d's role-master line glue (daemon/profibus_master_line.hpp) on a real pseudo-terminal: the
+// test holds the pty's terminal end and plays the remote station by hand, byte for byte.
+#include "daemon/profibus_master_line.hpp"
+
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "profibus_sim/dp_telegram.hpp"
+
+namespace candp2::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct MasterLineFixture : ::testing::Test {
+  void SetUp() override {
+    char tmpl[] = "/tmp/candp2-mline-XXXXXX";
+    dir = ::mkdtemp(tmpl);
+    cfg.port = "pty:" + dir + "/pb";
+    cfg.baud = 19200;
+    cfg.role = config::ProfibusRole::Master;
+    cfg.slot_time_bits = 100;
+    cfg.retries = 1;
+    std::string error;
+    line = ProfibusMasterLine::open(cfg, 2, loop, nullptr, &error);
+    ASSERT_TRUE(line) << error;
+    // The remote station's end: the terminal end of the pty, raw.
+    peer = ::open((dir + "/pb").c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
+    ASSERT_GE(peer, 0);
+    termios t{};
+    ASSERT_EQ(::tcgetattr(peer, &t), 0);
+    ::cfmakeraw(&t);
+    ASSERT_EQ(::tcsetattr(peer, TCSANOW, &t), 0);
+    // manual §5.1.4 slots, as candp2d's configuration encodes them.
+    auto g = config::parse_gateway(nlohmann::json::parse(R"({"address": 3, "slots": [
+        {"io": "input", "address": 172, "length": 6, "comment": "02,89,B8"},
+        {"io": "output", "address": 172, "length": 6, "comment": "03,09,B8"}]})"),
+                                   "test.json");
+    ASSERT_TRUE(std::holds_alternative<config::GatewayConfig>(g));
+    master.add_slave(line->station(3),
+                     config::slave_parameters(std::get<config::GatewayConfig>(g)));
+    cycle = loop.add_periodic(milliseconds(5), [this] {
+      master.cycle(loop.now());
+      line->rearm();
+      line->check_presence(master);
+    });
+  }
+  void TearDown() override {
+    if (cycle) loop.cancel_timer(cycle);
+    if (peer >= 0) ::close(peer);
+    line.reset();
+    fs::remove_all(dir);
+  }
+  // Runs the loop until the peer has read `n` bytes (or 2 s passed).
+  std::vector<std::uint8_t> read_peer(std::size_t n) {
+    std::vector<std::uint8_t> got;
+    loop.run_until(
+        [&] {
+          std::uint8_t buf[256];
+          const ssize_t r = ::read(peer, buf, sizeof buf);
+          if (r > 0) got.insert(got.end(), buf, buf + r);
+          return got.size() >= n;
+        },
+        milliseconds(2000));
+    return got;
+  }
+  bool lost() const {
+    const auto v = master.slave(3);
+    return v && v->last_diag && ((*v->last_diag)[0] & dp::kDiag1StationNonExistent);
+  }
+
+  EventLoop loop;
+  std::string dir;
+  config::ProfibusConfig cfg;
+  std::unique_ptr<ProfibusMasterLine> line;
+  dp::DpMaster master{dp::MasterOptions{.address = 2, .retry_delay = milliseconds(100)}};
+  EventLoop::TimerId cycle = 0;
+  int peer = -1;
+};
+
+TEST(MasterLatencyAllowance, PtyAndSlowAdaptersGetMoreThanALowLatencyPort) {
+  // docs/profibus.md "Timing in role master".
+  EXPECT_EQ(master_latency_allowance(true, false), milliseconds(20));
+  EXPECT_EQ(master_latency_allowance(false, false), milliseconds(20));
+  EXPECT_EQ(master_latency_allowance(false, true), milliseconds(3));
+}
+
+TEST_F(MasterLineFixture, SilentStationIsAskedTwiceThenShowsStationNonExistent) {
+  // emulator-spec §10 capture: the master's first telegram is FDL_Status 10 03 02 49 4E 16.
+  const std::vector<std::uint8_t> fdl_status = {0x10, 0x03, 0x02, 0x49, 0x4E, 0x16};
+  const Time t0 = loop.now();
+  auto got = read_peer(6);
+  ASSERT_EQ(got, fdl_status);
+  const Time first = loop.now();
+  // No answer: one retry (retries = 1) of the same telegram after slot time + allowance.
+  got = read_peer(6);
+  ASSERT_EQ(got, fdl_status);
+  const Time second = loop.now();
+  // 100 bit times at 19200 baud (5.2 ms) + the pty allowance (20 ms) at least.
+  EXPECT_GE(second - first, milliseconds(20));
+  ASSERT_TRUE(loop.run_until([&] { return lost(); }, milliseconds(2000)));
+  EXPECT_GE(loop.now() - t0, milliseconds(40));
+  const auto st = line->status(3, master);
+  EXPECT_EQ(st.role, 2);
+  EXPECT_GE(st.requests, 2u);
+  EXPECT_GE(st.retries, 1u);
+  EXPECT_FALSE(st.present);
+  EXPECT_EQ(st.response_us, 0u);
+  // The Modbus face shows the master's Station_Non_Existent (diag byte 0 bit 0), DP state 0.
+  RemoteStationFace face(3, "gw3", master, *line, nullptr);
+  const auto block = face.status(loop.now());
+  EXPECT_EQ(block[modbus::status::kDpState], 0);
+  EXPECT_EQ(block[modbus::status::kDiag] & 0x01, 1);
+  EXPECT_EQ(block[modbus::status::kDiag + 3], dp::kNoMaster);
+  EXPECT_EQ(block[modbus::status::kLineRole], 2);
+  EXPECT_EQ(block[modbus::status::kRxFrames + 1], 0);
+  EXPECT_EQ(block[modbus::status::kDpAddress], 3);
+  // Control: a power cycle is refused, re-parameterization is accepted.
+  EXPECT_TRUE(face.refuses(modbus::Control::PowerCycle));
+  EXPECT_FALSE(face.refuses(modbus::Control::Reparameterize));
+}
+
+TEST_F(MasterLineFixture, AnsweredFdlStatusIsFollowedBySlaveDiagAndTimed) {
+  const std::vector<std::uint8_t> fdl_status = {0x10, 0x03, 0x02, 0x49, 0x4E, 0x16};
+  ASSERT_EQ(read_peer(6), fdl_status);
+  // emulator-spec §10: FDL_Status answer SD1, FC 0x00 (slave, OK), DA 2 SA 3, FCS 05.
+  const std::uint8_t answer[] = {0x10, 0x02, 0x03, 0x00, 0x05, 0x16};
+  ASSERT_EQ(::write(peer, answer, sizeof answer), static_cast<ssize_t>(sizeof answer));
+  // Then Slave_Diag with FCB=1 FCV=0, byte for byte as in the capture.
+  const std::vector<std::uint8_t> slave_diag = {0x68, 0x05, 0x05, 0x68, 0x83, 0x82,
+                                                0x6D, 0x3C, 0x3E, 0xEC, 0x16};
+  EXPECT_EQ(read_peer(11), slave_diag);
+  const auto st = line->status(3, master);
+  EXPECT_GE(st.telegrams, 1u);  // our FDL_Status answer
+  EXPECT_GT(st.response_max_us, 0u);
+  EXPECT_LT(st.response_max_us, 2000000u);
+  EXPECT_EQ(st.response_us, st.response_max_us);
+}
+
+TEST_F(MasterLineFixture, CorruptedAnswerIsNoAnswerAndIsRepeated) {
+  ASSERT_EQ(read_peer(6).size(), 6u);
+  // A corrupted answer (wrong FCS): counted on the line, not taken; the master repeats.
+  const std::uint8_t bad[] = {0x10, 0x02, 0x03, 0x00, 0x06, 0x16};
+  ASSERT_EQ(::write(peer, bad, sizeof bad), static_cast<ssize_t>(sizeof bad));
+  const std::vector<std::uint8_t> fdl_status = {0x10, 0x03, 0x02, 0x49, 0x4E, 0x16};
+  EXPECT_EQ(read_peer(6), fdl_status);
+  EXPECT_GE(line->status(3, master).fcs_errors, 1u);
+  EXPECT_EQ(line->status(3, master).response_max_us, 0u);
+}
+
+}  // namespace
+}  // namespace candp2::daemon
