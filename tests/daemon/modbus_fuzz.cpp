@@ -17,7 +17,9 @@ struct Face : GatewayFace {
   std::uint8_t dp_address() const override { return address; }
   StatusBlock status(Time) override { return StatusBlock{}; }
   void control(Control c, Time) override {
-    if (static_cast<std::uint16_t>(c) > 2) std::abort();  // the map lets only 0..2 through
+    // The map lets only the documented commands through (docs/modbus.md: 1..4, docs/faults.md).
+    if (static_cast<std::uint16_t>(c) > static_cast<std::uint16_t>(Control::MasterResumes))
+      std::abort();
   }
   std::uint8_t address;
 };
