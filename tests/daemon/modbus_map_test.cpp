@@ -324,10 +324,10 @@ TEST_F(MapFixture, RefusedControlCommandIsException04AndNotExecuted) {
   EXPECT_EQ(gw5.commands[0], Control::Reparameterize);
   ASSERT_EQ(run(5, pdu(0x03, 8192, 1)), std::nullopt);
   EXPECT_EQ(out.registers[0], 2);
-  // Other gateways are not affected; out-of-range values are still 0x03.
+  // Other gateways are not affected; out-of-range values (above 4, docs/faults.md) are still 0x03.
   ASSERT_EQ(run(6, write_regs(8192, {1})), std::nullopt);
   EXPECT_EQ(gw6.commands.size(), 1u);
-  EXPECT_EQ(run(5, write_regs(8192, {3})), Exception::IllegalDataValue);
+  EXPECT_EQ(run(5, write_regs(8192, {5})), Exception::IllegalDataValue);
 }
 
 TEST_F(MapFixture, UnitIdsSelectTheGatewayOfStatusAndControl) {
