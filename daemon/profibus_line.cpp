@@ -12,18 +12,26 @@ namespace {
 constexpr Duration kPresenceTimeout = milliseconds(1000);
 }  // namespace
 
-std::unique_ptr<ProfibusSlaveLine> ProfibusSlaveLine::open(const config::ProfibusConfig& config,
-                                                           EventLoop& loop, dp::ProcessImage& image,
-                                                           LogSink* log, std::string* error) {
-  std::unique_ptr<ProfibusSlaveLine> line(new ProfibusSlaveLine(config, loop, image, log));
+serial::SerialOptions serial_options(const config::ProfibusConfig& config, LogSink* log) {
   serial::SerialOptions o;
   o.port = config.port;
   o.baud = config.baud;
   o.rs485 = config.rs485;
   o.echo = config.echo;
   o.log = log;
+  return o;
+}
+
+std::string port_text(const serial::SerialPort& port, const std::string& configured) {
+  return port.is_pty() ? "pty " + port.link_path() + " -> " + port.terminal_path() : configured;
+}
+
+std::unique_ptr<ProfibusSlaveLine> ProfibusSlaveLine::open(const config::ProfibusConfig& config,
+                                                           EventLoop& loop, dp::ProcessImage& image,
+                                                           LogSink* log, std::string* error) {
+  std::unique_ptr<ProfibusSlaveLine> line(new ProfibusSlaveLine(config, loop, image, log));
   std::string e;
-  line->port_ = serial::SerialPort::open(o, &e);
+  line->port_ = serial::SerialPort::open(serial_options(config, log), &e);
   if (!line->port_) {
     *error = "PROFIBUS line (" + config.json_path + ".port): " + e;
     return nullptr;
@@ -73,20 +81,8 @@ bool ProfibusSlaveLine::add(dp::DpSlave& slave, const dp::SlaveParameters& param
   auto st = std::make_unique<Station>();
   st->slave = &slave;
   st->name = std::move(name);
-  // The configured slots' PLC addresses, as the built-in master would map them (dp_master.cpp).
-  const auto decoded = dp::decode_chk_cfg(params.cfg);
-  std::size_t in_off = 0, out_off = 0;
-  for (std::size_t i = 0; i < decoded.entries.size(); ++i) {
-    const auto& c = decoded.entries[i];
-    const dp::EntryAddress a =
-        i < params.addresses.size() ? params.addresses[i] : dp::EntryAddress{};
-    if (c.out_bytes() && a.output && *a.output + c.out_bytes() <= dp::kImageSize)
-      st->out_map.push_back({out_off, *a.output, c.out_bytes()});
-    if (c.in_bytes() && a.input && *a.input + c.in_bytes() <= dp::kImageSize)
-      st->in_map.push_back({in_off, *a.input, c.in_bytes()});
-    out_off += c.out_bytes();
-    in_off += c.in_bytes();
-  }
+  // The configured slots' PLC addresses, mapped as the built-in master maps them.
+  st->map = dp::map_image(params);
   stations_.push_back(std::move(st));
   return true;
 }
@@ -98,10 +94,8 @@ ProfibusSlaveLine::Station* ProfibusSlaveLine::station(std::uint8_t address) {
 }
 
 std::string ProfibusSlaveLine::describe() const {
-  const std::string where = port_->is_pty()
-                                ? "pty " + port_->link_path() + " -> " + port_->terminal_path()
-                                : config_.port;
-  return where + ", " + std::to_string(config_.baud) + " baud, role slaves";
+  return port_text(*port_, config_.port) + ", " + std::to_string(config_.baud) +
+         " baud, role slaves";
 }
 
 void ProfibusSlaveLine::on_readable() {
@@ -118,20 +112,11 @@ void ProfibusSlaveLine::on_readable() {
     return;
   }
   if (rx_.empty()) return;
-  // Runs of good characters in one piece; a character with a parity error on its own.
   auto& parser = front_.parser();
-  std::vector<std::uint8_t> run;
-  run.reserve(rx_.size());
-  for (const auto& b : rx_) {
-    if (!b.parity_error) {
-      run.push_back(b.value);
-      continue;
-    }
-    if (!run.empty()) parser.feed(run);
-    run.clear();
-    parser.feed_bad_char(b.value);
-  }
-  handle(front_.on_bytes(run, now), now);
+  serial::split_parity(
+      rx_, [&](std::span<const std::uint8_t> run) { parser.feed(run); },
+      [&](std::uint8_t bad) { parser.feed_bad_char(bad); });
+  handle(front_.on_bytes({}, now), now);  // answers what the parser completed
   // A partial telegram: idle for TSYN (33 bit times, emulator-spec §10) ends it.
   if (gap_timer_) loop_.cancel_timer(gap_timer_);
   gap_timer_ = 0;
@@ -198,12 +183,12 @@ void ProfibusSlaveLine::mirror(Station& st) {
   // emulator-spec §10: the Modbus image shows what travels on the wire.
   const auto out = st.slave->outputs();
   const auto in = st.slave->inputs();
-  for (const auto& m : st.out_map)
+  for (const auto& m : st.map.out)
     if (m.dp_offset < out.size())
       std::copy_n(out.begin() + static_cast<std::ptrdiff_t>(m.dp_offset),
                   std::min(m.length, out.size() - m.dp_offset),
                   image_.outputs.begin() + m.plc_address);
-  for (const auto& m : st.in_map)
+  for (const auto& m : st.map.in)
     if (m.dp_offset < in.size())
       std::copy_n(in.begin() + static_cast<std::ptrdiff_t>(m.dp_offset),
                   std::min(m.length, in.size() - m.dp_offset),

@@ -27,6 +27,11 @@
 
 namespace candp2::daemon {
 
+// The serial port options of a `profibus` section (emulator-spec §10), for either role.
+serial::SerialOptions serial_options(const config::ProfibusConfig& config, LogSink* log);
+// "pty /tmp/pb -> /dev/pts/3" for a pty we created, else the configured port.
+std::string port_text(const serial::SerialPort& port, const std::string& configured);
+
 class ProfibusSlaveLine {
  public:
   // Opens the port; nullptr and *error ("$.profibus.port: open /dev/ttyUSB9: ...") on failure.
@@ -48,15 +53,10 @@ class ProfibusSlaveLine {
   const fdl::SlaveFrontEnd& front_end() const { return front_; }
 
  private:
-  struct Mapping {
-    std::size_t dp_offset;
-    std::uint16_t plc_address;
-    std::size_t length;
-  };
   struct Station {
     dp::DpSlave* slave = nullptr;
     std::string name;
-    std::vector<Mapping> out_map, in_map;
+    dp::ImageMap map;  // where its bytes appear in the Modbus image
     std::uint32_t response_us = 0, response_max_us = 0;
     std::optional<Time> last_request;
     bool present = false;

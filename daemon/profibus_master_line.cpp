@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "common/hex.hpp"
+#include "daemon/profibus_line.hpp"
 #include "profibus_sim/dp_slave.hpp"
 #include "profibus_sim/dp_telegram.hpp"
 
@@ -62,13 +63,7 @@ ProfibusMasterLine::~ProfibusMasterLine() {
 }
 
 bool ProfibusMasterLine::open_port(std::string* error) {
-  serial::SerialOptions o;
-  o.port = config_.port;
-  o.baud = config_.baud;
-  o.rs485 = config_.rs485;
-  o.echo = config_.echo;
-  o.log = log_sink_;
-  auto port = serial::SerialPort::open(o, error);
+  auto port = serial::SerialPort::open(serial_options(config_, log_sink_), error);
   if (!port) return false;
   if (!loop_.add_fd(
           port->fd(), EventLoop::kReadable,
@@ -90,8 +85,7 @@ bool ProfibusMasterLine::open_port(std::string* error) {
   std::error_code ec;
   const auto real = std::filesystem::canonical(config_.port, ec).string();
   on_pty_ = port_->is_pty() || (!ec && real.rfind("/dev/pts/", 0) == 0);
-  port_desc_ = port_->is_pty() ? "pty " + port_->link_path() + " -> " + port_->terminal_path()
-                               : config_.port;
+  port_desc_ = port_text(*port_, config_.port);
   return true;
 }
 
@@ -153,22 +147,12 @@ void ProfibusMasterLine::on_readable(bool hangup) {
     rearm();
     return;
   }
-  // Runs of good characters in one piece; a character with a parity error on its own.
-  std::vector<std::uint8_t> run;
-  run.reserve(rx_.size());
-  for (const auto& b : rx_) {
-    if (!b.parity_error) {
-      run.push_back(b.value);
-      continue;
-    }
-    if (!run.empty()) fdl_->on_bytes(run, now);
-    run.clear();
-    fdl_->on_bad_char(b.value, now);
-  }
   const auto station = sent_to_;
   const Time request_end = request_end_;
   const std::uint64_t before = answers_before_;
-  if (!run.empty()) fdl_->on_bytes(run, now);
+  serial::split_parity(
+      rx_, [&](std::span<const std::uint8_t> run) { fdl_->on_bytes(run, now); },
+      [&](std::uint8_t bad) { fdl_->on_bad_char(bad, now); });
   // A new valid answer from the station asked last: its response time (status block).
   if (station) {
     const fdl::MasterStationStats* st = fdl_->stats(*station);

@@ -64,28 +64,37 @@ std::size_t DpMaster::add_slave(DpSlave& slave, SlaveParameters params) {
   return index;
 }
 
-std::size_t DpMaster::add_slave(SlaveLink& link, SlaveParameters params) {
-  auto e = std::make_unique<Entry>();
-  e->link = &link;
+ImageMap map_image(const SlaveParameters& params,
+                   const std::function<void(std::size_t, std::uint16_t, std::size_t)>& skipped) {
+  ImageMap map;
   const auto decoded = decode_chk_cfg(params.cfg);
   for (std::size_t i = 0; i < decoded.entries.size(); ++i) {
     const auto& c = decoded.entries[i];
     const EntryAddress a = i < params.addresses.size() ? params.addresses[i] : EntryAddress{};
     auto fits = [&](std::uint16_t addr, std::size_t len) {
       if (addr + len <= kImageSize) return true;
-      log_.error("slave " + std::to_string(link.address()) + " entry " + std::to_string(i) +
-                 ": PLC address " + std::to_string(addr) + " + " + std::to_string(len) +
-                 " bytes is outside the " + std::to_string(kImageSize) + "-byte image; not mapped");
+      if (skipped) skipped(i, addr, len);
       return false;
     };
     if (c.out_bytes() && a.output && fits(*a.output, c.out_bytes()))
-      e->out_map.push_back({e->out_len, *a.output, c.out_bytes()});
+      map.out.push_back({map.out_len, *a.output, c.out_bytes()});
     if (c.in_bytes() && a.input && fits(*a.input, c.in_bytes()))
-      e->in_map.push_back({e->in_len, *a.input, c.in_bytes()});
-    e->out_len += c.out_bytes();
-    e->in_len += c.in_bytes();
+      map.in.push_back({map.in_len, *a.input, c.in_bytes()});
+    map.out_len += c.out_bytes();
+    map.in_len += c.in_bytes();
   }
-  e->out_buf.assign(e->out_len, 0);
+  return map;
+}
+
+std::size_t DpMaster::add_slave(SlaveLink& link, SlaveParameters params) {
+  auto e = std::make_unique<Entry>();
+  e->link = &link;
+  e->map = map_image(params, [&](std::size_t i, std::uint16_t addr, std::size_t len) {
+    log_.error("slave " + std::to_string(link.address()) + " entry " + std::to_string(i) +
+               ": PLC address " + std::to_string(addr) + " + " + std::to_string(len) +
+               " bytes is outside the " + std::to_string(kImageSize) + "-byte image; not mapped");
+  });
+  e->out_buf.assign(e->map.out_len, 0);
   e->params = std::move(params);
   entries_.push_back(std::move(e));
   return entries_.size() - 1;
@@ -248,7 +257,7 @@ void DpMaster::check_diag_answered(Entry& e, const Response& r, Time now) {
 
 void DpMaster::on_data_exch(Entry& e, Time now) {
   if (e.diag_due) return send(e, Service::SlaveDiag, {}, now, &DpMaster::diag_due_answered);
-  for (const auto& m : e.out_map)
+  for (const auto& m : e.map.out)
     std::memcpy(e.out_buf.data() + m.dp_offset, image_.outputs.data() + m.plc_address, m.length);
   send(e, Service::DataExchange, e.out_buf, now, &DpMaster::exchange_answered);
 }
@@ -266,13 +275,13 @@ void DpMaster::exchange_answered(Entry& e, const Response& r, Time now) {
     // The slave left Data_Exch (watchdog, reset): read why, then parameterize again.
     return send(e, Service::SlaveDiag, {}, now, &DpMaster::refused_diag_answered);
   }
-  if (r.data.size() != e.in_len)
+  if (r.data.size() != e.map.in_len)
     return invalid(e, now,
                    "Data_Exchange with " + std::to_string(r.data.size()) +
-                       " input bytes (configured " + std::to_string(e.in_len) + ")");
+                       " input bytes (configured " + std::to_string(e.map.in_len) + ")");
   ++e.data_exchanges;
   // Inputs in slot order: for overlapping addresses the later slot's bytes win (emulator-spec §8).
-  for (const auto& m : e.in_map)
+  for (const auto& m : e.map.in)
     std::memcpy(image_.inputs.data() + m.plc_address, r.data.data() + m.dp_offset, m.length);
   if (r.diag_pending) e.diag_due = true;  // DH: read the new diagnosis in the next cycle
 }

@@ -58,6 +58,24 @@ struct SlaveParameters {
   std::string name;
 };
 
+// Where a slave's DP data bytes live in the PLC process image: one piece per mapped Chk_Cfg entry
+// (the addresses of the SIMATIC dialog). The built-in master copies through it; a profibus line
+// in role slaves mirrors the wire into the image through it (emulator-spec §10).
+struct ImageMapping {
+  std::size_t dp_offset;      // offset in the slave's output (or input) data
+  std::uint16_t plc_address;  // PLC Q (or I) byte address
+  std::size_t length;
+};
+struct ImageMap {
+  std::vector<ImageMapping> out, in;
+  std::size_t out_len = 0, in_len = 0;  // the slave's whole output / input data length
+};
+// Entries that would leave the 8192-byte image are not mapped; `skipped(entry, address, length)`
+// hears of each.
+ImageMap map_image(
+    const SlaveParameters& params,
+    const std::function<void(std::size_t, std::uint16_t, std::size_t)>& skipped = {});
+
 enum class MasterSlaveState : std::uint8_t {
   Init,       // read the diagnosis to see whether the slave is there
   SetPrm,     // send Set_Prm
@@ -114,17 +132,11 @@ class DpMaster {
   std::uint8_t address() const { return options_.address; }
 
  private:
-  struct Mapping {
-    std::size_t dp_offset;
-    std::uint16_t plc_address;
-    std::size_t length;
-  };
   struct Entry {
     SlaveLink* link = nullptr;
     std::unique_ptr<InProcessLink> owned;  // add_slave(DpSlave&)
     SlaveParameters params;
-    std::vector<Mapping> out_map, in_map;
-    std::size_t out_len = 0, in_len = 0;
+    ImageMap map;
     std::vector<std::uint8_t> out_buf;
     MasterSlaveState state = MasterSlaveState::Init;
     std::optional<DpSlave::Diag> last_diag;

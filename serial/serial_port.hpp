@@ -21,6 +21,7 @@
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -56,6 +57,25 @@ struct RxByte {
   bool parity_error = false;  // parity or framing error / break (PARMRK 0xFF 0x00 X)
   bool operator==(const RxByte&) const = default;
 };
+
+// Hands received characters to an FDL parser in order: runs of good characters in one piece
+// (`run(span)`, never empty), a character with a parity error on its own (`bad(value)`;
+// emulator-spec §10: the telegram it belongs to is discarded).
+template <typename Run, typename Bad>
+void split_parity(std::span<const RxByte> rx, Run&& run, Bad&& bad) {
+  std::vector<std::uint8_t> chunk;
+  chunk.reserve(rx.size());
+  for (const auto& b : rx) {
+    if (!b.parity_error) {
+      chunk.push_back(b.value);
+      continue;
+    }
+    if (!chunk.empty()) run(std::span<const std::uint8_t>(chunk));
+    chunk.clear();
+    bad(b.value);
+  }
+  if (!chunk.empty()) run(std::span<const std::uint8_t>(chunk));
+}
 
 // PARMRK unescaping (termios(3)): 0xFF 0xFF -> data 0xFF; 0xFF 0x00 X -> X with an error mark;
 // everything else as is. Sequences split across reads are kept until complete. Pure.

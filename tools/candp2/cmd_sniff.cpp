@@ -302,12 +302,9 @@ int sniff_port(const SniffArgs& a) {
         break;
       }
       if (!rx.empty() && !first) first = t;
-      for (const auto& b : rx) {
-        if (b.parity_error)
-          parser.feed_bad_char(b.value);
-        else
-          parser.feed(b.value);
-      }
+      serial::split_parity(
+          rx, [&](std::span<const std::uint8_t> run) { parser.feed(run); },
+          [&](std::uint8_t bad) { parser.feed_bad_char(bad); });
     }
     char stamp[40];
     std::snprintf(stamp, sizeof stamp, "(%.6f)",
