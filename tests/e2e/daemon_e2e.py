@@ -28,6 +28,7 @@ import unittest
 
 import can  # python3-can
 from pymodbus.client import ModbusTcpClient  # python3-pymodbus
+from can_expect import expect_frame  # tests/e2e/can_expect.py (the script's folder)
 
 CANDP2D = None  # set from the command line
 MBPOLL = "/usr/bin/mbpoll"
@@ -183,17 +184,7 @@ class DaemonE2E(unittest.TestCase):
 
     def expect_frame(self, arbitration_id, data):
         """Waits for the frame on the bus (other frames may pass first)."""
-        seen = []
-        end = time.monotonic() + WAIT
-        while time.monotonic() < end:
-            msg = self.bus.recv(timeout=max(0.0, end - time.monotonic()))
-            if msg is None:
-                break
-            seen.append("%03X#%s" % (msg.arbitration_id, msg.data.hex().upper()))
-            if msg.arbitration_id == arbitration_id and bytes(msg.data) == bytes(data):
-                return
-        self.fail("frame %03X#%s not seen; saw %s" % (arbitration_id, bytes(data).hex().upper(),
-                                                      seen))
+        expect_frame(self.bus, arbitration_id, data, WAIT)
 
     def test_1_mbpoll_write_is_sent_byte_swapped(self):
         # Q 172..177 = holding registers 86..88; form B8 swaps bytes 1-2 and 3-6 (manual §5.2.2).

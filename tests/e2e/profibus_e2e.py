@@ -40,6 +40,7 @@ import unittest
 
 import can  # python3-can
 from pymodbus.client import ModbusTcpClient  # python3-pymodbus
+from can_expect import expect_frame  # tests/e2e/can_expect.py (the script's folder)
 
 CANDP2D = None
 WAIT = 10.0  # seconds: upper bound for anything that should happen within a few cycles
@@ -297,17 +298,7 @@ class SlaveSide:
         shutil.rmtree(self.tmp, ignore_errors=True)
 
     def expect_frame(self, arbitration_id, data, timeout=WAIT):
-        seen = []
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            msg = self.bus.recv(timeout=max(0.0, end - time.monotonic()))
-            if msg is None:
-                break
-            seen.append("%03X#%s" % (msg.arbitration_id, msg.data.hex().upper()))
-            if msg.arbitration_id == arbitration_id and bytes(msg.data) == bytes(data):
-                return
-        raise AssertionError("frame %03X#%s not seen; saw %s" % (arbitration_id,
-                                                                 bytes(data).hex().upper(), seen))
+        expect_frame(self.bus, arbitration_id, data, timeout)
 
     def drain_bus(self):
         while self.bus.recv(timeout=0) is not None:
