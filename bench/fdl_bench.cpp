@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "gateway/gateway.hpp"
-#include "profibus_sim/fdl.hpp"
-#include "profibus_sim/fdl_slave.hpp"
+#include "profibus_sim/fdl/fdl.hpp"
+#include "profibus_sim/fdl/fdl_slave.hpp"
 
 using namespace candp2;
 

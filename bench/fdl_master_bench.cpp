@@ -7,9 +7,9 @@
 #include <vector>
 
 #include "gateway/gateway.hpp"
-#include "profibus_sim/dp_master.hpp"
-#include "profibus_sim/fdl_master.hpp"
-#include "profibus_sim/fdl_slave.hpp"
+#include "profibus_sim/fdl/fdl_master.hpp"
+#include "profibus_sim/fdl/fdl_slave.hpp"
+#include "profibus_sim/master/dp_master.hpp"
 
 namespace {
 

@@ -1,5 +1,5 @@
 // Measures candp2d's PROFIBUS line from outside (docs/profibus.md "Performance"), acting as the DP
-// master itself with the FDL codec (profibus_sim/fdl.hpp) on the serial PHY (serial/):
+// master itself with the FDL codec (profibus_sim/fdl/fdl.hpp) on the serial PHY (serial/):
 //
 //  1. Slave response time over a pty: from the request's last byte written to the response's first
 //     byte read, over N Data_Exchange requests to one gateway. Goal: p99 <= 100 µs.
@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "profibus_sim/fdl.hpp"
+#include "profibus_sim/fdl/fdl.hpp"
 #include "serial/serial_port.hpp"
 
 namespace {

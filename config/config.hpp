@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "gateway/user_prm.hpp"
-#include "profibus_sim/dp_master.hpp"
+#include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::config {
 

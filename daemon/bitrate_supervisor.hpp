@@ -19,7 +19,7 @@
 #include "common/log.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
-#include "daemon/modbus_map.hpp"
+#include "modbus/modbus_map.hpp"
 
 namespace candp2::daemon {
 

@@ -11,25 +11,35 @@
 
 #include "can/socketcan.hpp"
 #include "can/socketcand.hpp"
+#include "capture/can_log.hpp"
 #include "daemon/bitrate_supervisor.hpp"
-#include "daemon/can_fault.hpp"
-#include "daemon/can_log.hpp"
-#include "daemon/cycle_stats.hpp"
-#include "daemon/drive_fault.hpp"
-#include "daemon/http_server.hpp"
-#include "daemon/http_status.hpp"
-#include "daemon/modbus_map.hpp"
-#include "daemon/modbus_server.hpp"
 #include "daemon/profibus_line.hpp"
 #include "daemon/profibus_master_line.hpp"
 #include "drive_sim/file_parameter_store.hpp"
 #include "drive_sim/unitek_drive.hpp"
+#include "faults/can_fault.hpp"
+#include "faults/drive_fault.hpp"
+#include "http/http_server.hpp"
+#include "http/http_status.hpp"
+#include "modbus/modbus_map.hpp"
+#include "modbus/modbus_server.hpp"
+#include "plant/cycle_stats.hpp"
 
 namespace candp2::daemon {
 
 namespace {
 
+using capture::CanLog;
 using config::BusType;
+using faults::CanFaultLayer;
+using faults::FaultyDrive;
+using faults::kForceReal;
+using http::BusMonitor;
+using http::BusSource;
+using http::HttpServer;
+using http::StatusModel;
+using http::StatusSources;
+using plant::CycleStats;
 
 // ------------------------------------------------------------------------------ state file
 // Stored wake-up and SYNC values per DP address (emulator-spec §1.1: they survive restarts of the

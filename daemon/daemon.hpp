@@ -19,9 +19,9 @@
 #include "can/virtual_bus.hpp"
 #include "common/log.hpp"
 #include "config/config.hpp"
-#include "daemon/event_loop.hpp"
+#include "event_loop/event_loop.hpp"
 #include "gateway/gateway.hpp"
-#include "profibus_sim/dp_master.hpp"
+#include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::daemon {
 

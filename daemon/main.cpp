@@ -21,8 +21,8 @@
 #include "config/config.hpp"
 #include "daemon/daemon.hpp"
 #include "daemon/default_config.hpp"
-#include "daemon/event_loop.hpp"
 #include "daemon/systemd_notify.hpp"
+#include "event_loop/event_loop.hpp"
 #include "logsink/spdlog_sink.hpp"
 #include "version/version.hpp"
 

@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "common/hex.hpp"
-#include "profibus_sim/dp_telegram.hpp"
+#include "profibus_sim/dp/dp_telegram.hpp"
 
 namespace candp2::daemon {
 

@@ -19,10 +19,10 @@
 
 #include "common/log.hpp"
 #include "config/config.hpp"
-#include "daemon/event_loop.hpp"
-#include "daemon/modbus_map.hpp"
-#include "profibus_sim/dp_master.hpp"
-#include "profibus_sim/fdl_slave.hpp"
+#include "event_loop/event_loop.hpp"
+#include "modbus/modbus_map.hpp"
+#include "profibus_sim/fdl/fdl_slave.hpp"
+#include "profibus_sim/master/dp_master.hpp"
 #include "serial/serial_port.hpp"
 
 namespace candp2::daemon {

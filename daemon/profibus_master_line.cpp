@@ -5,8 +5,8 @@
 
 #include "common/hex.hpp"
 #include "daemon/profibus_line.hpp"
-#include "profibus_sim/dp_slave.hpp"
-#include "profibus_sim/dp_telegram.hpp"
+#include "profibus_sim/dp/dp_slave.hpp"
+#include "profibus_sim/dp/dp_telegram.hpp"
 
 namespace candp2::daemon {
 

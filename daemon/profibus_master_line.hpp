@@ -1,7 +1,7 @@
 // candp2d's PROFIBUS line in role "master" (emulator-spec §10, docs/profibus.md): the built-in DP
 // master drives remote stations (a real CAN-DP/2, or another candp2d in role slaves) through the
-// FDL master station (profibus_sim/fdl_master.hpp) on the serial PHY (serial/), in the one event
-// loop; no threads.
+// FDL master station (profibus_sim/fdl/fdl_master.hpp) on the serial PHY (serial/), in the one
+// event loop; no threads.
 //
 //   dp::DpMaster ─request─▶ fdl::FdlMaster (station N) ─send─▶ serial fd
 //   serial fd ──readable──▶ PARMRK/echo ─▶ FdlMaster::on_bytes / on_bad_char ─▶ DP completion
@@ -21,10 +21,10 @@
 
 #include "common/log.hpp"
 #include "config/config.hpp"
-#include "daemon/event_loop.hpp"
-#include "daemon/modbus_map.hpp"
-#include "profibus_sim/dp_master.hpp"
-#include "profibus_sim/fdl_master.hpp"
+#include "event_loop/event_loop.hpp"
+#include "modbus/modbus_map.hpp"
+#include "profibus_sim/fdl/fdl_master.hpp"
+#include "profibus_sim/master/dp_master.hpp"
 #include "serial/serial_port.hpp"
 
 namespace candp2::daemon {

@@ -15,7 +15,7 @@
 
 #include "common/log.hpp"
 #include "daemon/daemon.hpp"
-#include "daemon/event_loop.hpp"
+#include "event_loop/event_loop.hpp"
 
 namespace candp2::daemon {
 

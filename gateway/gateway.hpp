@@ -19,7 +19,7 @@
 #include "gateway/slot_config.hpp"
 #include "gateway/slot_engine.hpp"
 #include "gateway/user_prm.hpp"
-#include "profibus_sim/dp_slave.hpp"
+#include "profibus_sim/dp/dp_slave.hpp"
 
 namespace candp2::gw {
 

@@ -11,8 +11,8 @@
 
 #include "can/frame.hpp"
 #include "gateway/user_prm.hpp"
-#include "profibus_sim/dp_telegram.hpp"
-#include "profibus_sim/page_format.hpp"
+#include "profibus_sim/dp/dp_telegram.hpp"
+#include "profibus_sim/page/page_format.hpp"
 
 namespace candp2::gw {
 

@@ -9,7 +9,7 @@
 #include <string_view>
 #include <variant>
 
-#include "profibus_sim/dp_slave.hpp"
+#include "profibus_sim/dp/dp_slave.hpp"
 
 namespace candp2::gw {
 

@@ -2,7 +2,7 @@
 // CAN-DP/2 makes of them.
 //
 // There is one decoder for each: the identifier formats are decoded by dp::decode_chk_cfg
-// (profibus_sim/dp_telegram.hpp, IEC 61158-6-3 Chk_Cfg; manual §7 quotes the formats), the
+// (profibus_sim/dp/dp_telegram.hpp, IEC 61158-6-3 Chk_Cfg; manual §7 quotes the formats), the
 // CAN-DP/2 slot rules are applied by gw::decode_slots (gateway/slot_config.hpp, manual §5.2,
 // §5.3.2, §6.4, §7; emulator-spec §2, §6.1). This header only wraps them for GSD modules, so the
 // GSD module check and the gateway can never disagree.
@@ -16,7 +16,7 @@
 
 #include "gateway/slot_config.hpp"
 #include "gateway/user_prm.hpp"
-#include "profibus_sim/dp_telegram.hpp"
+#include "profibus_sim/dp/dp_telegram.hpp"
 
 namespace candp2::gsd {
 

@@ -7,11 +7,11 @@
 
 #include "can/virtual_bus.hpp"
 #include "common/hex.hpp"
-#include "daemon/can_fault.hpp"
-#include "daemon/drive_fault.hpp"
+#include "faults/can_fault.hpp"
+#include "faults/drive_fault.hpp"
 #include "gateway/gateway.hpp"
-#include "profibus_sim/dp_master.hpp"
-#include "profibus_sim/page_driver.hpp"
+#include "profibus_sim/master/dp_master.hpp"
+#include "profibus_sim/plc/page_driver.hpp"
 
 namespace candp2::replay {
 
@@ -62,7 +62,7 @@ class FaultSink final : public can::FrameSink {
   void send(const can::Frame& f) override {
     if (layer.pass_tx()) out_.send(f);
   }
-  daemon::CanFaultLayer layer;
+  faults::CanFaultLayer layer;
 
  private:
   can::FrameSink& out_;
@@ -102,7 +102,7 @@ class Sim {
       o.tx_id = d.tx_id;
       o.name = d.name;
       drives_.push_back({bus_.endpoint(std::string(kDrivePrefix) + d.name),
-                         std::make_unique<daemon::FaultyDrive>(o, &log_)});
+                         std::make_unique<faults::FaultyDrive>(o, &log_)});
     }
   }
 
@@ -258,7 +258,7 @@ class Sim {
   std::optional<plc::PageDriver> driver_;
   struct DriveNode {
     std::unique_ptr<can::VirtualEndpoint> ep;
-    std::unique_ptr<daemon::FaultyDrive> drive;
+    std::unique_ptr<faults::FaultyDrive> drive;
   };
   std::vector<DriveNode> drives_;
   std::vector<std::size_t> gw_frames_;  // indices into res_.traffic of the gateway's frames
@@ -490,10 +490,10 @@ StepResult Sim::execute(const Step& s, std::size_t index) {
     case Action::DriveRestart: {
       // The drive's Modbus fault registers 0..3 (docs/faults.md), one implementation.
       auto& n = drives_[s.drive];
-      const std::uint16_t reg = s.action == Action::DriveMute          ? daemon::kDriveMute
-                                : s.action == Action::DriveErrorBits   ? daemon::kDriveErrorBits
-                                : s.action == Action::DriveWarningBits ? daemon::kDriveWarningBits
-                                                                       : daemon::kDriveRestart;
+      const std::uint16_t reg = s.action == Action::DriveMute          ? faults::kDriveMute
+                                : s.action == Action::DriveErrorBits   ? faults::kDriveErrorBits
+                                : s.action == Action::DriveWarningBits ? faults::kDriveWarningBits
+                                                                       : faults::kDriveRestart;
       const std::uint16_t value = s.action == Action::DriveMute      ? (s.on ? 1 : 0)
                                   : s.action == Action::DriveRestart ? 1
                                                                      : s.bits;

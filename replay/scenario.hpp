@@ -16,8 +16,8 @@
 #include "common/time.hpp"
 #include "config/config.hpp"
 #include "gateway/page_mode.hpp"
-#include "profibus_sim/dp_slave.hpp"
-#include "profibus_sim/page_driver.hpp"
+#include "profibus_sim/dp/dp_slave.hpp"
+#include "profibus_sim/plc/page_driver.hpp"
 
 namespace candp2::replay {
 

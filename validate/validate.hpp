@@ -16,8 +16,8 @@
 
 #include "gateway/slot_config.hpp"
 #include "gateway/user_prm.hpp"
-#include "profibus_sim/dp_master.hpp"
-#include "profibus_sim/dp_slave.hpp"
+#include "profibus_sim/dp/dp_slave.hpp"
+#include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::validate {
 

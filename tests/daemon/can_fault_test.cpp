@@ -1,9 +1,9 @@
-// The fault layer between a gateway and its CAN channel (daemon/can_fault.hpp, docs/faults.md).
-#include "daemon/can_fault.hpp"
+// The fault layer between a gateway and its CAN channel (faults/can_fault.hpp, docs/faults.md).
+#include "faults/can_fault.hpp"
 
 #include <gtest/gtest.h>
 
-namespace candp2::daemon {
+namespace candp2::faults {
 namespace {
 
 using can::BusState;
@@ -71,4 +71,4 @@ TEST(CanFaultLayer, DropBudgetCountsInIrqLost) {
 }
 
 }  // namespace
-}  // namespace candp2::daemon
+}  // namespace candp2::faults

@@ -11,8 +11,8 @@
 #include <sstream>
 
 #include "can/socketcand.hpp"
-#include "daemon/modbus_map.hpp"
 #include "daemon_test_support.hpp"
+#include "modbus/modbus_map.hpp"
 
 namespace candp2::daemon {
 namespace {

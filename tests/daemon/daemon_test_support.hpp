@@ -23,7 +23,7 @@
 
 #include "can/frame.hpp"
 #include "can/socketcand.hpp"
-#include "daemon/event_loop.hpp"
+#include "event_loop/event_loop.hpp"
 
 namespace candp2::test {
 

@@ -1,20 +1,20 @@
 // The HTTP face's pure parts: the cycle lateness statistic, the bus monitor (bits with stuff bits,
 // the trace ring) and the slot engine's per-slot counters the slot table shows.
-#include "daemon/http_status.hpp"
+#include "http/http_status.hpp"
 
 #include <gtest/gtest.h>
 
 #include <variant>
 
 #include "config/config.hpp"
-#include "daemon/cycle_stats.hpp"
 #include "gateway/slot_engine.hpp"
+#include "plant/cycle_stats.hpp"
 
 namespace candp2 {
 namespace {
 
 TEST(CycleStats, LatenessAgainstTheGrid) {
-  daemon::CycleStats s;
+  plant::CycleStats s;
   s.start(Time{10'000}, milliseconds(10));
   // Cycles at +0, +150, +30, +2000 µs after their grid points; one tick skipped (k = 4 → 5).
   for (const auto t : {10'000, 20'150, 30'030, 42'000, 60'000}) s.record(Time{t});
@@ -27,13 +27,13 @@ TEST(CycleStats, LatenessAgainstTheGrid) {
 }
 
 TEST(CycleStats, WindowKeepsTheLastSamples) {
-  daemon::CycleStats s;
+  plant::CycleStats s;
   s.start(Time{0}, milliseconds(10));
   s.record(Time{5'000});  // 5 ms late, then pushed out of the window
-  for (std::size_t k = 1; k <= daemon::CycleStats::kSamples; ++k)
+  for (std::size_t k = 1; k <= plant::CycleStats::kSamples; ++k)
     s.record(Time{static_cast<std::int64_t>(k) * 10'000 + 100});
   const auto sum = s.summary();
-  EXPECT_EQ(sum.samples, daemon::CycleStats::kSamples);
+  EXPECT_EQ(sum.samples, plant::CycleStats::kSamples);
   EXPECT_EQ(sum.max_us, 100u);
   EXPECT_EQ(sum.max_ever_us, 5000u);
 }
@@ -41,24 +41,24 @@ TEST(CycleStats, WindowKeepsTheLastSamples) {
 TEST(BusMonitor, StuffedBitsUpperBound) {
   // 11-bit, 8 bytes: 47 + 64 = 111 bits unstuffed; stuffed part 34 + 64 = 98 → 24 stuff bits.
   const std::array<std::uint8_t, 8> eight{};
-  EXPECT_EQ(daemon::frame_bits_stuffed(can::Frame::std_data(0x123, eight)), 111u + 24u);
+  EXPECT_EQ(http::frame_bits_stuffed(can::Frame::std_data(0x123, eight)), 111u + 24u);
   // 29-bit, 0 bytes: 67 unstuffed; stuffed part 54 → 13.
-  EXPECT_EQ(daemon::frame_bits_stuffed(can::Frame::ext_data(0x1234567, {})), 67u + 13u);
+  EXPECT_EQ(http::frame_bits_stuffed(can::Frame::ext_data(0x1234567, {})), 67u + 13u);
   // Remote frame: no data bits even with DLC 8 (47 + (34 - 1) / 4 = 47 + 8).
-  EXPECT_EQ(daemon::frame_bits_stuffed(can::Frame::rtr(0x123, false, 8)), 55u);
+  EXPECT_EQ(http::frame_bits_stuffed(can::Frame::rtr(0x123, false, 8)), 55u);
 }
 
 TEST(BusMonitor, CountsAndKeepsTheLastFrames) {
-  daemon::BusMonitor m;
+  http::BusMonitor m;
   const std::array<std::uint8_t, 1> one{0x42};
-  for (std::uint32_t i = 0; i < daemon::BusMonitor::kTrace + 10; ++i)
+  for (std::uint32_t i = 0; i < http::BusMonitor::kTrace + 10; ++i)
     m.on_frame(can::Frame::std_data(i, one), Time{i * 100});
-  EXPECT_EQ(m.frames(), daemon::BusMonitor::kTrace + 10);
-  EXPECT_EQ(m.bits(), m.frames() * daemon::frame_bits_stuffed(can::Frame::std_data(0, one)));
-  ASSERT_EQ(m.trace().size(), daemon::BusMonitor::kTrace);
+  EXPECT_EQ(m.frames(), http::BusMonitor::kTrace + 10);
+  EXPECT_EQ(m.bits(), m.frames() * http::frame_bits_stuffed(can::Frame::std_data(0, one)));
+  ASSERT_EQ(m.trace().size(), http::BusMonitor::kTrace);
   EXPECT_EQ(m.trace().front().seq, 11u);
   EXPECT_EQ(m.trace().front().frame.id, 10u);
-  EXPECT_EQ(m.trace().back().time, Time{(daemon::BusMonitor::kTrace + 9) * 100});
+  EXPECT_EQ(m.trace().back().time, Time{(http::BusMonitor::kTrace + 9) * 100});
 }
 
 struct Sink final : gw::TxPort {

@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "daemon/modbus_map.hpp"
+#include "modbus/modbus_map.hpp"
 
 namespace {
 

@@ -1,7 +1,7 @@
 // The Modbus/TCP map of emulator-spec §8 without sockets: MBAP framing, request decoding with the
 // MB spec's exceptions (boundary values 0 and max+1 for every function code), and the process
 // image / status block / control register rules.
-#include "daemon/modbus_map.hpp"
+#include "modbus/modbus_map.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // The Modbus/TCP server on the event loop, driven from outside by libmodbus clients and raw
 // sockets: answers, exceptions on the wire, partial and pipelined requests, garbage clients dropped
 // while the others are served, many clients at once, the client limit.
-#include "daemon/modbus_server.hpp"
+#include "modbus/modbus_server.hpp"
 
 #include <gtest/gtest.h>
 

@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "profibus_sim/dp_telegram.hpp"
+#include "profibus_sim/dp/dp_telegram.hpp"
 
 namespace candp2::daemon {
 namespace {

@@ -10,7 +10,7 @@
 #include "can/frame.hpp"
 #include "common/hex.hpp"
 #include "gateway/gateway.hpp"
-#include "profibus_sim/dp_telegram.hpp"
+#include "profibus_sim/dp/dp_telegram.hpp"
 
 namespace candp2::gw::test {
 

@@ -1,5 +1,5 @@
 // The simulated DP master (emulator-spec §8) against emulated gateways.
-#include "profibus_sim/dp_master.hpp"
+#include "profibus_sim/master/dp_master.hpp"
 
 #include <gtest/gtest.h>
 

@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "fdl_capture.hpp"
-#include "profibus_sim/fdl.hpp"
+#include "profibus_sim/fdl/fdl.hpp"
 
 namespace candp2::fdl::test {
 namespace {

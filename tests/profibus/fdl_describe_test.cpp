@@ -1,6 +1,6 @@
-// The telegram describer (profibus_sim/fdl_describe.hpp) on the emulator-spec §10 capture and the
-// responses of the slave front end.
-#include "profibus_sim/fdl_describe.hpp"
+// The telegram describer (profibus_sim/fdl/fdl_describe.hpp) on the emulator-spec §10 capture and
+// the responses of the slave front end.
+#include "profibus_sim/fdl/fdl_describe.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // The FDL master station (emulator-spec §10): exact bytes against the §10 capture, FCB per
 // station, slot time, retries, corrupted and foreign answers.
-#include "profibus_sim/fdl_master.hpp"
+#include "profibus_sim/fdl/fdl_master.hpp"
 
 #include <gtest/gtest.h>
 

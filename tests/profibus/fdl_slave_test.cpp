@@ -1,7 +1,7 @@
 // The FDL slave front end (emulator-spec §10) with real gw::Gateway objects as the DP slaves:
 // the emulator-spec §10 capture, the manual §5.1.4 round trip through FDL bytes, FCB repetition,
 // DH, min_TSDR, the master address filter, broadcasts and several stations on one line.
-#include "profibus_sim/fdl_slave.hpp"
+#include "profibus_sim/fdl/fdl_slave.hpp"
 
 #include <gtest/gtest.h>
 

@@ -13,9 +13,9 @@
 #include <set>
 #include <vector>
 
-#include "profibus_sim/dp_master.hpp"
-#include "profibus_sim/fdl_master.hpp"
-#include "profibus_sim/fdl_slave.hpp"
+#include "profibus_sim/fdl/fdl_master.hpp"
+#include "profibus_sim/fdl/fdl_slave.hpp"
+#include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::dp::test {
 

@@ -1,6 +1,6 @@
 // The daemon's event loop: timers, descriptors, signals, deferred hooks, stop(). Every wait is
 // bounded by run_until()/run_once() timeouts; nothing sleeps.
-#include "daemon/event_loop.hpp"
+#include "event_loop/event_loop.hpp"
 
 #include <fcntl.h>
 #include <gtest/gtest.h>

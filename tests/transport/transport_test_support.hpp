@@ -22,7 +22,7 @@
 #include "can/socketcand.hpp"
 #include "can/virtual_bus.hpp"
 #include "common/log.hpp"
-#include "daemon/event_loop.hpp"
+#include "event_loop/event_loop.hpp"
 
 namespace candp2::test {
 

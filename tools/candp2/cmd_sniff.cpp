@@ -2,11 +2,11 @@
 // can-utils' candump for CAN (issue 10, emulator-spec §10). FILE is a raw capture (bytes exactly as
 // on the wire; the line shows the byte offset of each telegram); PORT is a serial device or
 // "pty:PATH" opened 8E1 at --baud (the line shows seconds since the first byte). On top of the
-// generic DP decoding (profibus_sim/fdl_describe.hpp) the CAN-DP/2 payloads are decoded with the
-// gateway's own decoders: Set_Prm user parameters (emulator-spec §1.1), Chk_Cfg slots with their
-// comment bytes (emulator-spec §2) and the extended diagnosis bytes (emulator-spec §3).
-// Exit status: 0 at end of file / after --count telegrams / on SIGINT, 2 when the source cannot
-// be opened or read.
+// generic DP decoding (profibus_sim/fdl/fdl_describe.hpp) the CAN-DP/2 payloads are decoded with
+// the gateway's own decoders: Set_Prm user parameters (emulator-spec §1.1), Chk_Cfg slots with
+// their comment bytes (emulator-spec §2) and the extended diagnosis bytes (emulator-spec §3). Exit
+// status: 0 at end of file / after --count telegrams / on SIGINT, 2 when the source cannot be
+// opened or read.
 #include <poll.h>
 #include <signal.h>
 
@@ -30,8 +30,8 @@
 #include "common/hex.hpp"
 #include "gateway/slot_config.hpp"
 #include "gateway/user_prm.hpp"
-#include "profibus_sim/fdl.hpp"
-#include "profibus_sim/fdl_describe.hpp"
+#include "profibus_sim/fdl/fdl.hpp"
+#include "profibus_sim/fdl/fdl_describe.hpp"
 #include "serial/serial_port.hpp"
 #include "tools/candp2/commands.hpp"
 
