@@ -37,6 +37,8 @@ class Channel : public FrameSink {
   // A descriptor that becomes readable when receive() may return a frame; -1 when the channel is
   // in-process and the owner drains it after every event instead.
   virtual int poll_fd() const { return -1; }
+  // Connections re-established after the peer went away (socketcand client); 0 otherwise.
+  virtual std::uint32_t reconnects() const { return 0; }
   virtual std::string_view name() const = 0;
 };
 

@@ -25,7 +25,7 @@ namespace candp2::can {
 class SocketcandClientChannel : public Channel {
  public:
   // Connections re-established after the server went away.
-  virtual std::uint32_t reconnects() const = 0;
+  std::uint32_t reconnects() const override = 0;
   // Reconnection (issue 12): after the connection is lost the channel reports bus-off, drops
   // sends, and tries again after 100 ms, doubling to at most 5 s (reset after a successful
   // connection); each attempt is a non-blocking connect (completion seen through poll_fd()) and the

@@ -4,11 +4,13 @@
 #pragma once
 
 #include <cstdio>
+#include <functional>
 #include <string>
 #include <string_view>
 
 #include "can/frame.hpp"
 #include "common/time.hpp"
+#include "plant/tap.hpp"
 
 namespace candp2::capture {
 
@@ -35,6 +37,22 @@ class CanLog {
   std::string path_;
   std::FILE* file_ = nullptr;
   std::uint64_t lines_ = 0;
+};
+
+// The CAN log as an observer of the plant's tap: every frame on every bus once, stamped with the
+// wall clock at the moment it is written (candump stamps are wall-clock time), under the bus's
+// configured name.
+class CanLogTap final : public plant::Tap {
+ public:
+  CanLogTap(CanLog& log, std::function<Time()> wall_clock)
+      : log_(log), wall_clock_(std::move(wall_clock)) {}
+  void on_can(const plant::CanRecord& r) override {
+    if (log_.is_open()) log_.write(r.frame, wall_clock_(), r.bus_name);
+  }
+
+ private:
+  CanLog& log_;
+  std::function<Time()> wall_clock_;
 };
 
 }  // namespace candp2::capture

@@ -21,6 +21,7 @@
 #include "config/config.hpp"
 #include "event_loop/event_loop.hpp"
 #include "gateway/gateway.hpp"
+#include "plant/plant.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::daemon {
@@ -53,10 +54,7 @@ class Daemon {
   virtual dp::DpMaster& master() = 0;
   virtual gw::Gateway* gateway(std::uint8_t dp_address) = 0;
   virtual can::VirtualBus* virtual_bus(std::string_view name) = 0;
+  virtual plant::Plant& plant() = 0;
 };
-
-// `candp2d --print-modbus-map`: where each slot's bytes appear in the Modbus tables, the unit IDs,
-// the status block and the control register.
-std::string modbus_map_text(const config::DaemonConfig& config);
 
 }  // namespace candp2::daemon

@@ -24,6 +24,7 @@
 #include "daemon/systemd_notify.hpp"
 #include "event_loop/event_loop.hpp"
 #include "logsink/spdlog_sink.hpp"
+#include "modbus/map_report.hpp"
 #include "version/version.hpp"
 
 namespace {
@@ -141,7 +142,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (print_map) {
-    std::cout << candp2::daemon::modbus_map_text(config);
+    std::cout << candp2::modbus::map_text(config);
     return 0;
   }
   return run(config, *level);

@@ -56,6 +56,13 @@ std::string_view to_string(NmtState s) {
   return "?";
 }
 
+namespace {
+// The log component of a gateway: its configured name, else "gwN" (N = the clamped DP address).
+std::string log_name(const GatewayOptions& o) {
+  return o.name.empty() ? "gw" + std::to_string(clamp_address(o.address)) : o.name;
+}
+}  // namespace
+
 std::uint32_t frame_bits(const can::Frame& f) {
   // SOF..EOF without stuff bits plus 3 bits intermission: 47 (11-bit) or 67 (29-bit) + 8 per byte.
   const std::uint32_t overhead = f.extended ? 67 : 47;
@@ -63,21 +70,21 @@ std::uint32_t frame_bits(const can::Frame& f) {
 }
 
 Gateway::Gateway(GatewayOptions options, can::FrameSink& can_tx, Time power_on)
-    : log_(options.log, "gw" + std::to_string(clamp_address(options.address))),
+    : log_(options.log, log_name(options)),
       address_(clamp_address(options.address)),
       options_(options),
       can_tx_(can_tx),
-      slave_(
-          dp::SlaveInfo{clamp_address(options.address), kIdentNumber, kUserPrmLen, kExtDiagHeader},
-          *this, options.log),
+      slave_(dp::SlaveInfo{clamp_address(options.address), kIdentNumber, kUserPrmLen,
+                           kExtDiagHeader, options.name.empty() ? "" : options.name + ".dp"},
+             *this, options.log),
       power_on_(power_on),
       stored_wakeup_s_(options.stored_wakeup_s),
       stored_sync_ms_(options.stored_sync_ms) {
   if (address_ != options.address)
     log_.warn("station address " + std::to_string(options.address) + " clamped to " +
               std::to_string(address_) + " (manual §2.1: 3..124)");
-  cw_.set_logger(Logger(options.log, "gw" + std::to_string(address_) + ".cw"));
-  page_.set_logger(Logger(options.log, "gw" + std::to_string(address_) + ".page"));
+  cw_.set_logger(Logger(options.log, log_name(options) + ".cw"));
+  page_.set_logger(Logger(options.log, log_name(options) + ".page"));
 }
 
 // ---------------------------------------------------------------- DP slave application

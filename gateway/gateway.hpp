@@ -29,6 +29,8 @@ struct GatewayOptions {
   std::uint8_t stored_wakeup_s = 0;  // the gateway's stored values (emulator-spec §1.1)
   std::uint16_t stored_sync_ms = 0;
   LogSink* log = nullptr;
+  // The configuration's name: log lines carry it ("g666", "g666.dp", "g666.cw"); empty: "gwN".
+  std::string name{};
 };
 
 // CANopen NMT state of the gateway as a CANopen slave (emulator-spec §7).

@@ -41,8 +41,9 @@ struct DpRecord {
   std::uint16_t line = 0;      // 0 = the in-process master's side, 1 = the `profibus` line
   std::string_view line_name;  // "in-process" or the port ("/dev/ttyUSB0", "pty:/tmp/pb")
   std::span<const std::uint8_t> telegram;
-  // True when the emulated side sent it: a gateway's or generic slave's answer (role slaves and
-  // in-process) or the built-in master's request (in-process and role master).
+  // True when the emulated side sent it: a gateway's or generic slave's answer (in-process and
+  // role slaves), or the built-in master's request on a line in role master (there the emulated
+  // side is the master). In-process, the master's requests count as received by the gateway.
   bool from_emulation = false;
 };
 

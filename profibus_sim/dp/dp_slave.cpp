@@ -20,7 +20,9 @@ std::string_view to_string(SlaveState s) {
 }
 
 DpSlave::DpSlave(SlaveInfo info, SlaveApplication& app, LogSink* log)
-    : info_(info), app_(app), log_(log, "dp" + std::to_string(info.address)) {}
+    : info_(info),
+      app_(app),
+      log_(log, info.log_name.empty() ? "dp" + std::to_string(info.address) : info.log_name) {}
 
 void DpSlave::enter(SlaveState next, Time now, std::string_view why) {
   if (next == state_) return;

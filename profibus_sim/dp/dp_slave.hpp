@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -65,6 +66,7 @@ struct SlaveInfo {
   std::uint16_t ident_number = 0;
   std::size_t user_prm_len = 0;  // Max_User_Prm_Data_Len: the telegram must be 7 + this long
   std::array<std::uint8_t, 2> ext_diag_header{};  // diag bytes 6, 7
+  std::string log_name{};                         // the log component; empty: "dpN" (N = address)
 };
 
 class DpSlave {

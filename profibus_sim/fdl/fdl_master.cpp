@@ -178,6 +178,7 @@ void FdlMaster::drain(Time now) {
       log_.debug("line: " + std::string(to_string(ev->error)) + ": " + hex_bytes(ev->raw));
       continue;
     }
+    if (observe_) observe_(ev->raw, now);
     on_telegram(ev->telegram, now);
   }
 }

@@ -126,6 +126,11 @@ class FdlMaster {
   const MasterStationStats* stats(std::uint8_t address) const;
   const ParserStats& line_stats() const { return parser_.stats(); }
   const MasterStationOptions& options() const { return options_; }
+  // What the PHY adds to the slot time; known once the port is open (a pty, a USB adapter).
+  void set_latency_allowance(Duration d) { options_.latency_allowance = d; }
+  // Sees every valid telegram received on the line, as its raw bytes (a capture's tap).
+  using ObserveFn = std::function<void(std::span<const std::uint8_t> raw, Time now)>;
+  void set_observer(ObserveFn observe) { observe_ = std::move(observe); }
   bool idle() const { return !current_ && queue_.empty(); }
 
  private:
@@ -154,6 +159,7 @@ class FdlMaster {
   void finish(dp::Response r, Time now);
   std::optional<dp::Response> match(const Telegram& t) const;
   std::vector<std::uint8_t> build(Outstanding& o);
+  ObserveFn observe_;
   void drain(Time now);
 
   MasterStationOptions options_;

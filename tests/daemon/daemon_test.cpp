@@ -12,6 +12,7 @@
 
 #include "can/socketcand.hpp"
 #include "daemon_test_support.hpp"
+#include "modbus/map_report.hpp"
 #include "modbus/modbus_map.hpp"
 
 namespace candp2::daemon {
@@ -620,7 +621,7 @@ TEST(Daemon, SocketcandBusReconnectsAfterTheServerRestarts) {
 }
 
 TEST(ModbusMapText, NamesSlotsRegistersAndUnits) {
-  const auto text = modbus_map_text(load(manual_514()));
+  const auto text = modbus::map_text(load(manual_514()));
   EXPECT_NE(text.find("5, 0, 255  gw5"), std::string::npos) << text;
   EXPECT_NE(text.find("I  172..177   input registers     86..88"), std::string::npos) << text;
   EXPECT_NE(text.find("Q  172..177   holding registers   86..88"), std::string::npos) << text;

@@ -1,6 +1,7 @@
-// candp2d's role-master line glue (daemon/profibus_master_line.hpp) on a real pseudo-terminal: the
-// test holds the pty's terminal end and plays the remote station by hand, byte for byte.
-#include "daemon/profibus_master_line.hpp"
+// The role-master line on a real pseudo-terminal: the plant's PROFIBUS master line behind its
+// serial port (profibus_line/line_port.hpp) in an event loop; the test holds the pty's terminal
+// end and plays the remote station by hand, byte for byte.
+#include "profibus_line/line_port.hpp"
 
 #include <fcntl.h>
 #include <gtest/gtest.h>
@@ -10,9 +11,11 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "modbus/plant_faces.hpp"
+#include "plant/plant.hpp"
 #include "profibus_sim/dp/dp_telegram.hpp"
 
-namespace candp2::daemon {
+namespace candp2::profibus_line {
 namespace {
 
 namespace fs = std::filesystem;
@@ -21,14 +24,24 @@ struct MasterLineFixture : ::testing::Test {
   void SetUp() override {
     char tmpl[] = "/tmp/candp2-mline-XXXXXX";
     dir = ::mkdtemp(tmpl);
-    cfg.port = "pty:" + dir + "/pb";
-    cfg.baud = 19200;
-    cfg.role = config::ProfibusRole::Master;
-    cfg.slot_time_bits = 100;
-    cfg.retries = 1;
+    // manual §5.1.4 slots, as candp2d's configuration encodes them; master 2 cycles every 5 ms.
+    const auto text = R"({"master": {"address": 2, "cycle_ms": 5, "retry_ms": 100},
+        "profibus": {"port": "pty:)" +
+                      dir + R"(/pb", "baud": 19200, "role": "master",
+                     "slot_time_bits": 100, "retries": 1},
+        "gateways": [{"address": 3, "slots": [
+          {"io": "input", "address": 172, "length": 6, "comment": "02,89,B8"},
+          {"io": "output", "address": 172, "length": 6, "comment": "03,09,B8"}]}]})";
+    auto c = config::parse_daemon(text, "test.json");
+    ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(c))
+        << std::get<config::ConfigError>(c).to_string();
+    const auto& cfg = std::get<config::DaemonConfig>(c);
     std::string error;
-    line = ProfibusMasterLine::open(cfg, 2, loop, nullptr, &error);
-    ASSERT_TRUE(line) << error;
+    plant = plant::Plant::build(cfg, {}, loop.now(), &error);
+    ASSERT_TRUE(plant) << error;
+    ASSERT_NE(plant->master_line(), nullptr);
+    port = MasterLinePort::open(*cfg.profibus, *plant->master_line(), loop, nullptr, &error);
+    ASSERT_TRUE(port) << error;
     // The remote station's end: the terminal end of the pty, raw.
     peer = ::open((dir + "/pb").c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
     ASSERT_GE(peer, 0);
@@ -36,24 +49,31 @@ struct MasterLineFixture : ::testing::Test {
     ASSERT_EQ(::tcgetattr(peer, &t), 0);
     ::cfmakeraw(&t);
     ASSERT_EQ(::tcsetattr(peer, TCSANOW, &t), 0);
-    // manual §5.1.4 slots, as candp2d's configuration encodes them.
-    auto g = config::parse_gateway(nlohmann::json::parse(R"({"address": 3, "slots": [
-        {"io": "input", "address": 172, "length": 6, "comment": "02,89,B8"},
-        {"io": "output", "address": 172, "length": 6, "comment": "03,09,B8"}]})"),
-                                   "test.json");
-    ASSERT_TRUE(std::holds_alternative<config::GatewayConfig>(g));
-    master.add_slave(line->station(3),
-                     config::slave_parameters(std::get<config::GatewayConfig>(g)));
-    cycle = loop.add_periodic(milliseconds(5), [this] {
-      master.cycle(loop.now());
-      line->rearm();
-      line->check_presence(master);
+    // The plant's timer, as candp2d arms it: at next_deadline(), re-armed after every event.
+    deferred = loop.add_deferred([this] {
+      rearm();
+      return false;
+    });
+    rearm();
+  }
+  void rearm() {
+    const auto next = plant->next_deadline();
+    if (timer && next == armed) return;
+    if (timer) loop.cancel_timer(timer);
+    timer = 0;
+    armed = next;
+    if (!next) return;
+    timer = loop.add_timer(std::max(Duration(0), *next - loop.now()), [this] {
+      timer = 0;
+      plant->advance(loop.now());
     });
   }
   void TearDown() override {
-    if (cycle) loop.cancel_timer(cycle);
+    if (deferred) loop.remove_deferred(deferred);
+    if (timer) loop.cancel_timer(timer);
     if (peer >= 0) ::close(peer);
-    line.reset();
+    port.reset();
+    plant.reset();
     fs::remove_all(dir);
   }
   // Runs the loop until the peer has read `n` bytes (or 2 s passed).
@@ -70,16 +90,18 @@ struct MasterLineFixture : ::testing::Test {
     return got;
   }
   bool lost() const {
-    const auto v = master.slave(3);
+    const auto v = plant->master().slave(3);
     return v && v->last_diag && ((*v->last_diag)[0] & dp::kDiag1StationNonExistent);
   }
+  plant::LineStatus status() { return plant->master_line()->status(3, plant->master()); }
 
   EventLoop loop;
   std::string dir;
-  config::ProfibusConfig cfg;
-  std::unique_ptr<ProfibusMasterLine> line;
-  dp::DpMaster master{dp::MasterOptions{.address = 2, .retry_delay = milliseconds(100)}};
-  EventLoop::TimerId cycle = 0;
+  std::unique_ptr<plant::Plant> plant;
+  std::unique_ptr<MasterLinePort> port;
+  EventLoop::TimerId timer = 0;
+  EventLoop::DeferredId deferred = 0;
+  std::optional<Time> armed;
   int peer = -1;
 };
 
@@ -105,14 +127,14 @@ TEST_F(MasterLineFixture, SilentStationIsAskedTwiceThenShowsStationNonExistent) 
   EXPECT_GE(second - first, milliseconds(20));
   ASSERT_TRUE(loop.run_until([&] { return lost(); }, milliseconds(2000)));
   EXPECT_GE(loop.now() - t0, milliseconds(40));
-  const auto st = line->status(3, master);
+  const auto st = status();
   EXPECT_EQ(st.role, 2);
   EXPECT_GE(st.requests, 2u);
   EXPECT_GE(st.retries, 1u);
   EXPECT_FALSE(st.present);
   EXPECT_EQ(st.response_us, 0u);
   // The Modbus face shows the master's Station_Non_Existent (diag byte 0 bit 0), DP state 0.
-  RemoteStationFace face(3, "gw3", master, *line, nullptr);
+  modbus::RemoteStationFace face(*plant, 3, "gw3");
   const auto block = face.status(loop.now());
   EXPECT_EQ(block[modbus::status::kDpState], 0);
   EXPECT_EQ(block[modbus::status::kDiag] & 0x01, 1);
@@ -135,7 +157,7 @@ TEST_F(MasterLineFixture, AnsweredFdlStatusIsFollowedBySlaveDiagAndTimed) {
   const std::vector<std::uint8_t> slave_diag = {0x68, 0x05, 0x05, 0x68, 0x83, 0x82,
                                                 0x6D, 0x3C, 0x3E, 0xEC, 0x16};
   EXPECT_EQ(read_peer(11), slave_diag);
-  const auto st = line->status(3, master);
+  const auto st = status();
   EXPECT_GE(st.telegrams, 1u);  // our FDL_Status answer
   EXPECT_GT(st.response_max_us, 0u);
   EXPECT_LT(st.response_max_us, 2000000u);
@@ -149,9 +171,9 @@ TEST_F(MasterLineFixture, CorruptedAnswerIsNoAnswerAndIsRepeated) {
   ASSERT_EQ(::write(peer, bad, sizeof bad), static_cast<ssize_t>(sizeof bad));
   const std::vector<std::uint8_t> fdl_status = {0x10, 0x03, 0x02, 0x49, 0x4E, 0x16};
   EXPECT_EQ(read_peer(6), fdl_status);
-  EXPECT_GE(line->status(3, master).fcs_errors, 1u);
-  EXPECT_EQ(line->status(3, master).response_max_us, 0u);
+  EXPECT_GE(status().fcs_errors, 1u);
+  EXPECT_EQ(status().response_max_us, 0u);
 }
 
 }  // namespace
-}  // namespace candp2::daemon
+}  // namespace candp2::profibus_line

@@ -1,0 +1,23 @@
+// The daemon's state file (docs/configuration.md `state_file`): the gateways' stored wake-up and
+// SYNC values across restarts of candp2d (docs/decisions.md "Stored values"):
+//   {"gateways": {"5": {"wakeup_s": 0, "sync_ms": 100}}}
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+
+#include "common/log.hpp"
+#include "plant/plant.hpp"
+
+namespace candp2::daemon {
+
+using StoredMap = std::map<std::uint8_t, plant::StoredValues>;
+
+// Nothing stored yet: an empty map. An unreadable file is logged and ignored (the configured
+// values are used).
+StoredMap load_state(const std::string& path, const Logger& log);
+// Atomic: written to PATH.tmp, then renamed, so a crash never leaves half a file.
+bool save_state(const std::string& path, const StoredMap& state, std::string* error);
+
+}  // namespace candp2::daemon

@@ -1,0 +1,74 @@
+#include "modbus/map_report.hpp"
+
+#include <cstdio>
+#include <sstream>
+
+#include "modbus/modbus_map.hpp"
+#include "profibus_sim/dp/dp_telegram.hpp"
+
+namespace candp2::modbus {
+
+std::string map_text(const config::DaemonConfig& config) {
+  std::ostringstream out;
+  out << "Modbus/TCP " << config.modbus_listen.to_string() << " (emulator-spec §8)\n\n";
+  out << "Unit IDs (status block and control register of one gateway; the process image is the "
+         "same for all):\n";
+  for (std::size_t i = 0; i < config.gateways.size(); ++i) {
+    const auto& g = config.gateways[i];
+    out << "  " << static_cast<int>(g.dp_address()) << (i == 0 ? ", 0, 255" : "") << "  " << g.name
+        << "\n";
+  }
+  out << "  other  exception 0x0B\n\n";
+  out << "Process image (PLC bytes; register r = bytes 2r high, 2r+1 low; bit b = byte b/8 bit "
+         "b%8):\n";
+  char line[256];
+  for (const auto& g : config.gateways) {
+    const auto params = config::slave_parameters(g);
+    const auto decoded = dp::decode_chk_cfg(params.cfg);
+    for (std::size_t i = 0; i < decoded.entries.size() && i < g.slots.size(); ++i) {
+      const auto& e = decoded.entries[i];
+      std::string comment;
+      for (auto b : e.manufacturer) {
+        std::snprintf(line, sizeof line, "%s%02X", comment.empty() ? "" : ",", b);
+        comment += line;
+      }
+      for (int dir = 0; dir < 2; ++dir) {
+        const bool input = dir == 0;
+        const std::size_t n = input ? e.in_bytes() : e.out_bytes();
+        const auto addr = input ? params.addresses[i].input : params.addresses[i].output;
+        if (!n || !addr) continue;
+        const unsigned first = *addr, last = static_cast<unsigned>(*addr + n - 1);
+        std::snprintf(line, sizeof line,
+                      "  %-10s slot %-2zu %-6s %s %4u..%-4u  %s %4u..%-4u  %s %5u..%-5u  %s\n",
+                      g.name.c_str(), i, input ? "input" : "output", input ? "I" : "Q", first, last,
+                      input ? "input registers  " : "holding registers", first / 2, last / 2,
+                      input ? "discrete inputs" : "coils          ", first * 8, last * 8 + 7,
+                      comment.empty() ? "" : ("comment " + comment).c_str());
+        out << line;
+        if (first % 2 || last % 2 == 0)
+          out << "             (odd byte boundaries: the first/last register is shared with "
+                 "neighbouring bytes)\n";
+      }
+    }
+  }
+  out << "\nStatus block (input registers, unit ID = DP address):\n";
+  for (const auto& f : status_fields()) {
+    const unsigned a = kStatusBase + f.offset;
+    if (f.registers == 1)
+      std::snprintf(line, sizeof line, "  %u        ", a);
+    else
+      std::snprintf(line, sizeof line, "  %u..%u  ", a, a + f.registers - 1);
+    out << line << f.name << ": " << f.meaning << "\n";
+  }
+  out << "\nControl (holding register " << kControlRegister
+      << ", unit ID = DP address): write 1 = power cycle, 2 = re-parameterize, 3 = the master "
+         "stops addressing the gateway, 4 = it resumes; reads the last command\n";
+  out << "Faults (docs/faults.md): holding register " << kForcedStateRegister
+      << " = forced CAN state (0 real, 1 warning, 2 error-passive, 3 bus-off), " << kDropRxRegister
+      << " = drop the next N received frames (IRQ_LOST)\n";
+  out << "Exceptions: 0x01 unsupported function, 0x02 address outside the tables, 0x03 bad "
+         "quantity/value, 0x0B unknown unit ID\n";
+  return out.str();
+}
+
+}  // namespace candp2::modbus

@@ -1,0 +1,356 @@
+#include "plant/plant.hpp"
+
+#include <algorithm>
+#include <cstdio>
+
+#include "plant/master_line.hpp"
+#include "plant/slave_line.hpp"
+
+namespace candp2::plant {
+
+using config::BusType;
+
+namespace {
+constexpr std::string_view kGatewayPrefix = "gw:";  // endpoint names; a capture's senders
+constexpr std::string_view kDrivePrefix = "drive:";
+
+bool emulated(std::string_view sender) {
+  return sender.starts_with(kGatewayPrefix) || sender.starts_with(kDrivePrefix);
+}
+}  // namespace
+
+const std::string& BusUnit::interface() const {
+  if (cfg_.type == BusType::SocketCan) return cfg_.interface;
+  return cfg_.channel.empty() ? cfg_.name : cfg_.channel;
+}
+
+// ------------------------------------------------------------------------------- gateway unit
+
+void GatewayUnit::send(const can::Frame& frame) {
+  // Virtual buses tap every frame themselves. On SocketCAN and socketcand buses the first
+  // gateway's channel taps what it sends and receives: it receives what the other gateways on
+  // that bus send (separate sockets/connections), so every frame is seen once.
+  if (!faults_.pass_tx()) return;  // forced bus-off: dropped, counted (docs/faults.md)
+  if (logs_bus_) plant_->tap_can(*bus_, frame, sender_, plant_->now_);
+  channel_->send(frame);
+}
+
+void GatewayUnit::receive(const can::Frame& frame, Time now) {
+  if (faults_.pass_rx()) gateway_->on_can_frame(frame, now);
+}
+
+void GatewayUnit::update_controller() {
+  gateway_->set_controller_status(faults_.state(channel_->bus_state()),
+                                  faults_.rx_lost(channel_->rx_lost()));
+}
+
+// ---------------------------------------------------------------------------------- assembly
+
+Plant::Plant(const config::DaemonConfig& config, Options options, Time now)
+    : config_(config),
+      options_(std::move(options)),
+      log_sink_(options_.log),
+      log_(options_.log, "plant"),
+      now_(now),
+      period_(milliseconds(config.cycle_ms)) {}
+
+Plant::~Plant() = default;
+
+std::unique_ptr<Plant> Plant::build(const config::DaemonConfig& config, Options options, Time now,
+                                    std::string* error) {
+  std::unique_ptr<Plant> p(new Plant(config, std::move(options), now));
+  std::string e;
+  if (!p->build_parts(&e)) {
+    if (error) *error = e;
+    return nullptr;
+  }
+  return p;
+}
+
+bool Plant::build_parts(std::string* error) {
+  const bool line = config_.profibus && !options_.ignore_profibus;
+  master_ = std::make_unique<dp::DpMaster>(
+      dp::MasterOptions{.address = config_.master_address,
+                        .retry_delay = milliseconds(config_.retry_ms)},
+      log_sink_);
+  for (const auto& bc : config_.buses)
+    if (!add_bus(bc, error)) return false;
+  if (line && config_.profibus->role == config::ProfibusRole::Master) {
+    // docs/profibus.md role master: the gateways are remote stations on the line; nothing local.
+    if (!add_remote_stations(error)) return false;
+  } else {
+    if (line) {
+      // docs/profibus.md role slaves: the gateways answer an external master over FDL; the
+      // built-in master does not cycle.
+      slave_line_ = std::make_unique<SlaveLine>(*config_.profibus, master_->image(), log_sink_);
+      master_cycles_ = false;
+    }
+    for (const auto& gc : config_.gateways)
+      if (!add_gateway(gc, error)) return false;
+  }
+  for (const auto& dc : config_.drives)
+    if (!add_drive(dc, error)) return false;
+  next_cycle_ = options_.first_cycle_at_start ? now_ : now_ + period_;
+  cycle_stats_.start(next_cycle_, period_);
+  return true;
+}
+
+bool Plant::add_bus(const config::BusConfig& cfg, std::string* /*error*/) {
+  auto b = std::make_unique<BusUnit>();
+  b->cfg_ = cfg;
+  b->index_ = static_cast<std::uint16_t>(buses_.size());
+  if (cfg.type == BusType::Virtual) {
+    b->vbus_ = std::make_unique<can::VirtualBus>();
+    b->vbus_->set_now(now_);
+    BusUnit* bus = b.get();
+    b->vbus_->add_tap([this, bus](const can::Frame& f, Time t, std::string_view sender) {
+      tap_can(*bus, f, sender, t);
+    });
+  }
+  buses_.push_back(std::move(b));
+  return true;
+}
+
+bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
+  auto g = std::make_unique<GatewayUnit>();
+  g->plant_ = this;
+  g->cfg_ = cfg;
+  g->index_ = gateways_.size();
+  g->sender_ = std::string(kGatewayPrefix) + cfg.name;
+  g->bus_ = bus(cfg.bus);
+  if (!g->bus_) {
+    *error = "gateway \"" + cfg.name + "\": unknown bus \"" + cfg.bus + "\"";
+    return false;
+  }
+  const auto& b = g->bus_->config();
+  if (b.type == BusType::Virtual) {
+    auto ep = g->bus_->virtual_bus()->endpoint(g->sender_);
+    g->endpoint_ = ep.get();
+    g->channel_ = std::move(ep);
+  } else {
+    if (!options_.environment) {
+      *error = "gateway \"" + cfg.name + "\" on bus \"" + b.name + "\" (" + b.json_path + "): a " +
+               std::string(config::to_string(b.type)) + " bus needs the daemon";
+      return false;
+    }
+    std::string e;
+    g->channel_ = options_.environment->open_channel(b, cfg, &e);
+    if (!g->channel_) {
+      *error = "gateway \"" + cfg.name + "\" on bus \"" + b.name + "\" (" + b.json_path + "): " + e;
+      return false;
+    }
+    g->logs_bus_ = std::none_of(gateways_.begin(), gateways_.end(),
+                                [&](const auto& other) { return other->bus_ == g->bus_; });
+  }
+  gw::GatewayOptions o;
+  o.address = cfg.address;
+  o.name = cfg.name;
+  o.cia301_bootup = cfg.cia301_bootup;
+  o.stored_wakeup_s = cfg.stored_wakeup_s;
+  o.stored_sync_ms = cfg.stored_sync_ms;
+  if (const auto it = options_.stored.find(cfg.dp_address()); it != options_.stored.end()) {
+    o.stored_wakeup_s = it->second.wakeup_s;
+    o.stored_sync_ms = it->second.sync_ms;
+  }
+  o.log = log_sink_;
+  g->gateway_ = std::make_unique<gw::Gateway>(o, static_cast<can::FrameSink&>(*g), now_);
+  if (slave_line_)
+    slave_line_->add(g->gateway_->dp(), config::slave_parameters(cfg), cfg.name);
+  else
+    master_->add_slave(g->gateway_->dp(), config::slave_parameters(cfg));
+  log_.info("gateway " + cfg.name + ": DP address " + std::to_string(g->gateway_->address()) +
+            ", " + std::to_string(cfg.slots.size()) + " slots, bus " + b.name + " (" +
+            std::string(config::to_string(b.type)) + ")");
+  gateways_.push_back(std::move(g));
+  return true;
+}
+
+bool Plant::add_drive(const config::DriveConfig& cfg, std::string* error) {
+  BusUnit* b = bus(cfg.bus);
+  if (!b || !b->virtual_bus()) {
+    *error = "drive \"" + cfg.name + "\": bus \"" + cfg.bus + "\" is not a virtual bus";
+    return false;
+  }
+  auto d = std::make_unique<DriveUnit>();
+  d->cfg_ = cfg;
+  d->endpoint_ = b->virtual_bus()->endpoint(std::string(kDrivePrefix) + cfg.name);
+  drive::UnitekDrive::Options o;
+  o.rx_id = cfg.rx_id;
+  o.tx_id = cfg.tx_id;
+  o.name = cfg.name;
+  drive::ParameterStore* store =
+      options_.environment ? options_.environment->drive_store(cfg) : nullptr;
+  try {
+    d->drive_ = std::make_unique<faults::FaultyDrive>(o, log_sink_, store);
+  } catch (const std::exception& e) {
+    *error = "drive \"" + cfg.name + "\" (" + cfg.json_path + "): " + e.what();
+    return false;
+  }
+  char ids[64];
+  std::snprintf(ids, sizeof ids, "Rx ID 0x%03X, Tx ID 0x%03X", static_cast<unsigned>(cfg.rx_id),
+                static_cast<unsigned>(cfg.tx_id));
+  log_.info("drive " + cfg.name + ": Unitek on bus " + cfg.bus + ", " + ids);
+  drives_.push_back(std::move(d));
+  return true;
+}
+
+bool Plant::add_remote_stations(std::string* /*error*/) {
+  master_line_ = std::make_unique<MasterLine>(*config_.profibus, config_.master_address, log_sink_);
+  for (const auto& gc : config_.gateways) {
+    master_->add_slave(master_line_->station(gc.dp_address()), config::slave_parameters(gc));
+    master_line_->add_remote(gc.dp_address(), gc.name);
+  }
+  return true;
+}
+
+// -------------------------------------------------------------------------------------- time
+
+std::optional<Time> Plant::next_deadline() const {
+  std::optional<Time> next = next_cycle_;
+  auto earliest = [&](std::optional<Time> d) {
+    if (d && (!next || *d < *next)) next = d;
+  };
+  for (const auto& g : gateways_) earliest(g->gateway_->next_deadline());
+  for (const auto& d : drives_) earliest(d->drive_->next_deadline());
+  if (master_line_) earliest(master_line_->next_deadline());
+  return next;
+}
+
+void Plant::set_now(Time now) {
+  if (now < now_) return;
+  now_ = now;
+  for (auto& b : buses_)
+    if (b->vbus_) b->vbus_->set_now(now);
+}
+
+void Plant::run_timers(Time now) {
+  for (auto& g : gateways_)
+    if (const auto d = g->gateway_->next_deadline(); d && *d <= now) g->gateway_->advance(now);
+  for (auto& d : drives_)
+    if (const auto t = d->drive_->next_deadline(); t && *t <= now)
+      d->drive_->advance(now, *d->endpoint_);
+  if (master_line_)
+    if (const auto t = master_line_->next_deadline(); t && *t <= now) master_line_->advance(now);
+}
+
+void Plant::advance(Time now) {
+  set_now(now);
+  run_timers(now_);
+  deliver(now_);
+  if (now_ >= next_cycle_) {
+    run_cycle(now_);
+    deliver(now_);
+  }
+}
+
+void Plant::run_cycle(Time now) {
+  // A cycle whose grid point is more than one period past is not caught up: the ticks in
+  // between are skipped, as the event loop's periodic timer skips them.
+  while (next_cycle_ + period_ <= now) next_cycle_ += period_;
+  next_cycle_ += period_;
+  if (master_cycles_) {
+    cycle_stats_.record(now);
+    master_->cycle(now);
+    ++cycles_;
+    if (master_line_) master_line_->check_presence(*master_);
+  }
+  if (slave_line_) slave_line_->check_presence(now);
+  for (const auto& hook : cycle_hooks_) hook(now);
+}
+
+bool Plant::deliver(Time now) {
+  set_now(now);
+  bool any = false;
+  for (bool work = true; work;) {
+    work = false;
+    for (auto& g : gateways_) {
+      if (!g->endpoint_) continue;
+      while (auto f = g->endpoint_->receive()) {
+        g->receive(*f, now_);
+        work = true;
+      }
+      g->update_controller();
+    }
+    for (auto& d : drives_)
+      while (auto f = d->endpoint_->receive()) {
+        d->drive_->on_frame(*f, now_, *d->endpoint_);  // muted: stops answering
+        work = true;
+      }
+    any = any || work;
+  }
+  return any;
+}
+
+void Plant::receive(std::size_t index, Time now) {
+  set_now(now);
+  GatewayUnit& g = *gateways_.at(index);
+  while (auto f = g.channel_->receive()) {
+    if (g.logs_bus_) tap_can(*g.bus_, *f, "bus", now_);
+    g.receive(*f, now_);
+  }
+  g.update_controller();
+}
+
+// --------------------------------------------------------------------------------- observers
+
+void Plant::add_tap(Tap* tap) {
+  taps_.push_back(tap);
+}
+
+void Plant::remove_tap(Tap* tap) {
+  std::erase(taps_, tap);
+}
+
+void Plant::tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender,
+                    Time time) {
+  if (taps_.empty()) return;
+  const CanRecord r{.time = time,
+                    .bus = bus.index(),
+                    .bus_name = bus.name(),
+                    .interface = bus.interface(),
+                    .frame = frame,
+                    .sender = sender,
+                    .from_emulation = emulated(sender)};
+  for (Tap* t : taps_) t->on_can(r);
+}
+
+void Plant::tap_note(std::string text, Time now) {
+  if (taps_.empty()) return;
+  const NoteRecord r{.time = now, .text = text};
+  for (Tap* t : taps_) t->on_note(r);
+}
+
+// -------------------------------------------------------------------------------- inspection
+
+BusUnit* Plant::bus(std::string_view name) {
+  for (auto& b : buses_)
+    if (b->name() == name) return b.get();
+  return nullptr;
+}
+
+GatewayUnit* Plant::gateway(std::string_view name) {
+  for (auto& g : gateways_)
+    if (g->name() == name) return g.get();
+  return nullptr;
+}
+
+GatewayUnit* Plant::gateway_at(std::uint8_t dp_address) {
+  for (auto& g : gateways_)
+    if (g->gateway_->address() == dp_address) return g.get();
+  return nullptr;
+}
+
+DriveUnit* Plant::drive(std::string_view name) {
+  for (auto& d : drives_)
+    if (d->name() == name) return d.get();
+  return nullptr;
+}
+
+std::map<std::uint8_t, StoredValues> Plant::stored() const {
+  std::map<std::uint8_t, StoredValues> out;
+  for (const auto& g : gateways_)
+    out[g->gateway_->address()] = {g->gateway_->stored_wakeup_s(), g->gateway_->stored_sync_ms()};
+  return out;
+}
+
+}  // namespace candp2::plant

@@ -1,0 +1,262 @@
+// The plant (docs/architecture.md "The plant"): one configured installation, assembled once from
+// the daemon's configuration — the CAN buses, every gateway behind its CAN fault layer, the
+// simulated drives behind theirs, the DP master with its PLC process image and its cycle, and the
+// stations of a PROFIBUS line. candp2d drives it from its event loop in real time; `candp2 replay`
+// drives the very same object in virtual time.
+//
+// Pure like the engines it holds: no sockets, no threads, no clock, no global state. Time comes in
+// through every entry point; the plant says when it next needs attention (next_deadline()) and
+// does that work in advance(now). What needs the operating system is handed in by its driver: the
+// CAN channels of SocketCAN and socketcand buses (Environment::open_channel), the drives'
+// parameter files, the serial line's bytes (SlaveLine / MasterLine). Observers attach to the one
+// tap (plant/tap.hpp); faults and other operator actions go through the control surface below,
+// which logs each one and shows it on the tap as a note.
+//
+//   advance(now): gateways' and drives' timers → frames delivered between in-process endpoints →
+//                 the master cycle when due (PLC program scan, Data_Exchanges) → frames delivered →
+//                 cycle hooks
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "can/channel.hpp"
+#include "can/virtual_bus.hpp"
+#include "common/log.hpp"
+#include "common/time.hpp"
+#include "config/config.hpp"
+#include "drive_sim/parameter_store.hpp"
+#include "faults/can_fault.hpp"
+#include "faults/drive_fault.hpp"
+#include "gateway/gateway.hpp"
+#include "plant/cycle_stats.hpp"
+#include "plant/tap.hpp"
+#include "profibus_sim/master/dp_master.hpp"
+
+namespace candp2::plant {
+
+class MasterLine;
+class SlaveLine;
+class Plant;
+
+// A gateway's stored wake-up and SYNC values (docs/decisions.md "Stored values": they survive a
+// restart of the daemon when a state file is configured).
+struct StoredValues {
+  std::uint8_t wakeup_s = 0;
+  std::uint16_t sync_ms = 0;
+  friend bool operator==(const StoredValues&, const StoredValues&) = default;
+};
+
+// What the plant cannot do itself. candp2d opens sockets here; replay has no such buses.
+class Environment {
+ public:
+  virtual ~Environment() = default;
+  // The channel of `gateway` on a SocketCAN or socketcand bus; nullptr and *error when it cannot
+  // be opened.
+  virtual std::unique_ptr<can::Channel> open_channel(const config::BusConfig& bus,
+                                                     const config::GatewayConfig& gateway,
+                                                     std::string* error) = 0;
+  // The parameter memory of a drive with a state_file; nullptr: none.
+  virtual drive::ParameterStore* drive_store(const config::DriveConfig& /*drive*/) {
+    return nullptr;
+  }
+};
+
+struct Options {
+  LogSink* log = nullptr;
+  Environment* environment = nullptr;           // needed when a gateway is on a non-virtual bus
+  std::map<std::uint8_t, StoredValues> stored;  // by DP address, from the state file
+  // Replay: the `profibus` section is not used; the built-in master drives the gateways
+  // in-process (docs/replay-format.md).
+  bool ignore_profibus = false;
+  // The first master cycle runs at build time (replay: cycles at 0, T, 2T, ...) instead of one
+  // period later (candp2d, like its event loop's periodic timer).
+  bool first_cycle_at_start = false;
+};
+
+// One CAN bus of the configuration.
+class BusUnit {
+ public:
+  const config::BusConfig& config() const { return cfg_; }
+  const std::string& name() const { return cfg_.name; }
+  std::uint16_t index() const { return index_; }
+  // The name a capture or a CAN log shows: the SocketCAN interface, else the exported bus name.
+  const std::string& interface() const;
+  // The in-process bus (virtual buses only): the daemon attaches its socketcand export here.
+  can::VirtualBus* virtual_bus() { return vbus_.get(); }
+
+ private:
+  friend class Plant;
+  config::BusConfig cfg_;
+  std::uint16_t index_ = 0;
+  std::unique_ptr<can::VirtualBus> vbus_;
+};
+
+// One emulated gateway: its channel, the fault layer in between, the firmware engine.
+class GatewayUnit final : private can::FrameSink {
+ public:
+  const config::GatewayConfig& config() const { return cfg_; }
+  const std::string& name() const { return cfg_.name; }
+  std::size_t index() const { return index_; }
+  gw::Gateway& gateway() { return *gateway_; }
+  const gw::Gateway& gateway() const { return *gateway_; }
+  const faults::CanFaultLayer& faults() const { return faults_; }
+  can::Channel& channel() { return *channel_; }
+  const can::Channel& channel() const { return *channel_; }
+  BusUnit& bus() { return *bus_; }
+  const BusUnit& bus() const { return *bus_; }
+  // socketcand client channels: reconnections so far (status block).
+  std::uint32_t reconnects() const { return channel_->reconnects(); }
+
+ private:
+  friend class Plant;
+  void send(const can::Frame& frame) override;  // the gateway transmits
+  void receive(const can::Frame& frame, Time now);
+  void update_controller();
+
+  Plant* plant_ = nullptr;
+  config::GatewayConfig cfg_;
+  std::size_t index_ = 0;
+  BusUnit* bus_ = nullptr;
+  std::unique_ptr<can::Channel> channel_;
+  can::VirtualEndpoint* endpoint_ = nullptr;  // == channel_ on virtual buses
+  bool logs_bus_ = false;                     // taps its (non-virtual) bus: the first gateway on it
+  std::string sender_;  // "gw:NAME": the endpoint name on a virtual bus, the tap's sender
+  faults::CanFaultLayer faults_;
+  std::unique_ptr<gw::Gateway> gateway_;
+};
+
+// One simulated drive on a virtual bus, behind its fault layer.
+class DriveUnit {
+ public:
+  const config::DriveConfig& config() const { return cfg_; }
+  const std::string& name() const { return cfg_.name; }
+  faults::FaultyDrive& drive() { return *drive_; }
+  const faults::FaultyDrive& drive() const { return *drive_; }
+  can::VirtualEndpoint& endpoint() { return *endpoint_; }
+
+ private:
+  friend class Plant;
+  config::DriveConfig cfg_;
+  std::unique_ptr<can::VirtualEndpoint> endpoint_;
+  std::unique_ptr<faults::FaultyDrive> drive_;
+};
+
+class Plant {
+ public:
+  // Assembles the configuration at time `now` (the gateways' power-on). nullptr and *error
+  // ("gateway \"g1\" on bus \"hw\" ($.buses.hw): cannot open ...") when a part cannot be built.
+  static std::unique_ptr<Plant> build(const config::DaemonConfig& config, Options options, Time now,
+                                      std::string* error);
+  ~Plant();
+  Plant(const Plant&) = delete;
+  Plant& operator=(const Plant&) = delete;
+
+  // ---- time ---------------------------------------------------------------------------------
+  // The earliest time something is due: the next master cycle, a gateway's or drive's timer.
+  std::optional<Time> next_deadline() const;
+  // Runs everything due at or before `now`. A master cycle whose time passed more than one period
+  // ago is not run late a second time: it counts as missed (cycle_stats()).
+  void advance(Time now);
+  // Delivers frames queued between in-process endpoints until none is left (a drive answers a
+  // gateway at once). True when something was delivered. candp2d calls it after every event.
+  bool deliver(Time now);
+  // Frames waiting on a gateway's channel with a descriptor (SocketCAN, socketcand client).
+  void receive(std::size_t gateway, Time now);
+  // The time stamp for frames that enter a virtual bus from outside the plant's entry points (a
+  // socketcand client of the daemon's export). Never goes back.
+  void set_now(Time now);
+  Time now() const { return now_; }
+
+  // ---- observers ----------------------------------------------------------------------------
+  // Taps are called in the order they were added; not owned; must outlive the plant or be
+  // removed.
+  void add_tap(Tap* tap);
+  void remove_tap(Tap* tap);
+  // After every cycle period, whether the built-in master runs (not in profibus role slaves).
+  void on_cycle(std::function<void(Time now)> hook) { cycle_hooks_.push_back(std::move(hook)); }
+
+  // ---- control surface (docs/faults.md); `origin` ends the log line ("over Modbus") ----------
+  // Holding register 8193 semantics: 0 real state, 1 warning, 2 error-passive, 3 bus-off; false
+  // (nothing changes) for other values.
+  bool force_can_state(GatewayUnit& g, std::uint16_t code, Time now, std::string_view origin);
+  void drop_rx(GatewayUnit& g, std::uint32_t n, Time now, std::string_view origin);
+  void power_cycle(GatewayUnit& g, Time now, std::string_view origin);
+  // The built-in master parameterizes the station at `address` again (a gateway, or a remote
+  // station in role master). False when no built-in master drives it (role slaves: an external
+  // master parameterizes; the reason is logged).
+  bool reparameterize(std::uint8_t address, Time now, std::string_view origin);
+  // The master stops addressing the station (false) or addresses it again (true).
+  void set_addressed(std::uint8_t address, bool addressed, Time now, std::string_view origin);
+  // A drive's fault register (faults::kDriveMute .. kDriveRestart).
+  void set_drive_fault(DriveUnit& d, std::uint16_t index, std::uint16_t value, Time now,
+                       std::string_view origin);
+  // A note on the tap without any action (replay's "note" steps, the daemon's start and stop).
+  void note(std::string_view text, Time now);
+
+  // ---- inspection ---------------------------------------------------------------------------
+  const config::DaemonConfig& config() const { return config_; }
+  dp::DpMaster& master() { return *master_; }
+  const dp::DpMaster& master() const { return *master_; }
+  // False in profibus role slaves: an external master drives the gateways.
+  bool master_runs() const { return master_cycles_; }
+  std::vector<std::unique_ptr<BusUnit>>& buses() { return buses_; }
+  std::vector<std::unique_ptr<GatewayUnit>>& gateways() { return gateways_; }
+  const std::vector<std::unique_ptr<GatewayUnit>>& gateways() const { return gateways_; }
+  std::vector<std::unique_ptr<DriveUnit>>& drives() { return drives_; }
+  BusUnit* bus(std::string_view name);
+  GatewayUnit* gateway(std::string_view name);
+  GatewayUnit* gateway_at(std::uint8_t dp_address);
+  DriveUnit* drive(std::string_view name);
+  // The stored values of every gateway now (for the daemon's state file).
+  std::map<std::uint8_t, StoredValues> stored() const;
+  const CycleStats& cycle_stats() const { return cycle_stats_; }
+  std::uint64_t cycles() const { return cycles_; }
+  Duration cycle_period() const { return period_; }
+  // profibus role slaves / role master: the line's stations; nullptr otherwise.
+  SlaveLine* slave_line() { return slave_line_.get(); }
+  MasterLine* master_line() { return master_line_.get(); }
+  LogSink* log_sink() const { return log_sink_; }
+
+ private:
+  friend class GatewayUnit;
+  Plant(const config::DaemonConfig& config, Options options, Time now);
+  bool build_parts(std::string* error);
+  bool add_bus(const config::BusConfig& cfg, std::string* error);
+  bool add_gateway(const config::GatewayConfig& cfg, std::string* error);
+  bool add_drive(const config::DriveConfig& cfg, std::string* error);
+  bool add_remote_stations(std::string* error);
+  void run_timers(Time now);
+  void run_cycle(Time now);
+  void tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender, Time time);
+  void tap_note(std::string text, Time now);
+
+  config::DaemonConfig config_;
+  Options options_;
+  LogSink* log_sink_;
+  Logger log_;
+  Time now_{0};
+  std::vector<std::unique_ptr<BusUnit>> buses_;
+  std::vector<std::unique_ptr<GatewayUnit>> gateways_;
+  std::vector<std::unique_ptr<DriveUnit>> drives_;
+  std::unique_ptr<dp::DpMaster> master_;
+  std::unique_ptr<SlaveLine> slave_line_;
+  std::unique_ptr<MasterLine> master_line_;
+  std::vector<std::unique_ptr<dp::SlaveLink>> links_;  // the master's in-process links
+  std::vector<Tap*> taps_;
+  std::vector<std::function<void(Time)>> cycle_hooks_;
+  bool master_cycles_ = true;
+  Duration period_{0};
+  Time next_cycle_{0};
+  std::uint64_t cycles_ = 0;
+  CycleStats cycle_stats_;
+};
+
+}  // namespace candp2::plant
