@@ -11,6 +11,7 @@
 #include <unordered_map>
 
 #include "http/web/assets.hpp"
+#include "net/tcp_listener.hpp"
 
 namespace candp2::http {
 
@@ -62,25 +63,23 @@ class HttpServerImpl final : public HttpServer {
   }
 
   bool start(std::string* error) {
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_port = htons(options_.port);
-    if (::inet_pton(AF_INET, options_.host.c_str(), &addr.sin_addr) != 1) {
-      *error = "\"" + options_.host + "\" is not a numeric IPv4 address";
-      return false;
-    }
+    // The listening socket comes from the helper both faces share (net/tcp_listener.hpp);
+    // libmicrohttpd owns it from here on (it closes it in MHD_stop_daemon).
+    auto listener = net::TcpListener::listen(options_.host, options_.port, options_.backlog, error);
+    if (!listener) return false;
     daemon_ = MHD_start_daemon(
         MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME | MHD_USE_ERROR_LOG, options_.port, nullptr,
         nullptr, &HttpServerImpl::on_request, this,
         // the logger first: MHD reports option errors through the logger set before them
-        MHD_OPTION_EXTERNAL_LOGGER, &HttpServerImpl::on_mhd_log, this, MHD_OPTION_SOCK_ADDR, &addr,
-        MHD_OPTION_CONNECTION_LIMIT, options_.max_connections, MHD_OPTION_CONNECTION_TIMEOUT,
-        options_.connection_timeout_s, MHD_OPTION_END);
+        MHD_OPTION_EXTERNAL_LOGGER, &HttpServerImpl::on_mhd_log, this, MHD_OPTION_LISTEN_SOCKET,
+        listener->fd(), MHD_OPTION_CONNECTION_LIMIT, options_.max_connections,
+        MHD_OPTION_CONNECTION_TIMEOUT, options_.connection_timeout_s, MHD_OPTION_END);
     if (!daemon_) {
-      *error = "cannot listen on " + options_.host + ":" + std::to_string(options_.port) +
-               " (libmicrohttpd refused; is the port in use?)";
+      *error = "cannot serve HTTP on " + options_.host + ":" + std::to_string(listener->port()) +
+               " (libmicrohttpd refused)";
       return false;
     }
+    listener->release();
     const auto* info = MHD_get_daemon_info(daemon_, MHD_DAEMON_INFO_EPOLL_FD);
     const auto* port = MHD_get_daemon_info(daemon_, MHD_DAEMON_INFO_BIND_PORT);
     if (!info || !port) {

@@ -33,6 +33,7 @@ class HttpServer {
     std::uint16_t port = 8080;                   // 0 = any free port (see port())
     Duration push_interval = milliseconds(200);  // SSE snapshots at most this often
     unsigned max_connections = 64;
+    int backlog = 128;  // connection bursts queue instead of retrying SYNs after 1 s
     unsigned connection_timeout_s = 60;  // idle keep-alive connections
     // GET /api/v1/status waits for the end of the next master cycle (after_cycle) and is answered
     // there, all waiting requests with one snapshot, so building it never delays a cycle start.

@@ -16,16 +16,11 @@
 
 #include "common/hex.hpp"
 #include "common/idle_clients.hpp"
+#include "net/tcp_listener.hpp"
 
 namespace candp2::modbus {
 
 namespace {
-
-std::string peer_name(const sockaddr_in& a) {
-  char host[INET_ADDRSTRLEN] = "?";
-  ::inet_ntop(AF_INET, &a.sin_addr, host, sizeof host);
-  return std::string(host) + ":" + std::to_string(ntohs(a.sin_port));
-}
 
 // Bytes read from a client per readiness callback: enough for many pipelined requests, small
 // enough that one busy client cannot starve the others (the loop is level-triggered).
@@ -48,10 +43,7 @@ class Server final : public ModbusServer {
       ::close(fd);
     }
     clients_.clear();
-    if (listen_fd_ >= 0) {
-      loop_.remove_fd(listen_fd_);
-      ::close(listen_fd_);
-    }
+    if (listener_) loop_.remove_fd(listener_->fd());
     if (ctx_) {
       modbus_set_socket(ctx_, -1);
       modbus_free(ctx_);
@@ -65,19 +57,11 @@ class Server final : public ModbusServer {
       *error = "cannot create the Modbus context for " + where + ": " + modbus_strerror(errno);
       return false;
     }
-    listen_fd_ = modbus_tcp_listen(ctx_, options_.backlog);
-    if (listen_fd_ < 0) {
-      *error = "cannot listen on " + where + ": " + modbus_strerror(errno);
-      return false;
-    }
-    ::fcntl(listen_fd_, F_SETFL, ::fcntl(listen_fd_, F_GETFL) | O_NONBLOCK);
-    ::fcntl(listen_fd_, F_SETFD, FD_CLOEXEC);
-    sockaddr_in bound{};
-    socklen_t len = sizeof bound;
-    ::getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&bound), &len);
-    port_ = ntohs(bound.sin_port);
+    listener_ = net::TcpListener::listen(options_.host, options_.port, options_.backlog, error);
+    if (!listener_) return false;
+    port_ = listener_->port();
     if (!loop_.add_fd(
-            listen_fd_, EventLoop::kReadable, [this](std::uint32_t) { accept_all(); }, error))
+            listener_->fd(), EventLoop::kReadable, [this](std::uint32_t) { accept_all(); }, error))
       return false;
     log_.info("listening on " + options_.host + ":" + std::to_string(port_));
     return true;
@@ -96,59 +80,53 @@ class Server final : public ModbusServer {
   };
 
   void accept_all() {
-    for (;;) {
-      sockaddr_in peer{};
-      socklen_t len = sizeof peer;
-      const int fd = ::accept4(listen_fd_, reinterpret_cast<sockaddr*>(&peer), &len,
-                               SOCK_NONBLOCK | SOCK_CLOEXEC);
-      if (fd < 0) {
-        if (errno == EINTR || errno == ECONNABORTED) continue;
-        if (errno != EAGAIN && errno != EWOULDBLOCK)
-          log_.error(std::string("accept failed: ") + std::strerror(errno));
+    std::string error;
+    if (!listener_->accept_all([this](int fd, const sockaddr_in& peer) { accepted(fd, peer); },
+                               &error))
+      log_.error(error);
+  }
+
+  void accepted(int fd, const sockaddr_in& peer) {
+    const std::string name = net::peer_name(peer);
+    if (clients_.size() >= options_.max_clients) {
+      // Many Modbus/TCP devices do this: the client idle longest makes room for the new one.
+      const auto victim = idle_.longest_idle();
+      if (!victim || options_.max_clients == 0) {
+        ++stats_.clients_refused;
+        log_.warn("client " + name + " refused: limit of " + std::to_string(options_.max_clients) +
+                  " clients");
+        ::close(fd);
         return;
       }
-      const std::string name = peer_name(peer);
-      if (clients_.size() >= options_.max_clients) {
-        // Many Modbus/TCP devices do this: the client idle longest makes room for the new one.
-        const auto victim = idle_.longest_idle();
-        if (!victim || options_.max_clients == 0) {
-          ++stats_.clients_refused;
-          log_.warn("client " + name + " refused: limit of " +
-                    std::to_string(options_.max_clients) + " clients");
-          ::close(fd);
-          continue;
-        }
-        const int vfd = static_cast<int>(*victim);
-        const auto idle_s = (loop_.now() - idle_.last_activity(*victim).value_or(loop_.now()));
-        ++stats_.clients_evicted;
-        close_client(
-            vfd,
-            "evicted for " + name + " (limit " + std::to_string(options_.max_clients) +
-                " clients; idle longest, " +
-                std::to_string(
-                    std::chrono::duration_cast<std::chrono::milliseconds>(idle_s).count()) +
-                " ms)",
-            false, LogLevel::Warn);
-      }
-      // Answers are small; without TCP_NODELAY Nagle's algorithm would hold back an answer while
-      // an earlier one is unacknowledged.
-      const int one = 1;
-      ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-      std::string error;
-      if (!loop_.add_fd(
-              fd, EventLoop::kReadable, [this, fd](std::uint32_t) { on_readable(fd); }, &error)) {
-        log_.error("client " + name + ": " + error);
-        ::close(fd);
-        continue;
-      }
-      auto& c = clients_[fd];
-      c.fd = fd;
-      c.name = name;
-      idle_.touch(static_cast<IdleClients::Id>(fd), loop_.now());
-      arm_idle_timer();
-      ++stats_.clients_accepted;
-      log_.info("client " + name + " connected (" + std::to_string(clients_.size()) + " now)");
+      const int vfd = static_cast<int>(*victim);
+      const auto idle_s = (loop_.now() - idle_.last_activity(*victim).value_or(loop_.now()));
+      ++stats_.clients_evicted;
+      close_client(vfd,
+                   "evicted for " + name + " (limit " + std::to_string(options_.max_clients) +
+                       " clients; idle longest, " +
+                       std::to_string(
+                           std::chrono::duration_cast<std::chrono::milliseconds>(idle_s).count()) +
+                       " ms)",
+                   false, LogLevel::Warn);
     }
+    // Answers are small; without TCP_NODELAY Nagle's algorithm would hold back an answer while
+    // an earlier one is unacknowledged.
+    const int one = 1;
+    ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    std::string error;
+    if (!loop_.add_fd(
+            fd, EventLoop::kReadable, [this, fd](std::uint32_t) { on_readable(fd); }, &error)) {
+      log_.error("client " + name + ": " + error);
+      ::close(fd);
+      return;
+    }
+    auto& c = clients_[fd];
+    c.fd = fd;
+    c.name = name;
+    idle_.touch(static_cast<IdleClients::Id>(fd), loop_.now());
+    arm_idle_timer();
+    ++stats_.clients_accepted;
+    log_.info("client " + name + " connected (" + std::to_string(clients_.size()) + " now)");
   }
 
   void close_client(int fd, std::string_view why, bool dropped, LogLevel level = LogLevel::Info) {
@@ -303,7 +281,7 @@ class Server final : public ModbusServer {
   Handler& handler_;
   Logger log_;
   modbus_t* ctx_ = nullptr;
-  int listen_fd_ = -1;
+  std::unique_ptr<net::TcpListener> listener_;
   std::uint16_t port_ = 0;
   std::unordered_map<int, Client> clients_;
   Stats stats_;

@@ -220,6 +220,7 @@ class Plant {
   const CycleStats& cycle_stats() const { return cycle_stats_; }
   std::uint64_t cycles() const { return cycles_; }
   Duration cycle_period() const { return period_; }
+  Time next_cycle() const { return next_cycle_; }
   // profibus role slaves / role master: the line's stations; nullptr otherwise.
   SlaveLine* slave_line() { return slave_line_.get(); }
   MasterLine* master_line() { return master_line_.get(); }

@@ -80,9 +80,10 @@ std::string format_report(const Scenario& sc, const RunResult& r, const ReportOp
       for (; traffic < r.traffic.size() && r.traffic[traffic].time <= s.end; ++traffic) {
         const auto& t = r.traffic[traffic];
         out += time_text(t.time) + "      " +
-               (t.from_gateway    ? std::string("gateway -> ")
-                : t.drive.empty() ? std::string("replay  -> ")
-                                  : t.drive + " -> ") +
+               (t.from_gateway && sc.installation.gateways.size() > 1 ? t.gateway + " -> "
+                : t.from_gateway                                      ? std::string("gateway -> ")
+                : t.drive.empty()                                     ? std::string("replay  -> ")
+                                                                      : t.drive + " -> ") +
                can::format_candump(t.frame) + "\n";
       }
   }
@@ -150,8 +151,26 @@ std::string format_can_log(const RunResult& r, const std::string& interface) {
   return out;
 }
 
+std::string format_can_log(const Scenario& sc, const RunResult& r) {
+  std::string out;
+  for (const auto& t : r.traffic) {
+    can::LogLine l;
+    l.sec = t.time.count() / 1000000;
+    l.usec = static_cast<std::uint32_t>(t.time.count() % 1000000);
+    l.interface = bus_interface(sc, t.bus);
+    l.frame = t.frame;
+    out += can::format_log_line(l) + "\n";
+  }
+  return out;
+}
+
+std::string bus_interface(const Scenario& sc, std::size_t bus) {
+  const auto& b = sc.installation.buses.at(bus);
+  return b.channel.empty() ? b.name : b.channel;
+}
+
 std::string log_interface(const Scenario& sc) {
-  return sc.gateway.bus.empty() ? "can0" : sc.gateway.bus;
+  return bus_interface(sc, 0);
 }
 
 }  // namespace candp2::replay

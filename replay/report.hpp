@@ -22,7 +22,11 @@ std::string format_junit(const Scenario& sc, const RunResult& r);
 std::string format_junit_error(const std::string& file, const config::ConfigError& e);
 // candump -l lines "(0.040000) can0 201#0102..." with the virtual time as the time stamp.
 std::string format_can_log(const RunResult& r, const std::string& interface);
-// The interface name for the candump log: the gateway's "bus", else "can0".
+// Every frame under its own bus's interface name (the SocketCAN interface, else the bus's
+// exported name; version 1: the gateway's "bus", else "can0").
+std::string format_can_log(const Scenario& sc, const RunResult& r);
+std::string bus_interface(const Scenario& sc, std::size_t bus);
+// The first bus's interface name (the only one of a version-1 scenario).
 std::string log_interface(const Scenario& sc);
 
 }  // namespace candp2::replay

@@ -1,8 +1,8 @@
-// Runs a replay scenario in virtual time: the emulated gateway (gw::Gateway), the simulated DP
-// master with the PLC process image (dp::DpMaster), the optional Page-Mode driver
-// (plc::PageDriver) and a virtual CAN bus (can::VirtualBus) with a second node that injects the
-// scenario's frames. No clock, no threads, no randomness: the same scenario gives the same result
-// every run.
+// Runs a replay scenario in virtual time: the scenario's installation assembled as candp2d
+// assembles it (plant::Plant: gateways behind their fault layers, drives, the DP master with the
+// PLC process image), the optional Page-Mode driver (plc::PageDriver) and, on every bus, a node
+// that injects the scenario's frames. No clock, no threads, no randomness: the same scenario gives
+// the same result every run.
 //
 // Time model: the master cycles at 0, cycle, 2 × cycle, ... (the PLC program scans, then the
 // Data_Exchange); the gateway's own timers fire at the times it announces; CAN frames are
@@ -34,7 +34,9 @@ struct Traffic {
   Time time{0};
   can::Frame frame;
   bool from_gateway = false;
+  std::string gateway;  // the gateway that sent it (from_gateway)
   std::string drive;  // the simulated drive that sent it; empty for the gateway and injected frames
+  std::size_t bus = 0;  // index into the installation's buses
 };
 
 struct LogEntry {

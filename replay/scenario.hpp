@@ -1,7 +1,10 @@
-// A replay scenario (docs/replay-format.md, format "candp2-replay" version 1): one emulated gateway
-// configured exactly like a daemon "gateways" entry, the simulated DP master's cycle time, an
-// optional Page-Mode driver (the FB2 equivalent), optional simulated Unitek drives and timed steps
-// — write PLC outputs, inject CAN frames, advance time, expect frames / input bytes / diagnosis.
+// A replay scenario (docs/replay-format.md, format "candp2-replay"): the installation the steps run
+// against — version 1: one emulated gateway configured exactly like a daemon "gateways" entry, the
+// simulated DP master's cycle time, optional simulated Unitek drives; version 2 may instead name a
+// whole candp2d configuration ("config") with several gateways, drives and buses — an optional
+// Page-Mode driver (the FB2 equivalent), and timed steps: write PLC outputs, inject CAN frames,
+// advance time, expect frames / input bytes / diagnosis, inject faults. Steps that concern one
+// gateway name it ("gateway") when the installation has more than one.
 // Parsing is strict: every error names the file and the JSON path.
 #pragma once
 
@@ -22,7 +25,7 @@
 namespace candp2::replay {
 
 inline constexpr std::string_view kFormat = "candp2-replay";
-inline constexpr int kVersion = 1;
+inline constexpr int kVersion = 2;  // the newest version this candp2 reads (1 and 2)
 
 // Hex bytes where "??" matches any byte: "00 33 ?? 00".
 struct BytePattern {
@@ -112,9 +115,15 @@ struct Step {
   std::uint16_t bits = 0;       // drive_error_bits / drive_warning_bits
   // expect_counters: name → value, names as the Modbus status block (docs/modbus.md).
   std::vector<std::pair<std::string, std::uint32_t>> counters;
+  // The gateway the step concerns (index into Scenario::installation.gateways) and, for inject,
+  // the bus the frames enter (index into installation.buses).
+  std::size_t gateway = 0;
+  std::string gateway_name;
+  std::size_t bus = 0;
 
   bool expectation() const;
   std::string describe() const;  // one line for the report
+  std::string describe_action() const;
 };
 
 // The Page-Mode driver of a scenario (key "page_driver").
@@ -131,16 +140,26 @@ struct DriverSpec {
 
 struct Scenario {
   std::string file;
+  int version = 1;
   std::string name;
   std::string description;
   Duration cycle = milliseconds(10);
   std::uint8_t master_address = 1;
-  config::GatewayConfig gateway;
+  // What the steps run against, as candp2d would run it: built from "gateway", "drives",
+  // "cycle_ms" and "master_address" (one virtual bus named after the gateway's bus, "can0" by
+  // default), or loaded from "config" (version 2; `config_file` is its path). Replay opens none of
+  // its sockets and serial lines (docs/replay-format.md).
+  config::DaemonConfig installation;
+  std::string config_file;
+  // The Page-Mode driver and the gateway it drives (index into installation.gateways).
   std::optional<DriverSpec> driver;
-  // Simulated Unitek drives on the gateway's bus (entries as in the daemon's "drives" array).
-  std::vector<config::DriveConfig> drives;
+  std::size_t driver_gateway = 0;
   std::vector<Step> steps;
   std::vector<config::ConfigError> warnings;
+
+  // The only gateway of a version-1 scenario (the first one of a configuration).
+  const config::GatewayConfig& gateway() const { return installation.gateways.at(0); }
+  const std::vector<config::DriveConfig>& drives() const { return installation.drives; }
 };
 
 config::Result<Scenario> parse_scenario(const std::string& text, const std::string& file);

@@ -61,8 +61,8 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(
         BadCase{"not JSON", "{", "", "not valid JSON"},
         BadCase{"format", R"({"format": "x", "version": 1})", "$.format", "candp2-replay"},
-        BadCase{"version", R"({"format": "candp2-replay", "version": 2})", "$.version",
-                "reads version 1"},
+        BadCase{"version", R"({"format": "candp2-replay", "version": 3})", "$.version",
+                "reads versions 1 and 2"},
         BadCase{"unknown top key", slots_scenario("", R"("cycle": 10,)"), "$.cycle", "unknown key"},
         BadCase{"gateway error",
                 slots_scenario("").replace(slots_scenario("").find("02,89,B8"), 8, "2,89,B8"),
@@ -137,7 +137,7 @@ TEST(ScenarioParse, NumbersAsHexStringsAndComments) {
   ASSERT_EQ(sc.steps.size(), 2u);
   EXPECT_EQ(sc.steps[0].advance, milliseconds(16));
   EXPECT_EQ(sc.steps[1].action, Action::Note);
-  EXPECT_EQ(sc.gateway.address, 5);
+  EXPECT_EQ(sc.gateway().address, 5);
 }
 
 TEST(ScenarioParse, PageDriverDefaultsFromTheSegments) {

@@ -60,8 +60,7 @@ int run_replay(const ReplayArgs& a) {
   bool written = true;
   if (!a.junit.empty()) written &= write_file(a.junit, replay::format_junit(sc, result), "JUnit");
   if (!a.can_log.empty())
-    written &=
-        write_file(a.can_log, replay::format_can_log(result, replay::log_interface(sc)), "CAN log");
+    written &= write_file(a.can_log, replay::format_can_log(sc, result), "CAN log");
   if (!written) return 2;
   return result.passed() ? 0 : 1;
 }

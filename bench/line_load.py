@@ -1,0 +1,190 @@
+#!/usr/bin/python3
+"""The largest line the product allows, measured from outside (docs/daemon.md "Measurements").
+
+candp2d runs 122 gateways (DP addresses 3..124), each with 48 six-byte slots (24 outputs, 24
+inputs: 288 of the 300 bytes a gateway allows) on its own virtual CAN bus; a Modbus client
+changes every output byte of the image every 100 ms, so each write makes every gateway send all
+its 24 frames. For each master cycle time (--cycles, default 1,2,10 ms) and each binary (--a,
+--b: alternating A, B, A, B ... --rounds times, so that both see the same machine), one run of
+--seconds measures:
+
+  cycles_done / cycles_due  master cycles run against the cycles the grid offered (missed ones
+                            show as the difference)
+  p99_us, max_us            cycle start lateness against the grid (GET /api/v1/status)
+  cpu_pct                   candp2d's CPU time over the run (utime + stime, /proc/PID/stat)
+  rss_kb, hwm_kb            resident memory at the end and its high-water mark (/proc/PID/status)
+  frames                    CAN frames the gateways sent over the run (sum over the buses)
+
+Prints one JSON line per run and a summary (medians per binary and cycle time).
+
+Usage: bench/line_load.py --a build/bin/candp2d [--b OTHER/candp2d] [--seconds 10] [--rounds 2]
+"""
+
+import argparse
+import json
+import os
+import re
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import urllib.request
+
+from pymodbus.client import ModbusTcpClient  # python3-pymodbus
+
+GATEWAYS = 122
+SLOTS_OUT = 24
+SLOTS_IN = 24
+SLOT_LEN = 6
+
+
+def config(cycle_ms):
+    """122 x 48 six-byte slots; the PLC image (8192 bytes) is shared, so the gateways' slot
+    addresses overlap (allowed, docs/modbus.md) and one Modbus write reaches them all."""
+    gws, buses = [], {}
+    for i in range(GATEWAYS):
+        a = 3 + i
+        bus = "can%d" % a
+        buses[bus] = {"type": "virtual"}
+        slots = []
+        for k in range(SLOTS_OUT):
+            ident = 0x100 + k
+            slots.append({"io": "output", "address": (k * SLOT_LEN + i * 8) % 8000,
+                          "length": SLOT_LEN, "comment": "%02X,%02X,00" % (ident >> 8, ident & 0xFF)})
+        for k in range(SLOTS_IN):
+            ident = 0x300 + k
+            slots.append({"io": "input", "address": (k * SLOT_LEN + i * 8) % 8000,
+                          "length": SLOT_LEN, "comment": "%02X,%02X,00" % (ident >> 8, ident & 0xFF)})
+        gws.append({"name": "gw%d" % a, "address": a, "bus": bus,
+                    "parameters": {"can_bitrate": "1000k"}, "slots": slots})
+    return {"modbus": {"listen": "127.0.0.1:0"}, "http": {"listen": "127.0.0.1:0"},
+            "master": {"address": 1, "cycle_ms": cycle_ms}, "buses": buses, "gateways": gws,
+            "log": {"level": "warn"}}
+
+
+class Run:
+    def __init__(self, binary, cycle_ms, workdir):
+        self.path = os.path.join(workdir, "line.json")
+        with open(self.path, "w") as f:
+            json.dump(config(cycle_ms), f)
+        self.log_path = os.path.join(workdir, "candp2d.log")
+        self.log = open(self.log_path, "w")
+        self.proc = subprocess.Popen([binary, "--config", self.path, "--log-level", "info"],
+                                     stdout=self.log, stderr=subprocess.STDOUT)
+        end = time.monotonic() + 60
+        while True:
+            if self.proc.poll() is not None:
+                sys.exit("candp2d exited:\n" + open(self.log_path).read()[-3000:])
+            m = re.search(r"ready: modbus [\d.]+:(\d+), http [\d.]+:(\d+)",
+                          open(self.log_path).read())
+            if m:
+                self.modbus, self.http = int(m.group(1)), int(m.group(2))
+                break
+            if time.monotonic() > end:
+                self.proc.kill()
+                sys.exit("no ready line")
+            time.sleep(0.05)
+
+    def status(self):
+        with urllib.request.urlopen("http://127.0.0.1:%d/api/v1/status" % self.http,
+                                    timeout=30) as r:
+            return json.loads(r.read())
+
+    def cpu_ticks(self):
+        with open("/proc/%d/stat" % self.proc.pid) as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return int(fields[11]) + int(fields[12])  # utime + stime
+
+    def memory_kb(self):
+        out = {}
+        with open("/proc/%d/status" % self.proc.pid) as f:
+            for line in f:
+                if line.startswith(("VmRSS:", "VmHWM:")):
+                    out[line.split(":")[0]] = int(line.split()[1])
+        return out.get("VmRSS", 0), out.get("VmHWM", 0)
+
+    def stop(self):
+        self.proc.terminate()
+        try:
+            self.proc.wait(10)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+        self.log.close()
+
+
+def frames_sent(status):
+    return sum(g.get("counters", {}).get("tx_frames", 0) for g in status["gateways"])
+
+
+def measure(binary, cycle_ms, seconds):
+    with tempfile.TemporaryDirectory(prefix="candp2-line-") as d:
+        r = Run(binary, cycle_ms, d)
+        try:
+            end = time.monotonic() + 60
+            while not all(g["dp_state"] == "Data_Exch" for g in r.status()["gateways"]):
+                if time.monotonic() > end:
+                    sys.exit("not every gateway reached Data_Exch")
+                time.sleep(0.2)
+            stop = threading.Event()
+
+            def writer():
+                mb = ModbusTcpClient("127.0.0.1", port=r.modbus, timeout=5)
+                mb.connect()
+                k = 0
+                while not stop.is_set():
+                    k += 1
+                    for first in range(0, 4000, 120):
+                        mb.write_registers(first, [(k * 31 + first + j) & 0xFFFF
+                                                   for j in range(120)], slave=3)
+                    stop.wait(0.1)
+                mb.close()
+
+            t = threading.Thread(target=writer, daemon=True)
+            t.start()
+            time.sleep(1.0)
+            s0, c0, t0 = r.status(), r.cpu_ticks(), time.monotonic()
+            time.sleep(seconds)
+            s1, c1, t1 = r.status(), r.cpu_ticks(), time.monotonic()
+            stop.set()
+            t.join(10)
+            rss, hwm = r.memory_kb()
+            due = (t1 - t0) * 1000.0 / cycle_ms
+            lat = s1["cycle"]["lateness_us"]
+            hz = os.sysconf("SC_CLK_TCK")
+            return {"cycle_ms": cycle_ms, "cycles_done": s1["cycle"]["cycles"] - s0["cycle"]["cycles"],
+                    "cycles_due": round(due), "p99_us": lat["p99"], "max_us": lat["max"],
+                    "cpu_pct": round(100.0 * (c1 - c0) / hz / (t1 - t0), 1),
+                    "rss_kb": rss, "hwm_kb": hwm, "frames": frames_sent(s1) - frames_sent(s0)}
+        finally:
+            r.stop()
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--a", required=True, help="candp2d binary A")
+    ap.add_argument("--b", help="candp2d binary B (alternating with A)")
+    ap.add_argument("--cycles", default="1,2,10")
+    ap.add_argument("--seconds", type=float, default=10)
+    ap.add_argument("--rounds", type=int, default=2)
+    args = ap.parse_args()
+    binaries = [("A", args.a)] + ([("B", args.b)] if args.b else [])
+    rows = []
+    for cycle in [int(c) for c in args.cycles.split(",")]:
+        for _ in range(args.rounds):
+            for name, binary in binaries:
+                row = {"binary": name, **measure(binary, cycle, args.seconds)}
+                rows.append(row)
+                print(json.dumps(row), flush=True)
+    print("summary (medians):")
+    for cycle in sorted({r["cycle_ms"] for r in rows}):
+        for name, _ in binaries:
+            sel = [r for r in rows if r["cycle_ms"] == cycle and r["binary"] == name]
+            med = {k: statistics.median(r[k] for r in sel)
+                   for k in ("cycles_done", "cycles_due", "p99_us", "cpu_pct", "rss_kb", "hwm_kb")}
+            print(json.dumps({"binary": name, "cycle_ms": cycle, **med}))
+
+
+if __name__ == "__main__":
+    main()

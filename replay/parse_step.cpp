@@ -1,0 +1,403 @@
+// The steps of a replay scenario (docs/replay-format.md): one action key per step, its value, the
+// step's window and the gateway, bus or drive it concerns.
+#include <algorithm>
+
+#include "common/hex.hpp"
+#include "config/json_reader.hpp"
+#include "profibus_sim/master/dp_master.hpp"
+#include "replay/parse_internal.hpp"
+#include "replay/step_names.hpp"
+
+namespace candp2::replay::parse {
+
+using nlohmann::json;
+using namespace config::json_reader;
+
+Duration as_ms(const json& j, const std::string& path, std::uint64_t max) {
+  return milliseconds(as_uint(j, path, 0, max, "ms"));
+}
+
+namespace {
+
+BytePattern as_pattern(const json& j, const std::string& path) {
+  const std::string text = as_string(j, path, "hex bytes like \"00 33 ?? 00\" (?? = any byte)");
+  BytePattern p;
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const char c = text[i];
+    if (c == ' ' || c == ',' || c == '\t') {
+      ++i;
+      continue;
+    }
+    if (i + 1 < text.size() && c == '?' && text[i + 1] == '?') {
+      p.bytes.push_back(0);
+      p.care.push_back(false);
+      i += 2;
+      continue;
+    }
+    if (i + 1 >= text.size() || hex_digit(c) < 0 || hex_digit(text[i + 1]) < 0)
+      fail(path, "position " + std::to_string(i) +
+                     ": expected two hex digits or ?? per byte, e.g. \"00 33 ?? 00\"");
+    p.bytes.push_back(static_cast<std::uint8_t>((hex_digit(c) << 4) | hex_digit(text[i + 1])));
+    p.care.push_back(true);
+    i += 2;
+  }
+  if (p.bytes.empty()) fail(path, "no bytes given");
+  return p;
+}
+
+can::Frame as_frame(const json& j, const std::string& path) {
+  const std::string text = as_string(j, path, "a frame in candump notation like \"201#1122\"");
+  auto r = can::parse_candump(text);
+  if (!r)
+    fail(path,
+         "\"" + text + "\" column " + std::to_string(r.error.column) + ": " + r.error.message);
+  return *r.frame;
+}
+
+FramePattern as_frame_pattern(const json& j, const std::string& path) {
+  const std::string text =
+      as_string(j, path, "a frame like \"201#1122\", \"201#*\" (any data) or \"*\" (any frame)");
+  FramePattern p;
+  if (text == "*") {
+    p.any = true;
+    return p;
+  }
+  std::string t = text;
+  if (t.size() >= 2 && t.compare(t.size() - 2, 2, "#*") == 0) {
+    p.any_data = true;
+    t.pop_back();
+  }
+  auto r = can::parse_candump(t);
+  if (!r)
+    fail(path,
+         "\"" + text + "\" column " + std::to_string(r.error.column) + ": " + r.error.message);
+  p.frame = *r.frame;
+  return p;
+}
+
+Db as_db(const json& j, const std::string& path) {
+  const std::string s = as_string(j, path, "a data block name");
+  if (s == "WRITE_CONFIG_DB" || s == "DB94") return Db::WriteConfig;
+  if (s == "READ_CONFIG_DB" || s == "DB95") return Db::ReadConfig;
+  if (s == "WRITE_DB" || s == "DB96") return Db::Write;
+  if (s == "READ_DB" || s == "DB97") return Db::Read;
+  fail(path,
+       "expected \"WRITE_CONFIG_DB\" (DB94), \"READ_CONFIG_DB\" (DB95), \"WRITE_DB\" (DB96) "
+       "or \"READ_DB\" (DB97), got " +
+           kind_of(j));
+}
+
+dp::SlaveState as_dp_state(const json& j, const std::string& path) {
+  const std::string s = as_string(j, path, "a DP state");
+  if (s == "wait_prm") return dp::SlaveState::WaitPrm;
+  if (s == "wait_cfg") return dp::SlaveState::WaitCfg;
+  if (s == "data_exch") return dp::SlaveState::DataExch;
+  fail(path, "expected \"wait_prm\", \"wait_cfg\" or \"data_exch\", got " + kind_of(j));
+}
+
+// write / expect_input / expect_output: {"address": PLC byte address, "bytes": ...}.
+void parse_image_step(Step& s, const json& v, const std::string& vp) {
+  const Object w(v, vp, {"address", "bytes"});
+  s.address = static_cast<std::uint16_t>(
+      as_uint(w.at("address"), w.path("address"), 0, dp::kImageSize - 1, "(PLC byte address)"));
+  std::size_t n = 0;
+  if (s.action == Action::Write) {
+    s.bytes = as_hex(w.at("bytes"), w.path("bytes"), "00 33 01 00");
+    n = s.bytes.size();
+  } else {
+    s.pattern = as_pattern(w.at("bytes"), w.path("bytes"));
+    n = s.pattern.size();
+  }
+  if (s.address + n > dp::kImageSize)
+    fail(w.path("bytes"), "the bytes run past the end of the 8192-byte process image");
+}
+
+// inject / expect_frame / expect_frames / expect_no_frame.
+void parse_frame_step(Step& s, const json& v, const std::string& vp) {
+  switch (s.action) {
+    case Action::Inject:
+      if (!v.is_array()) {
+        s.frames.push_back(as_frame(v, vp));
+        return;
+      }
+      if (v.empty()) fail(vp, "expected at least one frame");
+      for (std::size_t i = 0; i < v.size(); ++i) s.frames.push_back(as_frame(v[i], element(vp, i)));
+      return;
+    case Action::ExpectFrames:
+      if (!v.is_array()) fail(vp, "expected an array of frames, got " + kind_of(v));
+      for (std::size_t i = 0; i < v.size(); ++i)
+        s.frame_patterns.push_back(as_frame_pattern(v[i], element(vp, i)));
+      return;
+    default:  // expect_frame, expect_no_frame
+      s.frame_patterns.push_back(as_frame_pattern(v, vp));
+  }
+}
+
+// The Page-Mode driver's steps: freigabe, db_write, expect_db, set_tx, expect_rx,
+// expect_ret_value.
+void parse_driver_step(Step& s, const json& v, const std::string& vp) {
+  switch (s.action) {
+    case Action::Freigabe:
+      s.on = v.is_boolean() ? v.get<bool>() : as_uint(v, vp, 0, 1) == 1;
+      return;
+    case Action::DbWrite:
+    case Action::ExpectDb: {
+      const Object w(v, vp, {"db", "index", "offset", "bytes"});
+      s.db = as_db(w.at("db"), w.path("db"));
+      s.db_index = w.has("index") ? as_uint(w.at("index"), w.path("index"), 0, 1000) : 0;
+      s.offset = as_uint(w.at("offset"), w.path("offset"), 0, 65535, "(byte in the DB)");
+      if (s.action == Action::DbWrite)
+        s.bytes = as_hex(w.at("bytes"), w.path("bytes"), "02 01 02 03");
+      else
+        s.pattern = as_pattern(w.at("bytes"), w.path("bytes"));
+      return;
+    }
+    case Action::SetTx:
+    case Action::ExpectRx: {
+      const bool tx = s.action == Action::SetTx;
+      const Object w(v, vp,
+                     tx ? std::vector<std::string>{"id", "force", "data"}
+                        : std::vector<std::string>{"id", "count_in", "data"});
+      s.entry = as_uint(w.at("id"), w.path("id"), 1, gw::page::kMaxIdentifiers,
+                        tx ? "(Tx identifier number: 1 = TxId1)" : "(Rx identifier number)");
+      if (tx && w.has("force"))
+        s.force = static_cast<std::uint8_t>(as_uint(w.at("force"), w.path("force"), 0, 255));
+      if (!tx && w.has("count_in"))
+        s.count_in =
+            static_cast<std::uint8_t>(as_uint(w.at("count_in"), w.path("count_in"), 0, 255));
+      if (w.has("data")) {
+        s.has_data = true;
+        if (tx)
+          s.bytes = as_hex(w.at("data"), w.path("data"), "00 11 22 33 44 55");
+        else
+          s.pattern = as_pattern(w.at("data"), w.path("data"));
+      }
+      if (!s.has_data && !s.force && !s.count_in)
+        fail(vp, tx ? "give \"force\" and/or \"data\"" : "give \"count_in\" and/or \"data\"");
+      return;
+    }
+    default:  // expect_ret_value
+      s.ret_value = static_cast<std::uint16_t>(as_uint(v, vp, 0, 4, "(manual table 6.5.7)"));
+  }
+}
+
+// The faults (docs/faults.md) and expect_counters.
+void parse_fault_step(Step& s, const json& v, const std::string& vp) {
+  switch (s.action) {
+    case Action::ForceCanState: {
+      const std::string t = v.is_string() ? v.get<std::string>() : "";
+      for (std::uint16_t i = 0; i < 4; ++i)
+        if (t == kCanStates[i]) {
+          s.can_state = i;
+          return;
+        }
+      fail(vp,
+           "expected \"real\", \"warning\", \"error-passive\" or \"bus-off\", got " + kind_of(v));
+    }
+    case Action::DropRx:
+      s.count = static_cast<std::uint32_t>(as_uint(v, vp, 0, 65535, "frames"));
+      return;
+    case Action::ExpectCounters: {
+      static const std::vector<std::string> kNames = {
+          "irq_lost", "msg_lost", "rx_frames", "tx_frames", "tx_suppressed", "rx_suppressed"};
+      const Object w(v, vp, kNames);
+      for (const auto& n : kNames)
+        if (w.has(n))
+          s.counters.emplace_back(
+              n, static_cast<std::uint32_t>(as_uint(w.at(n), w.path(n), 0, 0xFFFFFFFFull)));
+      if (s.counters.empty()) fail(vp, "give at least one counter (" + join(kNames) + ")");
+      return;
+    }
+    case Action::DriveMute:
+      s.on = v.is_boolean() ? v.get<bool>() : as_uint(v, vp, 0, 1) == 1;
+      return;
+    case Action::DriveErrorBits:
+    case Action::DriveWarningBits:
+      s.bits = static_cast<std::uint16_t>(as_uint(v, vp, 0, 0xFFFF, "(ERR_BITMAP1 0x8F bits)"));
+      return;
+    default:  // power_cycle, reparameterize, master_stop, master_resume, drive_restart
+      if (!v.is_boolean() || !v.get<bool>()) fail(vp, "expected true, got " + kind_of(v));
+  }
+}
+
+bool is_drive_step(Action a) {
+  return a == Action::DriveMute || a == Action::DriveErrorBits || a == Action::DriveWarningBits ||
+         a == Action::DriveRestart;
+}
+
+bool is_driver_step(Action a) {
+  return a == Action::Freigabe || a == Action::DbWrite || a == Action::ExpectDb ||
+         a == Action::SetTx || a == Action::ExpectRx || a == Action::ExpectRetValue;
+}
+
+// Steps about one gateway name it with "gateway" (docs/replay-format.md "Several gateways").
+bool concerns_gateway(Action a) {
+  return a != Action::Note && a != Action::Advance && a != Action::Cycles && a != Action::Inject &&
+         !is_drive_step(a) && !is_driver_step(a);
+}
+
+std::string quoted_names(const std::vector<std::string>& names) {
+  std::vector<std::string> q;
+  for (const auto& n : names) q.push_back("\"" + n + "\"");
+  return join(q);
+}
+
+// "gateway": NAME → s.gateway. Without the key: the only gateway, else an error.
+void resolve_gateway(Step& s, const Object& o, const std::string& path, const std::string& key,
+                     const Scenario& sc) {
+  const auto& gateways = sc.installation.gateways;
+  std::vector<std::string> names;
+  for (const auto& g : gateways) names.push_back(g.name);
+  const json* g = o.find("gateway");
+  if (!g) {
+    if (gateways.size() > 1)
+      fail(path,
+           "\"" + key + "\" concerns one gateway: give \"gateway\", one of " + quoted_names(names));
+    return;
+  }
+  const std::string name = as_string(*g, o.path("gateway"), "a gateway name");
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it == names.end())
+    fail(o.path("gateway"), "no gateway \"" + name + "\" in " +
+                                (sc.config_file.empty() ? "the scenario" : sc.config_file) +
+                                " (its gateways: " + quoted_names(names) + ")");
+  s.gateway = static_cast<std::size_t>(it - names.begin());
+  s.gateway_name = name;
+}
+
+// inject: "bus": NAME or "gateway": NAME (that gateway's bus); the only bus otherwise.
+void resolve_bus(Step& s, const Object& o, const std::string& path, const Scenario& sc) {
+  const auto& buses = sc.installation.buses;
+  std::vector<std::string> names;
+  for (const auto& b : buses) names.push_back(b.name);
+  std::string name;
+  if (const json* b = o.find("bus")) {
+    name = as_string(*b, o.path("bus"), "a bus name");
+  } else if (o.has("gateway")) {
+    Step tmp;
+    resolve_gateway(tmp, o, path, "inject", sc);
+    name = sc.installation.gateways[tmp.gateway].bus;
+  } else if (buses.size() > 1) {
+    fail(path, "\"inject\" with several buses: give \"bus\", one of " + quoted_names(names));
+  } else {
+    return;
+  }
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it == names.end())
+    fail(o.has("bus") ? o.path("bus") : path,
+         "no bus \"" + name + "\" (the buses: " + quoted_names(names) + ")");
+  s.bus = static_cast<std::size_t>(it - names.begin());
+}
+
+// "drive": NAME → s.drive; optional with one drive.
+void resolve_drive(Step& s, const Object& o, const std::string& path, const std::string& key,
+                   const std::string& vp, const Scenario& sc) {
+  const auto& drives = sc.drives();
+  if (drives.empty()) fail(vp, "\"" + key + "\" needs a \"drives\" entry in the scenario");
+  if (const json* d = o.find("drive")) {
+    const std::string name = as_string(*d, o.path("drive"), "a drive name");
+    const auto it = std::find_if(drives.begin(), drives.end(),
+                                 [&](const config::DriveConfig& c) { return c.name == name; });
+    if (it == drives.end()) {
+      std::vector<std::string> names;
+      for (const auto& c : drives) names.push_back(c.name);
+      fail(o.path("drive"),
+           "no drive \"" + name + "\" in \"drives\" (" + quoted_names(names) + ")");
+    }
+    s.drive = static_cast<std::size_t>(it - drives.begin());
+  } else if (drives.size() > 1) {
+    fail(path, "\"" + key + "\" needs \"drive\": the name of one of the " +
+                   std::to_string(drives.size()) + " drives");
+  }
+  s.drive_name = drives[s.drive].name;
+}
+
+// The one action key of a step, or none (a note).
+const ActionName* action_of(const json& j, const std::string& path) {
+  const ActionName* found = nullptr;
+  for (const auto& a : kActions) {
+    if (!j.contains(a.key)) continue;
+    if (found)
+      fail(path, std::string("one action per step: both \"") + found->key + "\" and \"" + a.key +
+                     "\" given");
+    found = &a;
+  }
+  if (!found && !j.contains("note")) {
+    std::vector<std::string> keys;
+    for (const auto& a : kActions) keys.push_back(a.key);
+    fail(path, "a step needs one action (" + join(keys) + ") or a \"note\"");
+  }
+  return found;
+}
+
+}  // namespace
+
+Step parse_step(const json& j, const std::string& path, const Scenario& sc) {
+  if (!j.is_object()) fail(path, "expected a step object, got " + kind_of(j));
+  Step s;
+  s.path = path;
+  const ActionName* found = action_of(j, path);
+  std::vector<std::string> allowed = {"at_ms", "note"};
+  if (found) {
+    s.action = found->action;
+    allowed.push_back(found->key);
+  }
+  if (s.expectation() && s.action != Action::ExpectNoFrame) allowed.push_back("within_ms");
+  if (s.action == Action::ExpectNoFrame) allowed.push_back("for_ms");
+  if (is_drive_step(s.action)) allowed.push_back("drive");
+  if (concerns_gateway(s.action)) allowed.push_back("gateway");
+  if (s.action == Action::Inject) allowed.insert(allowed.end(), {"bus", "gateway"});
+  const Object o(j, path, allowed);
+  if (o.has("note")) s.note = as_string(o.at("note"), o.path("note"), "a text", Empty::Allowed);
+  if (o.has("at_ms")) s.at = as_ms(o.at("at_ms"), o.path("at_ms"));
+  if (o.has("within_ms")) s.window = as_ms(o.at("within_ms"), o.path("within_ms"));
+  if (o.has("for_ms")) s.window = as_ms(o.at("for_ms"), o.path("for_ms"));
+  if (!found) return s;
+  const std::string key = found->key;
+  const json& v = o.at(key);
+  const std::string vp = o.path(key);
+  switch (s.action) {
+    case Action::Note:
+      break;
+    case Action::Advance:
+      s.advance = as_ms(v, vp);
+      break;
+    case Action::Cycles:
+      s.cycles = static_cast<std::uint32_t>(as_uint(v, vp, 1, 1000000, "DP cycles"));
+      break;
+    case Action::Write:
+    case Action::ExpectInput:
+    case Action::ExpectOutput:
+      parse_image_step(s, v, vp);
+      break;
+    case Action::Inject:
+    case Action::ExpectFrame:
+    case Action::ExpectFrames:
+    case Action::ExpectNoFrame:
+      parse_frame_step(s, v, vp);
+      break;
+    case Action::ExpectDiag:
+      s.pattern = as_pattern(v, vp);
+      if (s.pattern.size() != dp::DpSlave::kDiagLen)
+        fail(vp, "expected the 11 diagnosis bytes (docs/dp-slave.md \"Diagnosis\"), got " +
+                     std::to_string(s.pattern.size()));
+      break;
+    case Action::ExpectDpState:
+      s.dp_state = as_dp_state(v, vp);
+      break;
+    default:
+      if (is_driver_step(s.action)) {
+        if (!sc.driver) fail(vp, "\"" + key + "\" needs a \"page_driver\" in the scenario");
+        parse_driver_step(s, v, vp);
+      } else {
+        parse_fault_step(s, v, vp);
+      }
+  }
+  if (concerns_gateway(s.action)) resolve_gateway(s, o, path, key, sc);
+  if (s.action == Action::Inject) resolve_bus(s, o, path, sc);
+  if (is_drive_step(s.action)) resolve_drive(s, o, path, key, vp, sc);
+  return s;
+}
+
+}  // namespace candp2::replay::parse

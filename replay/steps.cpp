@@ -1,0 +1,316 @@
+// The replay steps by family (docs/replay-format.md): frames, the process image, a gateway's DP
+// state and counters, the Page-Mode driver's data blocks, faults. Faults go through the plant's
+// control surface, the one candp2d's Modbus face uses.
+#include <algorithm>
+
+#include "common/hex.hpp"
+#include "faults/drive_fault.hpp"
+#include "replay/sim.hpp"
+
+namespace candp2::replay {
+
+namespace {
+constexpr std::string_view kOrigin = "by a replay step";
+}
+
+// The step gateway's frames from the cursor on, for failure messages.
+std::string Sim::frames_since_cursor(std::size_t gateway, std::size_t max) const {
+  const auto& frames = gw_frames_[gateway];
+  const std::size_t from = cursor_[gateway];
+  std::string s;
+  std::size_t n = 0;
+  for (std::size_t i = from; i < frames.size(); ++i, ++n) {
+    if (n == max) return s + " ... (" + std::to_string(frames.size() - from) + " frames)";
+    const auto& t = res_.traffic[frames[i]];
+    s += (s.empty() ? "" : ", ") + can::format_candump(t.frame) + " @" + at_text(t.time);
+  }
+  return s.empty() ? "none" : s;
+}
+
+void Sim::frames(const Step& s, StepResult& r) {
+  const auto& mine = gw_frames_[s.gateway];
+  std::size_t& cursor = cursor_[s.gateway];
+  switch (s.action) {
+    case Action::Inject:
+      plant_->set_now(now_);
+      for (const auto& f : s.frames) testers_.at(s.bus)->send(f);
+      plant_->deliver(now_);
+      drain_testers();
+      return;
+    case Action::ExpectFrame: {
+      const auto& p = s.frame_patterns.front();
+      std::optional<std::size_t> hit;
+      auto check = [&] {
+        for (std::size_t i = cursor; i < mine.size(); ++i)
+          if (p.matches(res_.traffic[mine[i]].frame)) {
+            hit = i;
+            return true;
+          }
+        return false;
+      };
+      if (run_until(now_ + s.window.value_or(Duration{0}), check)) {
+        const auto& t = res_.traffic[mine[*hit]];
+        r.detail = can::format_candump(t.frame) + " at " + at_text(t.time);
+        cursor = *hit + 1;
+      } else {
+        r.passed = false;
+        r.detail = "no matching frame; the gateway sent: " + frames_since_cursor(s.gateway);
+      }
+      return;
+    }
+    case Action::ExpectFrames: {
+      const std::size_t n = s.frame_patterns.size();
+      run_until(now_ + s.window.value_or(Duration{0}), [&] { return mine.size() - cursor >= n; });
+      bool ok = mine.size() - cursor >= n;
+      for (std::size_t i = 0; ok && i < n; ++i)
+        ok = s.frame_patterns[i].matches(res_.traffic[mine[cursor + i]].frame);
+      if (ok) {
+        r.detail = "last at " + at_text(n ? res_.traffic[mine[cursor + n - 1]].time : now_);
+        cursor += n;
+      } else {
+        r.passed = false;
+        r.detail = "the gateway sent: " + frames_since_cursor(s.gateway);
+        cursor = std::min(mine.size(), cursor + n);
+      }
+      return;
+    }
+    default: {  // expect_no_frame
+      const auto& p = s.frame_patterns.front();
+      run_until(now_ + s.window.value_or(Duration{0}));
+      for (std::size_t i = cursor; i < mine.size(); ++i) {
+        const auto& t = res_.traffic[mine[i]];
+        if (p.matches(t.frame)) {
+          r.passed = false;
+          r.detail = "the gateway sent " + can::format_candump(t.frame) + " at " + at_text(t.time);
+          break;
+        }
+      }
+      cursor = mine.size();
+    }
+  }
+}
+
+void Sim::image(const Step& s, StepResult& r) {
+  auto& image = plant_->master().image();
+  if (s.action == Action::Write) {
+    std::copy(s.bytes.begin(), s.bytes.end(), image.outputs.begin() + s.address);
+    return;
+  }
+  const bool in = s.action == Action::ExpectInput;
+  r.passed = poll(
+      s,
+      [&](std::string& d) {
+        const auto& img = in ? image.inputs : image.outputs;
+        const auto got = std::span(img).subspan(s.address, s.pattern.size());
+        d = hex_bytes(got);
+        return s.pattern.matches(got);
+      },
+      r.detail);
+  if (!r.passed) r.detail = "got " + r.detail;
+}
+
+void Sim::gateway_state(const Step& s, StepResult& r) {
+  plant::GatewayUnit& g = gateway(s);
+  switch (s.action) {
+    case Action::ExpectDiag:
+      r.passed = poll(
+          s,
+          [&](std::string& d) {
+            const auto diag = g.gateway().dp().slave_diag(now_);
+            d = hex_bytes(diag) + " (" + dp::describe_diag(diag) + ")";
+            return s.pattern.matches(diag);
+          },
+          r.detail);
+      if (!r.passed) r.detail = "got " + r.detail;
+      return;
+    case Action::ExpectDpState:
+      r.passed = poll(
+          s,
+          [&](std::string& d) {
+            d = std::string(dp::to_string(g.gateway().dp().state()));
+            return g.gateway().dp().state() == s.dp_state;
+          },
+          r.detail);
+      if (!r.passed) r.detail = "state is " + r.detail;
+      return;
+    default:  // expect_counters
+      r.passed = poll(
+          s,
+          [&](std::string& d) {
+            const auto st = g.gateway().status();
+            const auto& fl = g.faults();
+            bool all = true;
+            d.clear();
+            for (const auto& [name, want] : s.counters) {
+              const std::uint32_t got = name == "irq_lost"        ? st.irq_lost
+                                        : name == "msg_lost"      ? st.msg_lost
+                                        : name == "rx_frames"     ? st.rx_frames
+                                        : name == "tx_frames"     ? st.tx_frames
+                                        : name == "tx_suppressed" ? fl.tx_suppressed()
+                                                                  : fl.rx_suppressed();
+              d += (d.empty() ? "" : ", ") + name + " " + std::to_string(got);
+              all = all && got == want;
+            }
+            return all;
+          },
+          r.detail);
+      if (!r.passed) r.detail = "got " + r.detail;
+  }
+}
+
+plc::DbChain* Sim::chain(Db db) {
+  switch (db) {
+    case Db::WriteConfig:
+      return &driver_->write_config_db();
+    case Db::ReadConfig:
+      return &driver_->read_config_db();
+    case Db::Write:
+      return &driver_->write_db();
+    case Db::Read:
+      return &driver_->read_db();
+  }
+  return nullptr;
+}
+
+// The identifiers of WRITE_CONFIG_DB / READ_CONFIG_DB as the driver reads them now.
+std::optional<std::vector<gw::page::IdEntry>> Sim::idents(bool tx, std::string* why) {
+  auto raw =
+      plc::parse_config_chain(tx ? driver_->write_config_db() : driver_->read_config_db(), why);
+  if (!raw) return std::nullopt;
+  std::vector<gw::page::IdEntry> out;
+  for (const auto& e : *raw) {
+    auto entry = gw::page::decode_entry(e, why);
+    if (!entry) return std::nullopt;
+    out.push_back(*entry);
+  }
+  return out;
+}
+
+void Sim::driver(const Step& s, StepResult& r) {
+  switch (s.action) {
+    case Action::Freigabe:
+      driver_->set_freigabe(s.on);
+      return;
+    case Action::DbWrite: {
+      auto* c = chain(s.db);
+      if (s.db_index >= c->size() || s.offset + s.bytes.size() > (*c)[s.db_index].size()) {
+        r.passed = false;
+        r.detail = std::string(to_string(s.db)) + " has no bytes " + std::to_string(s.offset) +
+                   ".." + std::to_string(s.offset + s.bytes.size() - 1) + " in DB " +
+                   std::to_string(s.db_index);
+        return;
+      }
+      auto& db = (*c)[s.db_index];
+      std::copy(s.bytes.begin(), s.bytes.end(), db.begin() + static_cast<std::ptrdiff_t>(s.offset));
+      return;
+    }
+    case Action::ExpectDb:
+      r.passed = poll(
+          s,
+          [&](std::string& d) {
+            auto* c = chain(s.db);
+            if (s.db_index >= c->size() || s.offset + s.pattern.size() > (*c)[s.db_index].size()) {
+              d = "DB has no such bytes";
+              return false;
+            }
+            const auto got = std::span((*c)[s.db_index]).subspan(s.offset, s.pattern.size());
+            d = hex_bytes(got);
+            return s.pattern.matches(got);
+          },
+          r.detail);
+      if (!r.passed) r.detail = "got " + r.detail;
+      return;
+    case Action::ExpectRetValue:
+      r.passed = poll(
+          s,
+          [&](std::string& d) {
+            const auto v = static_cast<std::uint16_t>(driver_->ret_value());
+            d = std::to_string(v) + " (" + std::string(plc::to_string(driver_->state())) + ")";
+            return v == s.ret_value;
+          },
+          r.detail);
+      if (!r.passed) r.detail = "got " + r.detail;
+      return;
+    default:
+      break;
+  }
+  // set_tx / expect_rx
+  const bool tx = s.action == Action::SetTx;
+  std::string why;
+  const auto ids = idents(tx, &why);
+  const auto pos =
+      ids ? plc::locate_data_entries(tx ? driver_->write_db() : driver_->read_db(), *ids, &why)
+          : std::nullopt;
+  if (!pos || s.entry > pos->size()) {
+    r.passed = false;
+    r.detail = pos ? std::string(tx ? "Tx" : "Rx") + " identifier " + std::to_string(s.entry) +
+                         " not configured (" + std::to_string(pos->size()) + " are)"
+                   : why;
+    return;
+  }
+  const auto at = (*pos)[s.entry - 1];
+  const std::size_t len = (*ids)[s.entry - 1].length;
+  if (tx) {
+    if (s.has_data && s.bytes.size() != len) {
+      r.passed = false;
+      r.detail = "Tx identifier " + std::to_string(s.entry) + " has " + std::to_string(len) +
+                 " data bytes, " + std::to_string(s.bytes.size()) + " given";
+      return;
+    }
+    auto& db = driver_->write_db()[at.db];
+    if (s.force) db[at.offset + 1] = *s.force;
+    if (s.has_data)
+      std::copy(s.bytes.begin(), s.bytes.end(),
+                db.begin() + static_cast<std::ptrdiff_t>(at.offset + 2));
+    return;
+  }
+  r.passed = poll(
+      s,
+      [&](std::string& d) {
+        const auto& db = driver_->read_db()[at.db];
+        const auto got = std::span(db).subspan(at.offset + 1, 1 + len);
+        d = "count_in " + std::to_string(got[0]) + " data " + hex_bytes(got.subspan(1));
+        return (!s.count_in || got[0] == *s.count_in) &&
+               (!s.has_data || s.pattern.matches(got.subspan(1)));
+      },
+      r.detail);
+  if (!r.passed) r.detail = "got " + r.detail;
+}
+
+void Sim::fault(const Step& s, StepResult&) {
+  switch (s.action) {
+    case Action::PowerCycle:
+      plant_->power_cycle(gateway(s), now_, kOrigin);
+      break;
+    case Action::Reparameterize:
+      plant_->reparameterize(gateway(s).gateway().address(), now_, kOrigin);
+      break;
+    case Action::MasterStop:
+    case Action::MasterResume:
+      plant_->set_addressed(gateway(s).gateway().address(), s.action == Action::MasterResume, now_,
+                            kOrigin);
+      break;
+    case Action::ForceCanState:
+      plant_->force_can_state(gateway(s), s.can_state, now_, kOrigin);
+      plant_->deliver(now_);
+      break;
+    case Action::DropRx:
+      plant_->drop_rx(gateway(s), s.count, now_, kOrigin);
+      break;
+    default: {
+      // The drive's Modbus fault registers 0..3 (docs/faults.md), one implementation.
+      auto& d = *plant_->drives().at(s.drive);
+      const std::uint16_t reg = s.action == Action::DriveMute          ? faults::kDriveMute
+                                : s.action == Action::DriveErrorBits   ? faults::kDriveErrorBits
+                                : s.action == Action::DriveWarningBits ? faults::kDriveWarningBits
+                                                                       : faults::kDriveRestart;
+      const std::uint16_t value = s.action == Action::DriveMute      ? (s.on ? 1 : 0)
+                                  : s.action == Action::DriveRestart ? 1
+                                                                     : s.bits;
+      plant_->set_drive_fault(d, reg, value, now_, kOrigin);
+    }
+  }
+  drain_testers();
+}
+
+}  // namespace candp2::replay
