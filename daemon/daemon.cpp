@@ -418,8 +418,10 @@ bool DaemonImpl::open_gateway(GatewayUnit& g, std::string* error) {
     }
     case BusType::SocketCan:
       // One raw socket per gateway: gateways on one interface see each other's frames, as
-      // separate devices on a bus do.
-      g.channel = can::open_socketcan(b.interface, &e, {.receive_own = false, .log = log_sink_});
+      // separate devices on a bus do. A down interface is no start error: bus-off until it is up
+      // (docs/transports.md "Down interfaces").
+      g.channel = can::open_socketcan(b.interface, &e,
+                                      {.receive_own = false, .log = log_sink_, .allow_down = true});
       if (!g.channel) {
         *error = where + "cannot open SocketCAN interface " + b.interface + ": " + e;
         return false;
