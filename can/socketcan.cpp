@@ -485,12 +485,11 @@ std::unique_ptr<Channel> open_socketcan(const std::string& interface, std::strin
     // not yet defined"); vcan has no controller state and no bit timing.
     const bool controller = link.state().has_value();
     channel->set_initially_down();
-    log.warn(
-        "opened, but the interface is down" +
-        std::string(controller && !link.bittiming() ? " and has no bit timing yet" : "") +
-        ": bus state bus-off until it is up (ip link set " + interface + " up" +
-        std::string(controller ? " after ip link set " + interface + " type can bitrate N" : "") +
-        ")");
+    log.warn("opened, but the interface is down" +
+             std::string(controller && !link.bittiming() ? " and has no bit timing yet" : "") +
+             ": bus state bus-off until it is up (`" +
+             std::string(controller ? "ip link set " + interface + " type can bitrate N && " : "") +
+             "ip link set " + interface + " up`)");
     return channel;
   }
   // A real controller may already be warning, error-passive or bus-off (restart-ms 0) before this

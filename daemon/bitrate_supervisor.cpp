@@ -146,10 +146,7 @@ void BitrateSupervisor::report_link() {
               (interface_bitrate_ ? std::string() : " and has no bit timing") +
               ": the gateways on it report bus-off until it is up at " +
               can::format_bitrate(*with_rate->bitrate) + " (Set_Prm of gateway " + with_rate->name +
-              "): `" + command(*with_rate->bitrate) + "`" +
-              (mode_ == config::BitrateMode::Apply
-                   ? " (\"bitrate\": \"apply\" sets it at the next Set_Prm with another bit rate)"
-                   : std::string()));
+              "): `" + command(*with_rate->bitrate) + "`");
   else
     log_.info(
         "interface " + interface_ + " is up" +
