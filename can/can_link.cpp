@@ -3,6 +3,10 @@
 #include <errno.h>
 #include <libsocketcan.h>
 #include <linux/can/netlink.h>
+#include <net/if.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstring>
@@ -57,16 +61,28 @@ std::string format_bitrate(std::uint32_t bitrate) {
   return buf;
 }
 
-std::string describe_link_error(const std::string& interface, const LinkError& e) {
+std::string ip_link_command(const std::string& interface, std::uint32_t bitrate,
+                            std::optional<std::uint32_t> restart_ms, bool down_first) {
+  const std::string set = "ip link set " + interface;
+  std::string text = down_first ? set + " down && " : std::string();
+  if (bitrate) {
+    text += set + " type can bitrate " + std::to_string(bitrate);
+    if (restart_ms) text += " restart-ms " + std::to_string(*restart_ms);
+    text += " && ";
+  }
+  return text + set + " up";
+}
+
+std::string describe_link_error(const std::string& interface, const LinkError& e,
+                                const std::string& command) {
   std::string text = "interface " + interface + ": " + e.message;
   if (e.error == EPERM || e.error == EACCES)
     text +=
-        "; setting the bit rate needs CAP_NET_ADMIN: copy the systemd drop-in "
+        "; setting the bit rate needs CAP_NET_ADMIN: run `" + command +
+        "` as root, or copy the systemd drop-in "
         "packaging/systemd/candp2d-bitrate-apply.conf to /etc/systemd/system/candp2d.service.d/, "
-        "or `setcap cap_net_admin+ep "
-        "$(command -v candp2d)`, or use \"bitrate\": \"check\" and configure the interface with "
-        "`ip link set " +
-        interface + " type can bitrate N`";
+        "or `setcap cap_net_admin+ep $(command -v candp2d)`, or use \"bitrate\": \"check\" and "
+        "configure the interface yourself";
   return text;
 }
 
@@ -118,6 +134,22 @@ std::optional<ControllerState> CanLink::state() const {
   int s = -1;
   if (::can_get_state(interface_.c_str(), &s) != 0) return std::nullopt;
   return from_kernel(s);
+}
+
+std::optional<LinkInfo> CanLink::info() const {
+  if (::if_nametoindex(interface_.c_str()) == 0) return std::nullopt;
+  LinkInfo info;
+  // SIOCGIFFLAGS works through a socket of any family; AF_INET exists on every kernel.
+  const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (fd >= 0) {
+    ifreq ifr{};
+    std::snprintf(ifr.ifr_name, sizeof ifr.ifr_name, "%s", interface_.c_str());
+    info.up = ::ioctl(fd, SIOCGIFFLAGS, &ifr) == 0 && (ifr.ifr_flags & IFF_UP);
+    ::close(fd);
+  }
+  info.controller = state().has_value();  // vcan/vxcan have no IFLA_CAN_STATE
+  if (info.controller) info.bittiming = bittiming();
+  return info;
 }
 
 std::optional<std::uint32_t> CanLink::restart_ms() const {

@@ -35,6 +35,15 @@ struct BitTiming {
   std::uint32_t sample_point = 0;  // tenths of a percent (875 = 87.5 %)
 };
 
+// What candp2d needs to know about an interface at one moment.
+struct LinkInfo {
+  bool up = false;          // IFF_UP
+  bool controller = false;  // a CAN controller with a netlink state; false for vcan/vxcan
+  // None for vcan/vxcan, and for a controller that was never given a bit rate (it cannot be set
+  // up before: "bit-timing not yet defined").
+  std::optional<BitTiming> bittiming;
+};
+
 struct LinkError {
   int error = 0;  // errno of the failed netlink request (EPERM: no CAP_NET_ADMIN)
   std::string message;
@@ -50,10 +59,13 @@ class CanLink {
   // cannot be asked (then *error says why).
   std::optional<BitTiming> bittiming(std::string* error = nullptr) const;
   std::optional<ControllerState> state() const;
+  // Up, controller, bit timing; nullopt when the interface does not exist.
+  std::optional<LinkInfo> info() const;
   std::optional<std::uint32_t> restart_ms() const;
 
-  // Down, bit rate (and restart-ms when given), up. On failure the interface is brought up again
-  // when it was up before (best effort) and the error says which step failed and why.
+  // Down, bit rate (and restart-ms when given), up: also for an interface that was down or never
+  // had a bit timing. On failure the interface is brought up again (best effort: with its previous
+  // bit rate, if it had one) and the error says which step failed and why.
   std::optional<LinkError> set_bitrate(std::uint32_t bitrate,
                                        std::optional<std::uint32_t> restart_ms) const;
 
@@ -66,9 +78,18 @@ class CanLink {
 // exact; the CAN-DP/2's own SJA1000-class controllers are not either).
 bool bitrate_matches(std::uint32_t configured, std::uint32_t actual);
 
-// The log line for a refused netlink request: names the interface, the step and for EPERM how to
-// grant CAP_NET_ADMIN (the systemd drop-in or setcap).
-std::string describe_link_error(const std::string& interface, const LinkError& e);
+// What to run by hand to put `interface` at `bitrate` and up, for log lines:
+//   "ip link set can0 type can bitrate 500000 restart-ms 100 && ip link set can0 up"
+// `bitrate` 0 keeps the interface's bit rate ("ip link set can0 up"); `down_first` (the interface
+// is up: its bit rate changes only while it is down) puts "ip link set can0 down && " before.
+std::string ip_link_command(const std::string& interface, std::uint32_t bitrate,
+                            std::optional<std::uint32_t> restart_ms, bool down_first);
+
+// The log line for a refused netlink request: names the interface and the step; for EPERM the
+// command to run as root instead (`command`, from ip_link_command) and how to grant CAP_NET_ADMIN
+// (the systemd drop-in or setcap).
+std::string describe_link_error(const std::string& interface, const LinkError& e,
+                                const std::string& command);
 
 // "500000" → "500 kbit/s", "666600" → "666.6 kbit/s", "1000000" → "1000 kbit/s".
 std::string format_bitrate(std::uint32_t bitrate);

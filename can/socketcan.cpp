@@ -6,6 +6,7 @@
 #include <linux/can/raw.h>
 #include <net/if.h>
 #include <net/if_arp.h>
+#include <sys/epoll.h>
 #include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -15,6 +16,7 @@
 #include <cstring>
 
 #include "can/can_link.hpp"
+#include "can/link_events.hpp"
 #include "common/hex.hpp"
 
 namespace candp2::can {
@@ -105,19 +107,94 @@ std::string errno_text(int err) {
   return std::string(std::strerror(err));
 }
 
+bool fail(std::string* error, std::string message) {
+  if (error) *error = std::move(message);
+  return false;
+}
+
+// A raw CAN socket bound to interface `index`, error frames and SO_RXQ_OVFL on; -1 and *error on
+// failure. Binding to a down interface works: the kernel then reports ENETDOWN once (net/can/raw.c
+// raw_bind) and frames flow as soon as the interface is up.
+int open_raw(const std::string& interface, unsigned index, bool receive_own, std::string* error) {
+  const std::string who = "interface " + interface;
+  const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
+  if (fd < 0) {
+    fail(error, "cannot open " + who + ": this kernel has no CAN support (socket(AF_CAN) failed: " +
+                    errno_text(errno) + "; modprobe can_raw)");
+    return -1;
+  }
+  auto set = [&](int level, int name, const void* value, socklen_t size, const char* what) {
+    if (::setsockopt(fd, level, name, value, size) == 0) return true;
+    fail(error, "cannot open " + who + ": setsockopt(" + what + ") failed: " + errno_text(errno));
+    return false;
+  };
+  const int on = 1;
+  const can_err_mask_t err_mask = kErrorMask;
+  sockaddr_can addr{};
+  addr.can_family = AF_CAN;
+  addr.can_ifindex = static_cast<int>(index);
+  if (!set(SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask, "CAN_RAW_ERR_FILTER") ||
+      !set(SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on, "SO_RXQ_OVFL") ||
+      (receive_own &&
+       !set(SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, &on, sizeof on, "CAN_RAW_RECV_OWN_MSGS"))) {
+    ::close(fd);
+    return -1;
+  }
+  if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) < 0) {
+    fail(error, "cannot bind to " + who + ": " + errno_text(errno));
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+// IFF_UP of `interface`, asked through any socket (SIOCGIFFLAGS); false when it does not exist.
+bool interface_is_up(int fd, const std::string& interface) {
+  ifreq ifr{};
+  std::memcpy(ifr.ifr_name, interface.c_str(), interface.size() + 1);
+  return ::ioctl(fd, SIOCGIFFLAGS, &ifr) == 0 && (ifr.ifr_flags & IFF_UP);
+}
+
 class SocketCanChannel final : public Channel {
  public:
-  SocketCanChannel(int fd, std::string interface, LogSink* log)
+  SocketCanChannel(int fd, std::string interface, unsigned index, SocketCanOptions options)
       : fd_(fd),
+        index_(index),
         interface_(interface),
         name_("socketcan:" + interface),
-        log_(log, "socketcan " + interface) {}
-  ~SocketCanChannel() override { ::close(fd_); }
+        receive_own_(options.receive_own),
+        log_(options.log, "socketcan " + interface) {}
+  ~SocketCanChannel() override {
+    if (epoll_fd_ >= 0) ::close(epoll_fd_);
+    ::close(fd_);
+  }
   SocketCanChannel(const SocketCanChannel&) = delete;
   SocketCanChannel& operator=(const SocketCanChannel&) = delete;
 
   // The controller state when the channel opens (can_get_state; none for vcan).
   void set_initial_state(BusState s) { state_ = s; }
+  // Opened on a down interface: bus-off, and the socket reports ENETDOWN once (raw_bind).
+  void set_initially_down() {
+    link_down_ = true;
+    enetdown_pending_ = true;
+  }
+  // Link events (interface up, down, removed, created) through rtnetlink and one epoll
+  // descriptor for them and the raw socket. Without them (no netlink), the channel learns of an
+  // interface coming back only from the next frame sent or received.
+  void watch_link() {
+    std::string error;
+    events_ = LinkEventSocket::open(&error);
+    if (events_) {
+      epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
+      if (epoll_fd_ >= 0 && add(fd_) && add(events_->fd())) return;
+      error = "epoll: " + errno_text(errno);
+      if (epoll_fd_ >= 0) ::close(epoll_fd_);
+      epoll_fd_ = -1;
+      events_.reset();
+    }
+    log_.warn("no link events (" + error +
+              "): an interface coming up is noticed at the next frame");
+  }
 
   void send(const Frame& frame) override {
     const socketcan::RawFrame raw = socketcan::encode(frame);
@@ -146,6 +223,7 @@ class SocketCanChannel final : public Channel {
   }
 
   std::optional<Frame> receive() override {
+    link_events();
     // Error frames are consumed here and never returned; read on until a data frame or EAGAIN.
     for (;;) {
       can_frame cf{};
@@ -162,33 +240,16 @@ class SocketCanChannel final : public Channel {
         if (err == EAGAIN || err == EWOULDBLOCK) return std::nullopt;
         if (err == EINTR) continue;
         if (err == ENETDOWN) {
-          // The kernel reports a down transition once per socket. When the interface is up again
-          // already (a bit rate change or `ip link set down/up`), the controller restarted
-          // error-active (linux/can/netlink.h CAN_STATE_ERROR_ACTIVE after ndo_open).
-          if (interface_up()) {
-            log_.info("interface was restarted (down and up); controller error-active");
-            restarted();
-            continue;
-          }
-          if (!link_down_) log_.error("interface went down; bus state reported as bus-off");
-          link_down_ = true;
+          if (!network_down()) continue;
+        } else if (err == ENODEV) {
+          if (!removed_) log_.error("interface was removed; bus state reported as bus-off");
+          link_down_ = removed_ = true;
         } else {
           log_.error("receive failed: " + errno_text(err));
         }
         return std::nullopt;
       }
-      for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c; c = CMSG_NXTHDR(&msg, c)) {
-        if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL &&
-            c->cmsg_len >= CMSG_LEN(sizeof(std::uint32_t))) {
-          std::uint32_t cumulative = 0;
-          std::memcpy(&cumulative, CMSG_DATA(c), sizeof cumulative);
-          if (const std::uint32_t lost = overflow_.observe(cumulative)) {
-            rx_lost_ += lost;
-            log_.warn("socket receive queue overflowed: " + std::to_string(lost) +
-                      " frames lost (SO_RXQ_OVFL)");
-          }
-        }
-      }
+      count_overflow(msg);
       if (n != static_cast<ssize_t>(sizeof cf)) {
         log_.warn("ignored a " + std::to_string(n) + "-byte read (not a classic CAN frame)");
         continue;
@@ -212,10 +273,117 @@ class SocketCanChannel final : public Channel {
   BusState bus_state() const override { return link_down_ ? BusState::BusOff : state_; }
   std::uint32_t rx_lost() const override { return rx_lost_; }
   std::uint32_t tx_dropped() const override { return tx_dropped_; }
-  int poll_fd() const override { return fd_; }
+  int poll_fd() const override { return epoll_fd_ >= 0 ? epoll_fd_ : fd_; }
   std::string_view name() const override { return name_; }
 
  private:
+  bool add(int fd) {
+    epoll_event ev{};
+    ev.events = EPOLLIN;
+    ev.data.fd = fd;
+    return ::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &ev) == 0;
+  }
+
+  // The socket said ENETDOWN: the kernel reports a down transition once per socket. Returns
+  // whether the interface is down (false: read on).
+  bool network_down() {
+    if (enetdown_pending_) {  // the link events told already
+      enetdown_pending_ = false;
+      return link_down_;
+    }
+    // Up again already (a bit rate change, `ip link set down/up`): the controller restarted
+    // error-active (linux/can/netlink.h CAN_STATE_ERROR_ACTIVE after ndo_open).
+    if (interface_is_up(fd_, interface_)) {
+      log_.info("interface was restarted (down and up); controller error-active");
+      restarted();
+      return false;
+    }
+    if (!link_down_) log_.error("interface went down; bus state reported as bus-off");
+    link_down_ = true;
+    return true;
+  }
+
+  // What the kernel said about interfaces since the last call: this interface going down, coming
+  // up, removed, or created again under its name (then the socket is bound anew).
+  void link_events() {
+    if (!events_) return;
+    bool overrun = false;
+    const auto events = events_->read(&overrun);
+    bool went_down = false;
+    std::optional<bool> up;
+    for (const auto& e : events) {
+      if (e.index == static_cast<int>(index_) && !removed_) {
+        if (e.kind == LinkEvent::Kind::Removed) {
+          log_.error("interface was removed; bus state reported as bus-off until it is back");
+          link_down_ = removed_ = true;
+          up.reset();
+          continue;
+        }
+        if (!e.up) went_down = true;
+        up = e.up;
+      } else if (e.kind == LinkEvent::Kind::New && e.name == interface_ &&
+                 e.index != static_cast<int>(index_)) {
+        if (!rebind(static_cast<unsigned>(e.index))) return;
+        up = e.up;
+      }
+    }
+    if (overrun && !removed_) up = interface_is_up(fd_, interface_);
+    if (!up) return;
+    if (!*up) {
+      if (!link_down_) {
+        log_.error("interface went down; bus state reported as bus-off");
+        enetdown_pending_ = true;
+      }
+      link_down_ = true;
+      return;
+    }
+    if (link_down_) {
+      log_.info("interface is up again; controller error-active");
+      restarted();
+    } else if (went_down) {
+      log_.info("interface was restarted (down and up); controller error-active");
+      restarted();
+    }
+    if (went_down) enetdown_pending_ = true;
+  }
+
+  // The interface was created again (a new index): a new socket bound to it.
+  bool rebind(unsigned index) {
+    std::string error;
+    const int fd = open_raw(interface_, index, receive_own_, &error);
+    if (fd < 0) {
+      log_.error("interface is back (index " + std::to_string(index) +
+                 ") but cannot be opened: " + error);
+      return false;
+    }
+    ::epoll_ctl(epoll_fd_, EPOLL_CTL_DEL, fd_, nullptr);
+    ::close(fd_);
+    fd_ = fd;
+    index_ = index;
+    removed_ = false;
+    link_down_ = true;  // until the interface is seen up
+    enetdown_pending_ = !interface_is_up(fd_, interface_);
+    overflow_ = {};
+    if (!add(fd_)) log_.error("epoll: " + errno_text(errno));
+    log_.info("interface was created again (index " + std::to_string(index) + "); socket reopened");
+    return true;
+  }
+
+  void count_overflow(msghdr& msg) {
+    for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c; c = CMSG_NXTHDR(&msg, c)) {
+      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL &&
+          c->cmsg_len >= CMSG_LEN(sizeof(std::uint32_t))) {
+        std::uint32_t cumulative = 0;
+        std::memcpy(&cumulative, CMSG_DATA(c), sizeof cumulative);
+        if (const std::uint32_t lost = overflow_.observe(cumulative)) {
+          rx_lost_ += lost;
+          log_.warn("socket receive queue overflowed: " + std::to_string(lost) +
+                    " frames lost (SO_RXQ_OVFL)");
+        }
+      }
+    }
+  }
+
   void handle_error(const socketcan::RawFrame& raw) {
     const auto e = socketcan::decode_error(raw);
     rx_lost_ += e.rx_lost;
@@ -230,11 +398,6 @@ class SocketCanChannel final : public Channel {
     }
   }
 
-  bool interface_up() const {
-    ifreq ifr{};
-    std::memcpy(ifr.ifr_name, interface_.c_str(), interface_.size() + 1);
-    return ::ioctl(fd_, SIOCGIFFLAGS, &ifr) == 0 && (ifr.ifr_flags & IFF_UP);
-  }
   void restarted() {
     link_down_ = false;
     if (state_ != BusState::Ok)
@@ -249,21 +412,22 @@ class SocketCanChannel final : public Channel {
   }
 
   int fd_;
+  unsigned index_;
+  int epoll_fd_ = -1;
+  std::unique_ptr<LinkEventSocket> events_;
   std::string interface_;
   std::string name_;
+  bool receive_own_;
   Logger log_;
   BusState state_ = BusState::Ok;
   bool link_down_ = false;
+  bool enetdown_pending_ = false;  // a down transition the socket has yet to report (ENETDOWN)
+  bool removed_ = false;           // the interface was deleted (RTM_DELLINK, ENODEV)
   std::uint32_t rx_lost_ = 0;
   std::uint32_t tx_dropped_ = 0;
   std::uint32_t tx_failing_ = 0;  // drops since the last successful send, for log rate limiting
   socketcan::OverflowCounter overflow_;
 };
-
-bool fail(std::string* error, std::string message) {
-  if (error) *error = std::move(message);
-  return false;
-}
 
 }  // namespace
 
@@ -283,52 +447,54 @@ std::unique_ptr<Channel> open_socketcan(const std::string& interface, std::strin
     return nullptr;
   }
   // 2. The kernel must speak CAN.
-  const int fd = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
-  if (fd < 0) {
+  const int probe = ::socket(PF_CAN, SOCK_RAW | SOCK_NONBLOCK | SOCK_CLOEXEC, CAN_RAW);
+  if (probe < 0) {
     fail(error, "cannot open " + who + ": this kernel has no CAN support (socket(AF_CAN) failed: " +
                     errno_text(errno) + "; modprobe can_raw)");
     return nullptr;
   }
-  auto close_and_fail = [&](std::string message) {
-    ::close(fd);
-    fail(error, std::move(message));
-    return nullptr;
-  };
-  // 3. It must be a CAN interface, and up.
+  // 3. It must be a CAN interface, and up unless the caller takes a down one.
   ifreq ifr{};
   std::memcpy(ifr.ifr_name, interface.c_str(), interface.size() + 1);
-  if (::ioctl(fd, SIOCGIFHWADDR, &ifr) == 0 && ifr.ifr_hwaddr.sa_family != ARPHRD_CAN)
-    return close_and_fail(who + " is not a CAN interface");
-  if (::ioctl(fd, SIOCGIFFLAGS, &ifr) < 0)
-    return close_and_fail("cannot read the flags of " + who + ": " + errno_text(errno));
-  if (!(ifr.ifr_flags & IFF_UP))
-    return close_and_fail(who + " is down (ip link set " + interface + " up)");
-
-  auto set = [&](int level, int name, const void* value, socklen_t size, const char* what) {
-    if (::setsockopt(fd, level, name, value, size) == 0) return true;
-    fail(error, "cannot open " + who + ": setsockopt(" + what + ") failed: " + errno_text(errno));
-    return false;
-  };
-  const int on = 1;
-  const can_err_mask_t err_mask = kErrorMask;
-  if (!set(SOL_CAN_RAW, CAN_RAW_ERR_FILTER, &err_mask, sizeof err_mask, "CAN_RAW_ERR_FILTER") ||
-      !set(SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on, "SO_RXQ_OVFL") ||
-      (options.receive_own &&
-       !set(SOL_CAN_RAW, CAN_RAW_RECV_OWN_MSGS, &on, sizeof on, "CAN_RAW_RECV_OWN_MSGS"))) {
-    ::close(fd);
+  const bool is_can =
+      ::ioctl(probe, SIOCGIFHWADDR, &ifr) != 0 || ifr.ifr_hwaddr.sa_family == ARPHRD_CAN;
+  const int flags_errno = ::ioctl(probe, SIOCGIFFLAGS, &ifr) < 0 ? errno : 0;
+  ::close(probe);
+  if (!is_can) {
+    fail(error, who + " is not a CAN interface");
     return nullptr;
   }
-  sockaddr_can addr{};
-  addr.can_family = AF_CAN;
-  addr.can_ifindex = static_cast<int>(index);
-  if (::bind(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) < 0)
-    return close_and_fail("cannot bind to " + who + ": " + errno_text(errno));
+  if (flags_errno) {
+    fail(error, "cannot read the flags of " + who + ": " + errno_text(flags_errno));
+    return nullptr;
+  }
+  const bool up = (ifr.ifr_flags & IFF_UP) != 0;
+  if (!up && !options.allow_down) {
+    fail(error, who + " is down (ip link set " + interface + " up)");
+    return nullptr;
+  }
+  const int fd = open_raw(interface, index, options.receive_own, error);
+  if (fd < 0) return nullptr;
 
   Logger log(options.log, "socketcan " + interface);
-  auto channel = std::make_unique<SocketCanChannel>(fd, interface, options.log);
+  auto channel = std::make_unique<SocketCanChannel>(fd, interface, index, options);
+  channel->watch_link();
+  const CanLink link(interface);
+  if (!up) {
+    // A controller never given a bit rate cannot be set up (`ip link set can0 up`: "bit-timing
+    // not yet defined"); vcan has no controller state and no bit timing.
+    const bool controller = link.state().has_value();
+    channel->set_initially_down();
+    log.warn("opened, but the interface is down" +
+             std::string(controller && !link.bittiming() ? " and has no bit timing yet" : "") +
+             ": bus state bus-off until it is up (`" +
+             std::string(controller ? "ip link set " + interface + " type can bitrate N && " : "") +
+             "ip link set " + interface + " up`)");
+    return channel;
+  }
   // A real controller may already be warning, error-passive or bus-off (restart-ms 0) before this
   // socket saw any error frame; vcan has no controller state.
-  if (const auto state = CanLink(interface).state()) {
+  if (const auto state = link.state()) {
     channel->set_initial_state(to_bus_state(*state));
     log.info("opened (raw socket, error frames on), controller " + std::string(to_string(*state)));
   } else {

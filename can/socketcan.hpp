@@ -2,8 +2,10 @@
 //  - 11/29-bit and remote frames (CAN_EFF_FLAG / CAN_RTR_FLAG);
 //  - error frames (CAN_ERR_FLAG, CAN_RAW_ERR_FILTER) turned into bus_state();
 //  - SO_RXQ_OVFL drop counts and controller RX-overflow error frames added to rx_lost() (IRQ_LOST);
-//  - non-blocking; poll_fd() is the socket. After it becomes readable, call receive() until it
-//    returns nullopt (error frames are consumed inside receive() and never returned).
+//  - non-blocking; poll_fd() is an epoll descriptor (the socket and link events). After it
+//    becomes readable, call receive() until it returns nullopt (error frames are consumed inside
+//    receive() and never returned);
+//  - follows its interface going down, coming up, removed and created again (rtnetlink).
 //
 // The conversions between can::Frame and the kernel's struct can_frame, and the meaning of error
 // frames, are pure functions in namespace `socketcan` below, so they are tested on machines whose
@@ -24,11 +26,21 @@ namespace candp2::can {
 struct SocketCanOptions {
   bool receive_own = false;  // CAN_RAW_RECV_OWN_MSGS
   LogSink* log = nullptr;    // bus state changes, drops and socket errors; null discards
+  // Open a down interface too (candp2d: an interface as it is after boot, down and perhaps
+  // without bit timing). The channel reports bus-off until the interface is up and recovers by
+  // itself when it comes up (docs/transports.md "Down interfaces"). Otherwise a down interface is
+  // an error.
+  bool allow_down = false;
 };
 
 // Opens `interface` (e.g. "vcan0"). On failure returns nullptr and sets *error to a message that
 // names the interface and the reason ("interface vcan0 does not exist", "... is down", "this kernel
 // has no CAN support (socket(AF_CAN) failed: ...)", "... is not a CAN interface").
+//
+// The channel follows its interface through rtnetlink link events (can/link_events.hpp): down
+// (bus-off), up again (error-active, without waiting for a frame), removed (bus-off) and created
+// again under the same name (the socket is bound anew). poll_fd() is then an epoll descriptor
+// holding the raw socket and the link event socket.
 std::unique_ptr<Channel> open_socketcan(const std::string& interface, std::string* error,
                                         SocketCanOptions options = {});
 

@@ -7,7 +7,7 @@ namespace {
 class NetlinkOps final : public LinkOps {
  public:
   explicit NetlinkOps(const std::string& interface) : link_(interface) {}
-  std::optional<can::BitTiming> bittiming() override { return link_.bittiming(); }
+  std::optional<can::LinkInfo> info() override { return link_.info(); }
   std::optional<can::LinkError> set_bitrate(std::uint32_t bitrate,
                                             std::optional<std::uint32_t> restart_ms) override {
     return link_.set_bitrate(bitrate, restart_ms);
@@ -38,9 +38,11 @@ std::size_t BitrateSupervisor::add_gateway(std::string name) {
 }
 
 void BitrateSupervisor::read_interface() {
-  const auto bt = ops_->bittiming();
-  interface_bitrate_ = bt ? std::optional<std::uint32_t>(bt->bitrate) : std::nullopt;
-  if (!bt && !said_virtual_) {
+  link_ = ops_->info();
+  interface_bitrate_ = link_ && link_->bittiming
+                           ? std::optional<std::uint32_t>(link_->bittiming->bitrate)
+                           : std::nullopt;
+  if (link_ && !link_->controller && !said_virtual_) {
     said_virtual_ = true;
     log_.info("no bit timing (virtual interface): the bit rate is not " +
               std::string(mode_ == config::BitrateMode::Apply ? "applied" : "checked"));
@@ -59,17 +61,16 @@ void BitrateSupervisor::update(std::size_t gateway, std::optional<std::uint32_t>
     else
       read_interface();
     next_check_ = now + kCheckInterval;
-    for (std::size_t i = 0; i < members_.size(); ++i) report(i);
+    report_all();
     return;
   }
-  // check: the interface may be reconfigured behind our back (ip link set ... bitrate N).
+  // The interface may be reconfigured, taken down or brought up behind our back (ip link set ...).
   // An interface without bit timing (vcan) stays so: not asked again (libsocketcan would print
   // "no link data found" to stderr at every request).
-  if (mode_ == config::BitrateMode::Check && bitrate && !said_virtual_ &&
-      (!next_check_ || now >= *next_check_)) {
+  if (bitrate && !said_virtual_ && (!next_check_ || now >= *next_check_)) {
     next_check_ = now + kCheckInterval;
     read_interface();
-    for (std::size_t i = 0; i < members_.size(); ++i) report(i);
+    report_all();
   }
 }
 
@@ -90,27 +91,73 @@ void BitrateSupervisor::apply(std::size_t gateway) {
     }
   }
   read_interface();
-  if (!interface_bitrate_) return;  // vcan: nothing to set (logged once)
-  if (*interface_bitrate_ == want) {
+  if (!link_) {
+    log_.error("gateway " + m.name + ": cannot set the bit rate " + can::format_bitrate(want) +
+               " from Set_Prm: interface " + interface_ + " does not exist");
+    return;
+  }
+  if (!link_->controller) return;  // vcan: nothing to set (logged once)
+  // An interface that is up at the rate is left alone; a down one (after boot, or taken down) or
+  // one without bit timing (never configured) is set and brought up.
+  if (link_->up && interface_bitrate_ && can::bitrate_matches(want, *interface_bitrate_)) {
     log_.info("bit rate " + can::format_bitrate(want) + " (Set_Prm of gateway " + m.name +
               ") already set");
     return;
   }
+  const std::string was =
+      (interface_bitrate_ ? can::format_bitrate(*interface_bitrate_) : "no bit timing") +
+      (link_->up ? "" : ", down");
   if (const auto error = ops_->set_bitrate(want, restart_ms_)) {
     log_.error("gateway " + m.name + ": cannot set the bit rate " + can::format_bitrate(want) +
-               " from Set_Prm: " + can::describe_link_error(interface_, *error));
+               " from Set_Prm: " + can::describe_link_error(interface_, *error, command(want)));
   } else {
     log_.info("bit rate set to " + can::format_bitrate(want) + " from the Set_Prm of gateway " +
-              m.name + " (was " + can::format_bitrate(*interface_bitrate_) + ")" +
-              (restart_ms_ ? ", restart-ms " + std::to_string(*restart_ms_) : std::string()));
+              m.name + " (was " + was + ")" +
+              (restart_ms_ ? ", restart-ms " + std::to_string(*restart_ms_) : std::string()) +
+              (link_->up ? std::string() : "; interface up"));
   }
   read_interface();
+}
+
+// The commands an operator runs to put the interface at `bitrate` and up, as it is now.
+std::string BitrateSupervisor::command(std::uint32_t bitrate) const {
+  const bool at_rate = interface_bitrate_ && can::bitrate_matches(bitrate, *interface_bitrate_);
+  const bool up = link_ && link_->up;
+  return can::ip_link_command(interface_, at_rate && !up ? 0 : bitrate,
+                              mode_ == config::BitrateMode::Apply ? restart_ms_ : std::nullopt, up);
+}
+
+// A controller that is down (after boot, or taken down by someone) once per change: the gateways
+// report bus-off (the channel's bus state) until it is up; the line says how to bring it up.
+void BitrateSupervisor::report_link() {
+  if (!is_controller()) return;
+  const Member* with_rate = nullptr;
+  for (const auto& m : members_)
+    if (m.bitrate && !with_rate) with_rate = &m;
+  if (!with_rate) return;  // before Set_Prm the rate to give is unknown
+  const bool down = !link_->up;
+  if (reported_down_ == down || (!down && !reported_down_)) {
+    reported_down_ = down;
+    return;
+  }
+  reported_down_ = down;
+  if (down)
+    log_.warn("interface " + interface_ + " is down" +
+              (interface_bitrate_ ? std::string() : " and has no bit timing") +
+              ": the gateways on it report bus-off until it is up at " +
+              can::format_bitrate(*with_rate->bitrate) + " (Set_Prm of gateway " + with_rate->name +
+              "): `" + command(*with_rate->bitrate) + "`");
+  else
+    log_.info(
+        "interface " + interface_ + " is up" +
+        (interface_bitrate_ ? " at " + can::format_bitrate(*interface_bitrate_) : std::string()));
 }
 
 void BitrateSupervisor::report(std::size_t gateway) {
   Member& m = members_[gateway];
   const auto s = status(gateway);
-  if (!m.bitrate || !interface_bitrate_) return;
+  // A down interface is reported by report_link(); its bit rate is told when it is up.
+  if (!m.bitrate || !interface_bitrate_ || !link_ || !link_->up) return;
   if (m.reported_mismatch == s.mismatch) return;
   m.reported_mismatch = s.mismatch;
   if (s.mismatch)
@@ -118,9 +165,7 @@ void BitrateSupervisor::report(std::size_t gateway) {
               can::format_bitrate(s.configured) + " (Set_Prm byte 8), the interface runs at " +
               can::format_bitrate(s.interface) +
               (mode_ == config::BitrateMode::Check
-                   ? " (\"bitrate\": \"check\": set it with `ip link set " + interface_ +
-                         " down; ip link set " + interface_ + " type can bitrate " +
-                         std::to_string(s.configured) + "; ip link set " + interface_ + " up`)"
+                   ? " (\"bitrate\": \"check\": set it with `" + command(s.configured) + "`)"
                    : std::string()));
   else
     log_.info("bit rate " + can::format_bitrate(s.interface) + " matches gateway " + m.name);
@@ -132,8 +177,9 @@ modbus::BitrateStatus BitrateSupervisor::status(std::size_t gateway) const {
   s.mode = mode_ == config::BitrateMode::Apply ? 2 : 1;
   s.configured = m.bitrate.value_or(0);
   s.interface = interface_bitrate_.value_or(0);
-  s.mismatch =
-      m.bitrate && interface_bitrate_ && !can::bitrate_matches(*m.bitrate, *interface_bitrate_);
+  // A controller without bit timing does not run at the Set_Prm's rate either.
+  s.mismatch = m.bitrate && is_controller() &&
+               (!interface_bitrate_ || !can::bitrate_matches(*m.bitrate, *interface_bitrate_));
   return s;
 }
 

@@ -1,13 +1,17 @@
 // The CAN bit rate of one SocketCAN interface versus the gateways on it (docs/transports.md, "Bit
 // rate"). The real CAN-DP/2 sets its controller from Set_Prm byte 8 (manual §5.1.2, emulator-spec
 // §1.1); candp2d either checks the interface against it ("bitrate": "check") or sets it ("apply",
-// CAP_NET_ADMIN: down, bit rate, up, through can::CanLink).
+// CAP_NET_ADMIN: down, bit rate, restart-ms, up, through can::CanLink).
 //
 // The daemon calls update() after every master cycle with each gateway's accepted bit rate (a pure
 // accessor of the gateway, Gateway::user_prm()); netlink is touched only when a gateway's bit rate
-// changed and every 5 s in check mode (the interface may be reconfigured behind candp2d's back).
-// Netlink requests are synchronous and quick (a local kernel round trip): acceptable in the one
-// event loop. The interface is reached through LinkOps so that the rules are tested without CAN.
+// changed and every 5 s after that (the interface may be reconfigured, taken down or brought up
+// behind candp2d's back). The Set_Prm bit rate is known only after the master's first Set_Prm: an
+// interface that is down at start (as after boot, perhaps without any bit timing) is configured
+// ("apply") or reported with the command that configures it ("check") at that moment
+// (docs/transports.md "Down interfaces"). Netlink requests are synchronous and quick (a local
+// kernel round trip): acceptable in the one event loop. The interface is reached through LinkOps
+// so that the rules are tested without CAN.
 #pragma once
 
 #include <cstdint>
@@ -26,7 +30,8 @@ namespace candp2::daemon {
 class LinkOps {
  public:
   virtual ~LinkOps() = default;
-  virtual std::optional<can::BitTiming> bittiming() = 0;
+  // nullopt: the interface does not exist (any more).
+  virtual std::optional<can::LinkInfo> info() = 0;
   virtual std::optional<can::LinkError> set_bitrate(std::uint32_t bitrate,
                                                     std::optional<std::uint32_t> restart_ms) = 0;
 };
@@ -52,6 +57,13 @@ class BitrateSupervisor {
   void apply(std::size_t gateway);
   void read_interface();
   void report(std::size_t gateway);
+  void report_link();
+  void report_all() {
+    report_link();
+    for (std::size_t i = 0; i < members_.size(); ++i) report(i);
+  }
+  bool is_controller() const { return link_ && link_->controller; }
+  std::string command(std::uint32_t bitrate) const;
 
   struct Member {
     std::string name;
@@ -64,8 +76,10 @@ class BitrateSupervisor {
   std::unique_ptr<LinkOps> ops_;
   Logger log_;
   std::vector<Member> members_;
+  std::optional<can::LinkInfo> link_;  // the last read
   std::optional<std::uint32_t> interface_bitrate_;
   bool said_virtual_ = false;
+  std::optional<bool> reported_down_;  // what the log said last about a down interface
   std::optional<Time> next_check_;
 };
 

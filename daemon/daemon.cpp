@@ -154,8 +154,10 @@ std::unique_ptr<can::Channel> DaemonImpl::open_channel(const config::BusConfig& 
   std::string e;
   if (b.type == BusType::SocketCan) {
     // One raw socket per gateway: gateways on one interface see each other's frames, as
-    // separate devices on a bus do.
-    auto channel = can::open_socketcan(b.interface, &e, {.receive_own = false, .log = log_sink_});
+    // separate devices on a bus do. A down interface is no start error: bus-off until it is up
+    // (docs/transports.md "Down interfaces").
+    auto channel = can::open_socketcan(b.interface, &e,
+                                       {.receive_own = false, .log = log_sink_, .allow_down = true});
     if (!channel) {
       *error = "cannot open SocketCAN interface " + b.interface + ": " + e;
       return nullptr;

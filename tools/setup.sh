@@ -10,8 +10,11 @@
 #                         bounded time, and the SocketCAN tests inside a QEMU guest; development
 #                         builds with warnings as errors (CANDP2_WERROR)
 #   tools/setup.sh deb    install what is needed, build, write dist/candp2_VERSION_ARCH.deb
-#   tools/setup.sh deps   only install the packages
+#   tools/setup.sh deps [run|test|deb]   only install the packages (default: test, all of them)
+#   tools/setup.sh packages run|test|deb print the packages that command installs, one a line
 #
+# Each command installs only what it uses: `run` what the Release build and the daemon need,
+# `deb` adds packaging, `test` adds the tests (and builds the package too).
 # Environment: CANDP2_FUZZ_SECONDS (default 20 per target), CANDP2_JOBS (default: nproc).
 # ccache is used when installed.
 set -euo pipefail
@@ -21,29 +24,50 @@ cd "$here"
 jobs=${CANDP2_JOBS:-$(nproc)}
 fuzz_seconds=${CANDP2_FUZZ_SECONDS:-20}
 
-# Debian packages, one purpose per line.
-packages=(
-  build-essential cmake ninja-build pkg-config          # toolchain
-  clang-14 libclang-rt-14-dev clang-format              # libFuzzer, sanitizers, formatting
-  libgtest-dev libgmock-dev libbenchmark-dev            # tests and benchmarks
+# Debian packages, one purpose per line. tests/setup/packages_test.sh checks that `run` stays free
+# of what only the tests need.
+run_packages=(
+  build-essential cmake ninja-build pkg-config git      # toolchain; git describe for --version
   libmodbus-dev nlohmann-json3-dev libcli11-dev         # Modbus/TCP, JSON configuration, CLI
   libspdlog-dev libfmt-dev                              # logging
-  can-utils mbpoll                                      # independent CAN and Modbus peers
-  libsocketcan-dev iproute2                             # SocketCAN bit rate and controller state (netlink); ip in the guest
-  python3-can python3-pymodbus python3-serial-asyncio   # independent python peers (/usr/bin/python3)
-  qemu-system-x86 linux-image-amd64 busybox-static python3 # the SocketCAN guest (vcan)
-  libmicrohttpd-dev python3-prometheus-client chromium  # HTTP face; /metrics and page tests
-  libsystemd-dev systemd                                # sd_notify (Type=notify); systemd-analyze verify
-  dpkg-dev lintian                                      # the .deb: dpkg-shlibdeps, dpkg-deb, lintian
-  ccache git                                            # compiler cache; the source revision (--version)
+  libsocketcan-dev                                      # SocketCAN bit rate and controller state (netlink)
+  libmicrohttpd-dev libsystemd-dev                      # HTTP face; sd_notify (Type=notify)
+  mbpoll                                                # the Modbus client of the README's demo
 )
+deb_packages=(
+  dpkg-dev lintian                                      # the .deb: dpkg-shlibdeps, dpkg-deb, lintian
+)
+test_packages=(
+  libgtest-dev libgmock-dev libbenchmark-dev            # tests and benchmarks
+  clang-14 libclang-rt-14-dev clang-format              # libFuzzer, sanitizers, formatting
+  can-utils                                             # independent CAN peer
+  python3 python3-can python3-pymodbus python3-serial-asyncio # independent python peers (/usr/bin/python3)
+  qemu-system-x86 linux-image-amd64 busybox-static iproute2 # the SocketCAN guest (vcan, SJA1000: ip)
+  python3-prometheus-client chromium                    # /metrics and page tests
+  systemd                                               # systemd-analyze verify
+  ccache                                                # compiler cache for the many test builds
+)
+
+# packages_for run|test|deb: the whole list that command installs.
+packages_for() {
+  case $1 in
+    run) printf '%s\n' "${run_packages[@]}" ;;
+    deb) printf '%s\n' "${run_packages[@]}" "${deb_packages[@]}" ;;
+    test) printf '%s\n' "${run_packages[@]}" "${deb_packages[@]}" "${test_packages[@]}" ;;
+    *)
+      echo "setup: unknown command '$1' (run, test or deb)" >&2
+      return 2
+      ;;
+  esac
+}
 
 as_root() {
   if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi
 }
 
-install_deps() {
-  local missing=()
+install_deps() {  # run|test|deb
+  local packages missing=()
+  mapfile -t packages < <(packages_for "$1")
   for p in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
@@ -76,7 +100,7 @@ configure_build() {  # DIR [cmake args...]
 release_dir=build-release
 build_release() {
   cmake -S . -B "$release_dir" -G Ninja "${launcher[@]}" -DCMAKE_BUILD_TYPE=Release \
-    -DCANDP2_WERROR=OFF -DCANDP2_BENCH=OFF >/dev/null
+    -DCANDP2_WERROR=OFF -DCANDP2_BENCH=OFF -DCANDP2_TESTS=OFF >/dev/null
   cmake --build "$release_dir" -j "$jobs" --target candp2d candp2 candp2-drive
 }
 
@@ -164,12 +188,16 @@ run_tests() {
 }
 
 case "${1:-}" in
-  deps) install_deps ;;
-  run) install_deps; shift; run_daemon "$@" ;;
-  test) install_deps; run_tests ;;
-  deb) install_deps; build_deb ;;
+  deps) install_deps "${2:-test}" ;;
+  packages)
+    [ $# -eq 2 ] || { echo "usage: $0 packages run|test|deb" >&2; exit 2; }
+    packages_for "$2"
+    ;;
+  run) install_deps run; shift; run_daemon "$@" ;;
+  test) install_deps test; run_tests ;;
+  deb) install_deps deb; build_deb ;;
   *)
-    echo "usage: $0 run|test|deb|deps" >&2
+    echo "usage: $0 run|test|deb|deps [run|test|deb]|packages run|test|deb" >&2
     exit 2
     ;;
 esac

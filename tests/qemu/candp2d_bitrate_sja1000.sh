@@ -75,6 +75,9 @@ run noperm nobody
 wait_until 5 reg_is 8234 0x0001 || fail "no-permission: no mismatch flag"
 grep -q 'CAP_NET_ADMIN' /out/noperm.log || fail "no-permission: no CAP_NET_ADMIN line: $(cat /out/noperm.log)"
 grep -q 'candp2d-bitrate-apply.conf' /out/noperm.log || fail "no-permission: drop-in not named"
+# ... and exactly what to run instead, with the real values (can0 is up at 250k: down first).
+grep -qF 'run `ip link set can0 down && ip link set can0 type can bitrate 500000 && ip link set can0 up` as root' \
+    /out/noperm.log || fail "no-permission: no command to run: $(cat /out/noperm.log)"
 rate_is 250000 || fail "no-permission: can0 changed"
 reg_is 8192 0x0002 || fail "no-permission: gateway left Data_Exch"
 stop

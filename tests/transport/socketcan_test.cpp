@@ -6,11 +6,18 @@
 #include <gtest/gtest.h>
 #include <linux/can.h>
 #include <linux/can/error.h>
+#include <linux/netlink.h>
+#include <linux/rtnetlink.h>
+#include <net/if.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <cstdlib>
+#include <cstring>
 
+#include "can/link_events.hpp"
+#include "common/log.hpp"
 #include "transport_test_support.hpp"
 
 namespace candp2::can {
@@ -179,6 +186,126 @@ TEST(SocketCanOpen, DownInterfaceIsReported) {
   std::string error;
   EXPECT_EQ(open_socketcan(iface, &error), nullptr);
   EXPECT_NE(error.find(std::string("interface ") + iface + " is down"), std::string::npos) << error;
+}
+
+// --- Link events (rtnetlink RTMGRP_LINK), parsed without a kernel --------------------------------
+
+// One RTM_NEWLINK/RTM_DELLINK message as the kernel writes it (linux/rtnetlink.h): nlmsghdr,
+// ifinfomsg, then an IFLA_IFNAME attribute when `name` is given.
+std::vector<std::uint8_t> link_message(std::uint16_t type, int index, unsigned flags,
+                                       const char* name) {
+  std::vector<std::uint8_t> m(NLMSG_LENGTH(sizeof(ifinfomsg)));
+  ifinfomsg info{};
+  info.ifi_index = index;
+  info.ifi_flags = flags;
+  std::memcpy(m.data() + NLMSG_HDRLEN, &info, sizeof info);
+  if (name) {
+    rtattr a{};
+    a.rta_type = IFLA_IFNAME;
+    a.rta_len = static_cast<unsigned short>(RTA_LENGTH(std::strlen(name) + 1));
+    const std::size_t at = NLMSG_ALIGN(m.size());
+    m.resize(at + RTA_ALIGN(a.rta_len));
+    std::memcpy(m.data() + at, &a, sizeof a);
+    std::memcpy(m.data() + at + RTA_LENGTH(0), name, std::strlen(name) + 1);
+  }
+  nlmsghdr h{};
+  h.nlmsg_len = static_cast<std::uint32_t>(m.size());
+  h.nlmsg_type = type;
+  std::memcpy(m.data(), &h, sizeof h);
+  return m;
+}
+
+TEST(LinkEvents, ParsesNewAndRemovedLinksInOrder) {
+  std::vector<std::uint8_t> d = link_message(RTM_NEWLINK, 7, IFF_UP | IFF_RUNNING, "can0");
+  const auto down = link_message(RTM_NEWLINK, 7, 0, "can0");
+  const auto other = link_message(RTM_NEWADDR, 1, 0, nullptr);  // not a link message: skipped
+  const auto removed = link_message(RTM_DELLINK, 7, 0, nullptr);
+  for (const auto* part : {&down, &other, &removed}) d.insert(d.end(), part->begin(), part->end());
+  const auto events = parse_link_events(d);
+  ASSERT_EQ(events.size(), 3u);
+  EXPECT_EQ(events[0].kind, LinkEvent::Kind::New);
+  EXPECT_EQ(events[0].index, 7);
+  EXPECT_TRUE(events[0].up);
+  EXPECT_EQ(events[0].name, "can0");
+  EXPECT_FALSE(events[1].up);
+  EXPECT_EQ(events[2].kind, LinkEvent::Kind::Removed);
+  EXPECT_EQ(events[2].name, "");
+}
+
+TEST(LinkEvents, TruncatedAndMalformedDatagramsAreSkipped) {
+  auto m = link_message(RTM_NEWLINK, 3, IFF_UP, "vcan0");
+  for (std::size_t n = 0; n < m.size(); ++n)  // every truncation: no crash, never a wrong event
+    for (const auto& e : parse_link_events(std::span(m.data(), n))) EXPECT_EQ(e.index, 3);
+  auto bad = m;
+  bad[0] = 4;  // nlmsg_len below the header: the rest is dropped
+  EXPECT_TRUE(parse_link_events(bad).empty());
+  auto bad_attr = m;  // an attribute longer than the message: the event stays, without a name
+  const std::size_t at = NLMSG_ALIGN(NLMSG_LENGTH(sizeof(ifinfomsg)));
+  bad_attr[at] = 0xFF;
+  bad_attr[at + 1] = 0x0F;
+  const auto events = parse_link_events(bad_attr);
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].name, "");
+}
+
+// --- A down interface, opened anyway (candp2d): event-driven recovery -------------------------
+
+// Runs `ip link ...` (busybox in the QEMU guest). Needs root.
+void ip(const std::string& args) {
+  ASSERT_EQ(std::system(("ip link " + args).c_str()), 0) << "ip link " << args;
+}
+
+// Waits until the channel's poll_fd() is readable and drains it; the channel's bus state then
+// tells what it learnt. Bounded by `ms`.
+bool drain_until(Channel& ch, BusState want, int ms) {
+  for (int waited = 0; waited <= ms; waited += 50) {
+    while (ch.receive()) {
+    }
+    if (ch.bus_state() == want) return true;
+    pollfd p{ch.poll_fd(), POLLIN, 0};
+    ::poll(&p, 1, 50);
+  }
+  return false;
+}
+
+TEST(SocketCanDown, OpenedDownRecoversWhenTheInterfaceComesUpWithoutAFrame) {
+  const char* iface = std::getenv("CANDP2_TEST_CAN_DOWN_IFACE");
+  if (!iface || !kernel_has_can() || ::geteuid() != 0)
+    GTEST_SKIP() << "needs kernel CAN, root and CANDP2_TEST_CAN_DOWN_IFACE";
+  const std::string name = iface;
+  MemoryLog log;
+  std::string error;
+  auto ch = open_socketcan(name, &error, {.log = &log, .allow_down = true});
+  ASSERT_NE(ch, nullptr) << error;
+  EXPECT_EQ(ch->bus_state(), BusState::BusOff);
+  EXPECT_TRUE(log.contains("opened, but the interface is down")) << log.lines.back().message;
+  EXPECT_FALSE(ch->receive());
+  ip("set " + name + " up");  // no frame: the link event alone must wake the channel
+  EXPECT_TRUE(drain_until(*ch, BusState::Ok, 5000));
+  EXPECT_TRUE(log.contains("interface is up again"));
+  ip("set " + name + " down");
+  EXPECT_TRUE(drain_until(*ch, BusState::BusOff, 5000));
+  EXPECT_TRUE(log.contains("interface went down"));
+  // Removed and created again under the same name: a new index, the socket is bound anew and
+  // frames flow (a second socket on the new interface sends, this one receives).
+  ip("del " + name);
+  EXPECT_TRUE(drain_until(*ch, BusState::BusOff, 5000));
+  ip("add dev " + name + " type vcan");
+  ip("set " + name + " up");
+  EXPECT_TRUE(drain_until(*ch, BusState::Ok, 5000));
+  EXPECT_TRUE(log.contains("interface was created again")) << log.lines.back().message;
+  auto peer = open_socketcan(name, &error);
+  ASSERT_NE(peer, nullptr) << error;
+  peer->send(F("123#AB"));
+  std::optional<Frame> got;
+  for (int i = 0; i < 100 && !got; ++i) {
+    pollfd p{ch->poll_fd(), POLLIN, 0};
+    ::poll(&p, 1, 50);
+    got = ch->receive();
+  }
+  ASSERT_TRUE(got);
+  EXPECT_EQ(format_candump(*got), "123#AB");
+  ip("set " + name + " down");  // as the guest script left it
 }
 
 }  // namespace

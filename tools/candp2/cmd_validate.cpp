@@ -69,6 +69,8 @@ int run_validate(const ValidateArgs& a) {
       return unusable(a, a.gsd, "",
                       "cannot open the GSD file: " + std::string(std::strerror(errno)));
     gsd_file = gsd::parse_file(a.gsd);
+    if (gsd_file->not_gsd)  // one line, as `candp2 gsd` says it (docs/gsd.md)
+      return unusable(a, a.gsd, "", gsd::to_utf8(gsd_file->diagnostics.front().message));
     if (!gsd_file->ok()) {
       std::string first;
       for (const auto& d : gsd_file->diagnostics)
