@@ -20,8 +20,8 @@ bool emulated(std::string_view sender) {
 }  // namespace
 
 const std::string& BusUnit::interface() const {
-  if (cfg_.type == BusType::SocketCan) return cfg_.interface;
-  return cfg_.channel.empty() ? cfg_.name : cfg_.channel;
+  if (cfg_->type == BusType::SocketCan) return cfg_->interface;
+  return cfg_->channel.empty() ? cfg_->name : cfg_->channel;
 }
 
 // ------------------------------------------------------------------------------- gateway unit
@@ -97,7 +97,7 @@ bool Plant::build_parts(std::string* error) {
 
 bool Plant::add_bus(const config::BusConfig& cfg, std::string* /*error*/) {
   auto b = std::make_unique<BusUnit>();
-  b->cfg_ = cfg;
+  b->cfg_ = &cfg;
   b->index_ = static_cast<std::uint16_t>(buses_.size());
   if (cfg.type == BusType::Virtual) {
     b->vbus_ = std::make_unique<can::VirtualBus>();
@@ -114,7 +114,7 @@ bool Plant::add_bus(const config::BusConfig& cfg, std::string* /*error*/) {
 bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
   auto g = std::make_unique<GatewayUnit>();
   g->plant_ = this;
-  g->cfg_ = cfg;
+  g->cfg_ = &cfg;
   g->index_ = gateways_.size();
   g->sender_ = std::string(kGatewayPrefix) + cfg.name;
   g->bus_ = bus(cfg.bus);
@@ -172,7 +172,7 @@ bool Plant::add_drive(const config::DriveConfig& cfg, std::string* error) {
     return false;
   }
   auto d = std::make_unique<DriveUnit>();
-  d->cfg_ = cfg;
+  d->cfg_ = &cfg;
   d->endpoint_ = b->virtual_bus()->endpoint(std::string(kDrivePrefix) + cfg.name);
   drive::UnitekDrive::Options o;
   o.rx_id = cfg.rx_id;

@@ -84,8 +84,8 @@ struct Options {
 // One CAN bus of the configuration.
 class BusUnit {
  public:
-  const config::BusConfig& config() const { return cfg_; }
-  const std::string& name() const { return cfg_.name; }
+  const config::BusConfig& config() const { return *cfg_; }
+  const std::string& name() const { return cfg_->name; }
   std::uint16_t index() const { return index_; }
   // The name a capture or a CAN log shows: the SocketCAN interface, else the exported bus name.
   const std::string& interface() const;
@@ -94,7 +94,7 @@ class BusUnit {
 
  private:
   friend class Plant;
-  config::BusConfig cfg_;
+  const config::BusConfig* cfg_ = nullptr;
   std::uint16_t index_ = 0;
   std::unique_ptr<can::VirtualBus> vbus_;
 };
@@ -102,8 +102,8 @@ class BusUnit {
 // One emulated gateway: its channel, the fault layer in between, the firmware engine.
 class GatewayUnit final : private can::FrameSink {
  public:
-  const config::GatewayConfig& config() const { return cfg_; }
-  const std::string& name() const { return cfg_.name; }
+  const config::GatewayConfig& config() const { return *cfg_; }
+  const std::string& name() const { return cfg_->name; }
   std::size_t index() const { return index_; }
   gw::Gateway& gateway() { return *gateway_; }
   const gw::Gateway& gateway() const { return *gateway_; }
@@ -122,7 +122,7 @@ class GatewayUnit final : private can::FrameSink {
   void update_controller();
 
   Plant* plant_ = nullptr;
-  config::GatewayConfig cfg_;
+  const config::GatewayConfig* cfg_ = nullptr;
   std::size_t index_ = 0;
   BusUnit* bus_ = nullptr;
   std::unique_ptr<can::Channel> channel_;
@@ -136,15 +136,15 @@ class GatewayUnit final : private can::FrameSink {
 // One simulated drive on a virtual bus, behind its fault layer.
 class DriveUnit {
  public:
-  const config::DriveConfig& config() const { return cfg_; }
-  const std::string& name() const { return cfg_.name; }
+  const config::DriveConfig& config() const { return *cfg_; }
+  const std::string& name() const { return cfg_->name; }
   faults::FaultyDrive& drive() { return *drive_; }
   const faults::FaultyDrive& drive() const { return *drive_; }
   can::VirtualEndpoint& endpoint() { return *endpoint_; }
 
  private:
   friend class Plant;
-  config::DriveConfig cfg_;
+  const config::DriveConfig* cfg_ = nullptr;
   std::unique_ptr<can::VirtualEndpoint> endpoint_;
   std::unique_ptr<faults::FaultyDrive> drive_;
 };
@@ -153,6 +153,7 @@ class Plant {
  public:
   // Assembles the configuration at time `now` (the gateways' power-on). nullptr and *error
   // ("gateway \"g1\" on bus \"hw\" ($.buses.hw): cannot open ...") when a part cannot be built.
+  // The configuration is not copied: it must outlive the plant.
   static std::unique_ptr<Plant> build(const config::DaemonConfig& config, Options options, Time now,
                                       std::string* error);
   ~Plant();
@@ -239,7 +240,7 @@ class Plant {
   void tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender, Time time);
   void tap_note(std::string text, Time now);
 
-  config::DaemonConfig config_;
+  const config::DaemonConfig& config_;
   Options options_;
   LogSink* log_sink_;
   Logger log_;

@@ -35,7 +35,7 @@ struct MasterLineFixture : ::testing::Test {
     auto c = config::parse_daemon(text, "test.json");
     ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(c))
         << std::get<config::ConfigError>(c).to_string();
-    const auto& cfg = std::get<config::DaemonConfig>(c);
+    cfg = std::get<config::DaemonConfig>(c);  // the plant refers to it
     std::string error;
     plant = plant::Plant::build(cfg, {}, loop.now(), &error);
     ASSERT_TRUE(plant) << error;
@@ -97,6 +97,7 @@ struct MasterLineFixture : ::testing::Test {
 
   EventLoop loop;
   std::string dir;
+  config::DaemonConfig cfg;
   std::unique_ptr<plant::Plant> plant;
   std::unique_ptr<MasterLinePort> port;
   EventLoop::TimerId timer = 0;
