@@ -52,15 +52,6 @@ bool bitrate_matches(std::uint32_t configured, std::uint32_t actual) {
   return diff * 100 <= configured;  // within 1 %
 }
 
-std::string format_bitrate(std::uint32_t bitrate) {
-  char buf[32];
-  if (bitrate % 1000 == 0)
-    std::snprintf(buf, sizeof buf, "%u kbit/s", static_cast<unsigned>(bitrate / 1000));
-  else
-    std::snprintf(buf, sizeof buf, "%.1f kbit/s", bitrate / 1000.0);
-  return buf;
-}
-
 std::string ip_link_command(const std::string& interface, std::uint32_t bitrate,
                             std::optional<std::uint32_t> restart_ms, bool down_first) {
   const std::string set = "ip link set " + interface;

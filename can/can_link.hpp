@@ -91,7 +91,4 @@ std::string ip_link_command(const std::string& interface, std::uint32_t bitrate,
 std::string describe_link_error(const std::string& interface, const LinkError& e,
                                 const std::string& command);
 
-// "500000" → "500 kbit/s", "666600" → "666.6 kbit/s", "1000000" → "1000 kbit/s".
-std::string format_bitrate(std::uint32_t bitrate);
-
 }  // namespace candp2::can

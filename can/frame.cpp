@@ -177,4 +177,10 @@ std::string hex_bytes(std::span<const std::uint8_t> bytes) {
   return candp2::hex_bytes(bytes);
 }
 
+std::string ident_text(const Ident& id) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, id.extended ? "%08X" : "%03X", static_cast<unsigned>(id.id));
+  return buf;
+}
+
 }  // namespace candp2::can

@@ -45,6 +45,9 @@ struct Ident {
 inline Ident ident_of(const Frame& f) {
   return {f.id, f.extended};
 }
+// An identifier as candump writes it: 3 hex digits for 11 bits, 8 for 29 bits ("181",
+// "12345678"). Every log line, report and decoder that names an identifier uses this.
+std::string ident_text(const Ident& id);
 
 // candump "compact" notation, as cansend accepts it:
 //   123#1122        11-bit data frame (3 hex digits)

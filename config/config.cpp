@@ -56,14 +56,6 @@ const GatewayConfig* DaemonConfig::gateway_by_dp_address(std::uint8_t dp_address
   return nullptr;
 }
 
-std::string bitrate_name(std::uint8_t index) {
-  // GSD PrmText 1 (manual §5.1.2, table 5.1.1), without " kbit/s".
-  static constexpr const char* kNames[] = {"1000k", "666.6k", "500k",  "333.3k", "250k",
-                                           "166k",  "125k",   "100k",  "66.6k",  "50k",
-                                           "33.3k", "20k",    "12.5k", "10k"};
-  return index < std::size(kNames) ? kNames[index] : "?";
-}
-
 std::optional<std::vector<std::uint8_t>> parse_hex(std::string_view text, std::string* error) {
   auto fail = [&](std::string m) -> std::optional<std::vector<std::uint8_t>> {
     if (error) *error = std::move(m);
@@ -167,7 +159,8 @@ std::string resolve(const std::string& file, const std::string& p) {
 std::uint8_t parse_bitrate(const json& j, const std::string& path) {
   std::vector<std::string> names;
   for (std::uint8_t i = 0; i < gw::kBitrates.size(); ++i)
-    names.push_back('"' + bitrate_name(i) + '"');  // chars: GCC 12 -O3 false -Wrestrict
+    names.push_back('"' + std::string(gw::bitrate_name(i)) +
+                    '"');  // chars: GCC 12 -O3 false -Wrestrict
   const std::string expected = "expected a CAN bit rate of manual table 5.1.1 in bit/s (" +
                                std::to_string(gw::kBitrates[0]) + ", …, " +
                                std::to_string(gw::kBitrates.back()) + ") or one of " + join(names);
@@ -177,7 +170,7 @@ std::uint8_t parse_bitrate(const json& j, const std::string& path) {
     std::erase(s, ' ');
     if (s.size() > 6 && s.ends_with("kbit/s")) s = s.substr(0, s.size() - 5);
     for (std::uint8_t i = 0; i < gw::kBitrates.size(); ++i)
-      if (s == bitrate_name(i)) return i;
+      if (s == gw::bitrate_name(i)) return i;
     if (!s.starts_with("0x")) fail(path, expected + ", got " + kind_of(j));
   }
   const auto v = as_uint(j, path, 0, 1000000, "bit/s");

@@ -170,7 +170,5 @@ dp::SlaveParameters slave_parameters(const GatewayConfig& g);
 std::optional<std::vector<std::uint8_t>> parse_hex(std::string_view text, std::string* error);
 // "127.0.0.1:1502" → endpoint. The host must be a numeric IPv4 address.
 std::optional<Endpoint> parse_endpoint(std::string_view text, std::string* error);
-// Bit rates as the GSD's PrmText 1 names them (manual table 5.1.1): "125k", "666.6k", "1000k".
-std::string bitrate_name(std::uint8_t index);
 
 }  // namespace candp2::config

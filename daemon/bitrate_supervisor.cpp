@@ -1,5 +1,7 @@
 #include "daemon/bitrate_supervisor.hpp"
 
+#include "gateway/user_prm.hpp"
+
 namespace candp2::daemon {
 
 namespace {
@@ -83,16 +85,16 @@ void BitrateSupervisor::apply(std::size_t gateway) {
   for (std::size_t i = 0; i < members_.size(); ++i) {
     const Member& other = members_[i];
     if (i != gateway && other.bitrate && *other.bitrate != want) {
-      log_.error("gateway " + m.name + ": Set_Prm bit rate " + can::format_bitrate(want) +
+      log_.error("gateway " + m.name + ": Set_Prm bit rate " + gw::bitrate_text_bps(want) +
                  " refused: gateway " + other.name + " on the same interface uses " +
-                 can::format_bitrate(*other.bitrate) + "; the interface keeps its bit rate");
+                 gw::bitrate_text_bps(*other.bitrate) + "; the interface keeps its bit rate");
       read_interface();
       return;
     }
   }
   read_interface();
   if (!link_) {
-    log_.error("gateway " + m.name + ": cannot set the bit rate " + can::format_bitrate(want) +
+    log_.error("gateway " + m.name + ": cannot set the bit rate " + gw::bitrate_text_bps(want) +
                " from Set_Prm: interface " + interface_ + " does not exist");
     return;
   }
@@ -100,18 +102,18 @@ void BitrateSupervisor::apply(std::size_t gateway) {
   // An interface that is up at the rate is left alone; a down one (after boot, or taken down) or
   // one without bit timing (never configured) is set and brought up.
   if (link_->up && interface_bitrate_ && can::bitrate_matches(want, *interface_bitrate_)) {
-    log_.info("bit rate " + can::format_bitrate(want) + " (Set_Prm of gateway " + m.name +
+    log_.info("bit rate " + gw::bitrate_text_bps(want) + " (Set_Prm of gateway " + m.name +
               ") already set");
     return;
   }
   const std::string was =
-      (interface_bitrate_ ? can::format_bitrate(*interface_bitrate_) : "no bit timing") +
+      (interface_bitrate_ ? gw::bitrate_text_bps(*interface_bitrate_) : "no bit timing") +
       (link_->up ? "" : ", down");
   if (const auto error = ops_->set_bitrate(want, restart_ms_)) {
-    log_.error("gateway " + m.name + ": cannot set the bit rate " + can::format_bitrate(want) +
+    log_.error("gateway " + m.name + ": cannot set the bit rate " + gw::bitrate_text_bps(want) +
                " from Set_Prm: " + can::describe_link_error(interface_, *error, command(want)));
   } else {
-    log_.info("bit rate set to " + can::format_bitrate(want) + " from the Set_Prm of gateway " +
+    log_.info("bit rate set to " + gw::bitrate_text_bps(want) + " from the Set_Prm of gateway " +
               m.name + " (was " + was + ")" +
               (restart_ms_ ? ", restart-ms " + std::to_string(*restart_ms_) : std::string()) +
               (link_->up ? std::string() : "; interface up"));
@@ -145,12 +147,12 @@ void BitrateSupervisor::report_link() {
     log_.warn("interface " + interface_ + " is down" +
               (interface_bitrate_ ? std::string() : " and has no bit timing") +
               ": the gateways on it report bus-off until it is up at " +
-              can::format_bitrate(*with_rate->bitrate) + " (Set_Prm of gateway " + with_rate->name +
-              "): `" + command(*with_rate->bitrate) + "`");
+              gw::bitrate_text_bps(*with_rate->bitrate) + " (Set_Prm of gateway " +
+              with_rate->name + "): `" + command(*with_rate->bitrate) + "`");
   else
     log_.info(
         "interface " + interface_ + " is up" +
-        (interface_bitrate_ ? " at " + can::format_bitrate(*interface_bitrate_) : std::string()));
+        (interface_bitrate_ ? " at " + gw::bitrate_text_bps(*interface_bitrate_) : std::string()));
 }
 
 void BitrateSupervisor::report(std::size_t gateway) {
@@ -162,13 +164,13 @@ void BitrateSupervisor::report(std::size_t gateway) {
   m.reported_mismatch = s.mismatch;
   if (s.mismatch)
     log_.warn("bit rate mismatch: gateway " + m.name + " is parameterized for " +
-              can::format_bitrate(s.configured) + " (Set_Prm byte 8), the interface runs at " +
-              can::format_bitrate(s.interface) +
+              gw::bitrate_text_bps(s.configured) + " (Set_Prm byte 8), the interface runs at " +
+              gw::bitrate_text_bps(s.interface) +
               (mode_ == config::BitrateMode::Check
                    ? " (\"bitrate\": \"check\": set it with `" + command(s.configured) + "`)"
                    : std::string()));
   else
-    log_.info("bit rate " + can::format_bitrate(s.interface) + " matches gateway " + m.name);
+    log_.info("bit rate " + gw::bitrate_text_bps(s.interface) + " matches gateway " + m.name);
 }
 
 modbus::BitrateStatus BitrateSupervisor::status(std::size_t gateway) const {

@@ -9,12 +9,6 @@ namespace candp2::gw {
 
 namespace {
 
-std::string ident_text(const can::Ident& id) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, id.extended ? "%08X" : "%03X", static_cast<unsigned>(id.id));
-  return buf;
-}
-
 std::string command_text(const CwRequest& r) {
   return "CW command " + std::to_string(r.command) + " (counter " + std::to_string(r.counter) + ")";
 }
@@ -237,7 +231,7 @@ std::uint8_t CommWindow::execute(const CwRequest& req, Time now, CwHost& host) {
       if (req.command == kCwEnableAndRtr) enable(*id);
       // The manual asks for command 4 first; without it the answer just is not received.
       if (!is_enabled(*id))
-        log_.info(command_text(req) + ": remote frame on " + ident_text(*id) +
+        log_.info(command_text(req) + ": remote frame on " + can::ident_text(*id) +
                   ", which is not enabled for reception (command 4)");
       host.transmit(can::Frame::rtr(id->id, id->extended, req.length));
       break;
@@ -254,7 +248,7 @@ void CommWindow::enable(const can::Ident& id) {
   auto it = std::lower_bound(enabled_.begin(), enabled_.end(), key);
   if (it != enabled_.end() && *it == key) return;
   enabled_.insert(it, key);
-  log_.info("CW: reception enabled on " + ident_text(id));
+  log_.info("CW: reception enabled on " + can::ident_text(id));
 }
 
 void CommWindow::disable(const can::Ident& id) {
@@ -263,7 +257,7 @@ void CommWindow::disable(const can::Ident& id) {
   if (it == enabled_.end() || *it != key) return;  // not enabled: nothing to do, no error
   enabled_.erase(it);
   // Frames already in the FIFO stay there: they were received while enabled.
-  log_.info("CW: reception disabled on " + ident_text(id));
+  log_.info("CW: reception disabled on " + can::ident_text(id));
 }
 
 bool CommWindow::is_enabled(const can::Ident& id) const {

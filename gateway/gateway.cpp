@@ -110,9 +110,9 @@ std::optional<dp::PrmFault> Gateway::on_set_prm(std::span<const std::uint8_t> te
     nmt_ = NmtState::Initialising;
   }
   schedule_sync(now);  // manual §5.1.2 note: the SYNC time written last is valid from now on
-  log_.info(std::string("parameters: ") + std::to_string(kBitrates[p.bitrate_index] / 1000) +
-            " kbit/s, CANopen " + std::string(to_string(p.role())) +
-            (p.page_mode ? ", Page-Mode" : "") + (p.comm_window ? ", Communication Window" : ""));
+  log_.info("parameters: " + bitrate_text(p.bitrate_index) + ", CANopen " +
+            std::string(to_string(p.role())) + (p.page_mode ? ", Page-Mode" : "") +
+            (p.comm_window ? ", Communication Window" : ""));
   // Only the boot frame here: the DP slave still is in its old state (Data_Exch, maybe) until this
   // Set_Prm is accepted; release waits for the new Chk_Cfg.
   boot_if_due(now);

@@ -4,6 +4,29 @@
 
 namespace candp2::gw {
 
+std::string_view bitrate_name(std::uint8_t index) {
+  // manual table 5.1.1, as the GSD's PrmText 1 writes the rates (166k, not 166.6k).
+  static constexpr std::string_view kNames[] = {"1000k", "666.6k", "500k",  "333.3k", "250k",
+                                                "166k",  "125k",   "100k",  "66.6k",  "50k",
+                                                "33.3k", "20k",    "12.5k", "10k"};
+  static_assert(std::size(kNames) == kBitrates.size());
+  return index < std::size(kNames) ? kNames[index] : "?";
+}
+
+std::string bitrate_text(std::uint8_t index) {
+  if (index >= kBitrates.size()) return "?";
+  auto name = bitrate_name(index);
+  name.remove_suffix(1);  // the "k"
+  return std::string(name) + " kbit/s";
+}
+
+std::string bitrate_text_bps(std::uint32_t bps) {
+  for (std::uint8_t i = 0; i < kBitrates.size(); ++i)
+    if (kBitrates[i] == bps) return bitrate_text(i);
+  if (bps % 1000 == 0) return std::to_string(bps / 1000) + " kbit/s";
+  return std::to_string(bps) + " bit/s";
+}
+
 std::string_view to_string(CanopenRole r) {
   switch (r) {
     case CanopenRole::None:

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <string>
 #include <string_view>
 #include <variant>
 
@@ -52,6 +53,15 @@ inline constexpr std::uint16_t kSyncKeep = 65535;   // manual table 5.1.4
 inline constexpr std::array<std::uint32_t, 14> kBitrates = {1000000, 666600, 500000, 333300, 250000,
                                                             166000,  125000, 100000, 66600,  50000,
                                                             33300,   20000,  12500,  10000};
+
+// The bit rates as manual table 5.1.1 (and the GSD's PrmText 1) names them: "1000k", "666.6k",
+// "500k", ..., "10k"; "?" for an index outside the table.
+std::string_view bitrate_name(std::uint8_t index);
+// The same as text for logs, pages and reports: "666.6 kbit/s"; "?" outside the table.
+std::string bitrate_text(std::uint8_t index);
+// Any bit rate in bit/s (a SocketCAN interface's): a table 5.1.1 rate by its name
+// ("666.6 kbit/s" for 666600), else "800 kbit/s" for whole kbit/s, else "83333 bit/s".
+std::string bitrate_text_bps(std::uint32_t bps);
 
 enum class CanopenRole : std::uint8_t { None, Master, Slave };
 std::string_view to_string(CanopenRole r);

@@ -19,12 +19,6 @@ std::string hex8(unsigned v) {
   return buf;
 }
 
-std::string ident_text(const can::Ident& id) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, id.extended ? "0x%08X" : "0x%03X", id.id);
-  return buf;
-}
-
 std::string plural(std::size_t n, const char* word) {
   return std::to_string(n) + " " + word + (n == 1 ? "" : "s");
 }
@@ -102,7 +96,7 @@ std::string length_text(const SlotRow& row) {
 
 std::string can_id_text(const gw::Slot& s) {
   if (s.kind != gw::SlotKind::Rx && s.kind != gw::SlotKind::Tx) return "-";
-  return s.id ? ident_text(*s.id) : "none";  // manual §5.1.4: 0x07F8 dummy output
+  return s.id ? "0x" + can::ident_text(*s.id) : "none";  // manual §5.1.4: 0x07F8 dummy output
 }
 
 // Tx: the cycle (manual §5.2.3); CW: the SYNC time of comment bytes 4-5 (manual §5.3.2).
@@ -118,7 +112,7 @@ std::string parameters_text(const GatewayReport& g) {
   const std::string watchdog =
       std_part && std_part->wd_on() ? std::to_string(std_part->watchdog_ms()) + " ms" : "off";
   std::vector<std::string> items = {
-      "can_bitrate " + bitrate_text(p.bitrate_index),
+      "can_bitrate " + gw::bitrate_text(p.bitrate_index),
       std::string("canopen ") + std::string(gw::to_string(p.role())),
       "module_id " + std::to_string(p.module_id),
       std::string("communication_window ") + b(p.comm_window),
@@ -219,7 +213,7 @@ json slot_json(const SlotRow& row) {
   d["data_length"] = s.data_len;
   d["counter"] = s.counter;
   d["consistent"] = s.consistent;
-  d["can_id"] = s.id ? json(ident_text(*s.id)) : json(nullptr);
+  d["can_id"] = s.id ? json("0x" + can::ident_text(*s.id)) : json(nullptr);
   d["extended"] = s.id ? json(s.id->extended) : json(nullptr);
   d["form"] = has_form(s) ? json(hex8(s.form)) : json(nullptr);
   d["cycle_ms"] = s.cycle_ms;
@@ -250,14 +244,6 @@ json parameters_json(const GatewayReport& g) {
 }
 
 }  // namespace
-
-std::string bitrate_text(std::uint8_t index) {
-  if (index >= gw::kBitrates.size()) return "?";
-  const std::uint32_t v = gw::kBitrates[index];  // manual table 5.1.1
-  std::string s = std::to_string(v / 1000);
-  if (v % 1000) s += "." + std::to_string((v % 1000) / 100);
-  return s + " kbit/s";
-}
 
 std::string explain_diagnosis(const GatewayReport& g) {
   const std::string state(dp::to_string(g.state));

@@ -15,7 +15,4 @@ nlohmann::ordered_json to_json(const Report& r, int exit_code);
 // Diagnosis bytes 8..10 explained in a sentence: the state and the fault, with its rule.
 std::string explain_diagnosis(const GatewayReport& g);
 
-// "125 kbit/s" for a bit rate index of manual table 5.1.1.
-std::string bitrate_text(std::uint8_t index);
-
 }  // namespace candp2::validate

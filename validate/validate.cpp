@@ -41,12 +41,6 @@ std::string prm_byte_name(std::size_t b) {
 
 namespace {
 
-std::string ident_text(const can::Ident& id) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, id.extended ? "0x%08X" : "0x%03X", id.id);
-  return buf;
-}
-
 std::string slot_name(const GatewayReport& r, std::size_t i) {
   std::string s = "slot " + std::to_string(i);
   if (i < r.input.entry_paths.size() && !r.input.entry_paths[i].empty())
@@ -75,7 +69,7 @@ void slot_warnings(GatewayReport& r) {
       if (winner)
         r.warnings.push_back({WarningKind::DuplicateRx, path_of(r, i),
                               "slot " + std::to_string(i) + " never receives: Rx identifier " +
-                                  ident_text(*s.id) + " is also configured in " +
+                                  "0x" + can::ident_text(*s.id) + " is also configured in " +
                                   slot_name(r, *winner) +
                                   ", and the later slot wins (manual §5.2.1)"});
       if (const auto cycle = gsd::ignored_input_cycle(s, *r.prm))
@@ -90,7 +84,7 @@ void slot_warnings(GatewayReport& r) {
         if (!slots[k].slot || slots[k].slot->kind != gw::SlotKind::Tx || slots[k].slot->id != s.id)
           continue;
         r.warnings.push_back({WarningKind::DuplicateTx, path_of(r, i),
-                              "Tx identifier " + ident_text(*s.id) + " is also sent by " +
+                              "Tx identifier 0x" + can::ident_text(*s.id) + " is also sent by " +
                                   slot_name(r, k) +
                                   ": two slots send frames with the same identifier (accepted, "
                                   "emulator-spec §2)"});

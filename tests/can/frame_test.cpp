@@ -36,6 +36,14 @@ INSTANTIATE_TEST_SUITE_P(Issue2, CandumpGolden,
                                            Golden{"000#0100", 0x000, false, false, 2},
                                            Golden{"080#", 0x080, false, false, 0}));
 
+// One text for an identifier everywhere (logs, sniff, validate): candump's digits.
+TEST(IdentText, ThreeDigitsStandardEightExtended) {
+  EXPECT_EQ(ident_text({0x181, false}), "181");
+  EXPECT_EQ(ident_text({0x7, false}), "007");
+  EXPECT_EQ(ident_text({0x1234567, true}), "01234567");
+  EXPECT_EQ(ident_text({0x1FFFFFFF, true}), "1FFFFFFF");
+}
+
 TEST(Candump, DataBytesAreStored) {
   auto r = parse_candump("201#3D4000");
   ASSERT_TRUE(r);

@@ -1,6 +1,8 @@
 // Wire formats of the gateway core, built from the manual's own examples.
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 #include "fixture.hpp"
 #include "gateway/form.hpp"
 #include "gateway/slot_config.hpp"
@@ -44,6 +46,23 @@ INSTANTIATE_TEST_SUITE_P(
         FormCase{"lone zero bits", 0x40, {1, 2, 3, 4}, {1, 3, 2, 4}}));
 
 // ---------------------------------------------------------------- Set_Prm (emulator-spec §1.1)
+
+// Every bit rate as manual table 5.1.1 names it, in one place: logs, pages, reports.
+TEST(Bitrates, TextAsTable511NamesThem) {
+  const char* names[] = {"1000k", "666.6k", "500k", "333.3k", "250k", "166k",  "125k",
+                         "100k",  "66.6k",  "50k",  "33.3k",  "20k",  "12.5k", "10k"};
+  for (std::uint8_t i = 0; i < kBitrates.size(); ++i) {
+    EXPECT_EQ(bitrate_name(i), names[i]);
+    EXPECT_EQ(bitrate_text(i),
+              std::string(names[i]).substr(0, std::strlen(names[i]) - 1) + " kbit/s");
+    EXPECT_EQ(bitrate_text_bps(kBitrates[i]), bitrate_text(i));
+  }
+  EXPECT_EQ(bitrate_text(1), "666.6 kbit/s");  // not "666 kbit/s"
+  EXPECT_EQ(bitrate_name(14), "?");
+  EXPECT_EQ(bitrate_text(14), "?");
+  EXPECT_EQ(bitrate_text_bps(800000), "800 kbit/s");    // an interface outside the table
+  EXPECT_EQ(bitrate_text_bps(666666), "666666 bit/s");  // what an SJA1000 may really run
+}
 
 TEST(UserPrm, DefaultsRoundTrip) {
   UserPrm p;

@@ -241,10 +241,6 @@ TEST(Validate, NamesOfSetPrmBytes) {
   EXPECT_EQ(prm_byte_name(9), "flags (byte 9)");
   EXPECT_EQ(prm_byte_name(15), "SYNC time low (byte 15)");
   EXPECT_EQ(prm_byte_name(16), "byte 16");
-  EXPECT_EQ(bitrate_text(1), "666.6 kbit/s");  // manual table 5.1.1
-  EXPECT_EQ(bitrate_text(12), "12.5 kbit/s");
-  EXPECT_EQ(bitrate_text(0), "1000 kbit/s");
-  EXPECT_EQ(bitrate_text(14), "?");
 }
 
 }  // namespace

@@ -52,19 +52,10 @@ std::string hex2(std::uint8_t b) {
   return hex_bytes(std::array{b});
 }
 
-std::string kbit(std::uint32_t bps) {
-  char buf[32];
-  if (bps % 1000 == 0)
-    std::snprintf(buf, sizeof buf, "%u kbit/s", bps / 1000);
-  else
-    std::snprintf(buf, sizeof buf, "%.1f kbit/s", bps / 1000.0);
-  return buf;
-}
-
 // emulator-spec §1.1 user parameters, through gw::decode_user_prm.
 std::string describe_user_prm(const gw::UserPrm& p) {
   std::string s =
-      "CAN " + kbit(gw::kBitrates[p.bitrate_index]) + ", ModuleID " + std::to_string(p.module_id);
+      "CAN " + gw::bitrate_text(p.bitrate_index) + ", ModuleID " + std::to_string(p.module_id);
   auto flag = [&](bool on, const char* name) {
     if (on) s += std::string(", ") + name;
   };
@@ -84,12 +75,6 @@ std::string describe_user_prm(const gw::UserPrm& p) {
   return s;
 }
 
-std::string ident_text(const can::Ident& id) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, id.extended ? "%08X" : "%03X", id.id);
-  return buf;
-}
-
 // emulator-spec §2 slots, through gw::decode_slots.
 std::string describe_slots(const gw::SlotConfig& c) {
   std::string s;
@@ -97,7 +82,7 @@ std::string describe_slots(const gw::SlotConfig& c) {
     if (!s.empty()) s += "; ";
     s += "slot" + std::to_string(slot.index) + " " + std::string(gw::to_string(slot.kind));
     if (slot.id)
-      s += " " + ident_text(*slot.id);
+      s += " " + can::ident_text(*slot.id);
     else if (slot.kind == gw::SlotKind::Tx)
       s += " dummy";
     s += " " + std::to_string(slot.length) + "B";
