@@ -25,10 +25,15 @@ dp::SlaveOptions Profile::options() const {
 }
 
 std::string Profile::name() const {
+  auto trim = [](std::string_view s) {
+    while (!s.empty() && s.front() == ' ') s.remove_prefix(1);
+    while (!s.empty() && s.back() == ' ') s.remove_suffix(1);
+    return gsd::to_utf8(s);
+  };
   char ident[8];
   std::snprintf(ident, sizeof ident, "0x%04X", static_cast<unsigned>(ident_number));
-  std::string s = gsd::to_utf8(vendor);
-  if (!model.empty()) s += (s.empty() ? "" : " ") + gsd::to_utf8(model);
+  std::string s = trim(vendor);
+  if (!trim(model).empty()) s += (s.empty() ? "" : " ") + trim(model);
   return s + ", Ident_Number " + ident;
 }
 

@@ -25,10 +25,10 @@ bool bits_valid(const gsd::ExtUserPrmData& d) {
   return d.first_bit >= 0 && d.last_bit <= 7 && d.first_bit <= d.last_bit;
 }
 
-// The value of a parameter as the telegram holds it (the inverse of gsd::encode_user_prm's
-// writing: bits of one byte, or big-endian 8/16/32 bits, signed types two's complement).
-std::int64_t read_value(std::span<const std::uint8_t> user, std::size_t offset,
-                        const gsd::ExtUserPrmData& d) {
+// The inverse of gsd::encode_user_prm's writing: bits of one byte, or big-endian 8/16/32 bits,
+// signed types two's complement.
+std::int64_t value_at(std::span<const std::uint8_t> user, std::size_t offset,
+                      const gsd::ExtUserPrmData& d) {
   using gsd::PrmType;
   if (d.type == PrmType::Bit || d.type == PrmType::BitArea) {
     const unsigned width = static_cast<unsigned>(d.last_bit - d.first_bit + 1);
@@ -119,6 +119,10 @@ std::optional<PrmProblem> check_dpv1(std::span<const std::uint8_t> user, const D
 
 }  // namespace
 
+std::int64_t read_value(std::span<const std::uint8_t> user, const PrmField& field) {
+  return value_at(user, field.offset, *field.def);
+}
+
 UserPrmLayout user_prm_layout(const gsd::Model& model, std::span<const gsd::Module* const> modules,
                               bool modules_known) {
   UserPrmLayout out;
@@ -165,7 +169,7 @@ std::optional<PrmProblem> check_user_prm(const UserPrmLayout& layout, const Prof
   }
   for (const PrmField& f : layout.fields) {
     if (f.offset + f.def->size() > n) continue;
-    const std::int64_t v = read_value(user, f.offset, *f.def);
+    const std::int64_t v = value_at(user, f.offset, *f.def);
     const std::string why = gsd::value_error(*f.def, v);
     if (why.empty()) continue;
     const std::size_t byte = dp::kPrmStdLen + f.offset;

@@ -40,6 +40,10 @@ struct UserPrmLayout {
 UserPrmLayout user_prm_layout(const gsd::Model& model, std::span<const gsd::Module* const> modules,
                               bool modules_known = true);
 
+// The value of a field as `user` holds it (bits of a Bit/BitArea; 16/32 bits big-endian; signed
+// types two's complement). `user` must hold the field.
+std::int64_t read_value(std::span<const std::uint8_t> user, const PrmField& field);
+
 // Why a slave rejects its user parameters (the first problem, in byte order after the length).
 struct PrmProblem {
   std::size_t byte = 0;      // Set_Prm telegram byte (7 = the first user parameter byte)
