@@ -545,10 +545,9 @@ void check_shared_bitrates(const DaemonConfig& c) {
 DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   DaemonConfig c;
   c.file = file;
-  const Object top(
-      root, "$",
-      {"modbus", "http", "master", "buses", "gateways", "slaves", "drives", "log", "state_file",
-       "profibus"});
+  const Object top(root, "$",
+                   {"modbus", "http", "master", "buses", "gateways", "slaves", "drives", "log",
+                    "state_file", "profibus"});
   if (const json* p = top.find("profibus"))
     c.profibus = parse_profibus(*p, top.path("profibus"), file);
   const bool remote = c.remote_gateways();
