@@ -538,9 +538,9 @@ void check_shared_bitrates(const DaemonConfig& c) {
 DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   DaemonConfig c;
   c.file = file;
-  const Object top(
-      root, "$",
-      {"modbus", "http", "master", "buses", "gateways", "drives", "log", "state_file", "profibus"});
+  const Object top(root, "$",
+                   {"modbus", "http", "master", "buses", "gateways", "slaves", "drives", "log",
+                    "state_file", "profibus"});
   if (const json* p = top.find("profibus"))
     c.profibus = parse_profibus(*p, top.path("profibus"), file);
   const bool remote = c.remote_gateways();
@@ -661,6 +661,8 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
       c.drives.push_back(std::move(drive));
     }
   }
+
+  parse_slaves(top.find("slaves"), file, c);  // config/slaves_config.hpp
 
   for (auto& g : c.gateways) {
     // emulator-spec §1: a Data_Exchange gap longer than the watchdog time drops the slave to

@@ -17,6 +17,7 @@
 #include <variant>
 #include <vector>
 
+#include "config/slaves_config.hpp"
 #include "gateway/user_prm.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
@@ -132,6 +133,7 @@ struct DaemonConfig {
   std::uint32_t retry_ms = 1000;  // between parameterization attempts after a fault
   std::vector<BusConfig> buses;   // sorted by name
   std::vector<GatewayConfig> gateways;
+  std::vector<SlaveConfig> slaves;  // generic DP-V0 slaves from a GSD (config/slaves_config.hpp)
   std::vector<DriveConfig> drives;
   std::string log_level = "info";
   std::optional<std::string> can_log;      // candump -l file (relative paths: to the config file)

@@ -311,13 +311,18 @@ std::string format_text(const Report& r) {
     os << "\n";
     for (const auto& w : g.warnings) os << "    " << w.json_path << ": " << w.message << "\n";
   }
+  for (const auto& s : r.slaves) {
+    if (!s.valid()) ++invalid;
+    format_slave(os, s);
+  }
   os << "\n";
-  const std::size_t n = r.gateways.size();
+  // "1 gateway" or, with generic slaves, "1 gateway, 2 slaves".
+  std::string stations = plural(r.gateways.size(), "gateway");
+  if (!r.slaves.empty()) stations += ", " + plural(r.slaves.size(), "slave");
   if (invalid == 0)
-    os << "result: valid (" << plural(n, "gateway") << ", " << plural(r.warning_count(), "warning")
-       << ")\n";
+    os << "result: valid (" << stations << ", " << plural(r.warning_count(), "warning") << ")\n";
   else
-    os << "result: invalid (rejected by " << invalid << " of " << plural(n, "gateway") << ", "
+    os << "result: invalid (rejected by " << invalid << " of " << stations << ", "
        << plural(r.warning_count(), "warning") << ")\n";
   return os.str();
 }
@@ -383,6 +388,12 @@ json to_json(const Report& r, int exit_code) {
     gateways.push_back(o);
   }
   j["gateways"] = gateways;
+  // Only with generic slaves in the configuration (docs/validate.md "--json").
+  if (!r.slaves.empty()) {
+    json slaves = json::array();
+    for (const auto& s : r.slaves) slaves.push_back(slave_json(s));
+    j["slaves"] = slaves;
+  }
   return j;
 }
 

@@ -187,12 +187,15 @@ void check_overlaps(std::vector<GatewayReport>& reports) {
 bool Report::valid() const {
   for (const auto& g : gateways)
     if (!g.valid()) return false;
+  for (const auto& s : slaves)
+    if (!s.valid()) return false;
   return true;
 }
 
 std::size_t Report::warning_count() const {
   std::size_t n = 0;
   for (const auto& g : gateways) n += g.warnings.size();
+  for (const auto& s : slaves) n += s.warnings.size();
   return n;
 }
 

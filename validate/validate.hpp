@@ -18,24 +18,10 @@
 #include "gateway/user_prm.hpp"
 #include "profibus_sim/dp/dp_slave.hpp"
 #include "profibus_sim/master/dp_master.hpp"
+#include "validate/slaves.hpp"
+#include "validate/warning.hpp"
 
 namespace candp2::validate {
-
-enum class WarningKind {
-  AddressClamped,  // manual §2.1: DP address outside 3..124
-  DuplicateRx,     // manual §5.2.1: the later input slot wins, the earlier never receives
-  DuplicateTx,     // emulator-spec §2: accepted, two slots send the same identifier
-  InputCycle,      // emulator-spec §2: cycle bytes on an input slot are ignored
-  Overlap,         // emulator-spec §8: PLC addresses overlap (one PLC image for all gateways)
-  GsdEncoding,     // --gsd: the GSD encodes the parameters differently from the built-in encoding
-};
-std::string_view to_string(WarningKind k);  // "duplicate-rx", ...
-
-struct Warning {
-  WarningKind kind;
-  std::string json_path;  // where in the configuration ("$.gateways[0].slots[2]")
-  std::string message;
-};
 
 struct GatewayInput {
   std::string name;
@@ -88,11 +74,17 @@ GatewayReport check_gateway(GatewayInput input);
 // one process image, emulator-spec §8). The warning goes to the later slot's gateway.
 void check_overlaps(std::vector<GatewayReport>& reports);
 
+// Overlapping PLC addresses of a slave's bytes with a gateway's slot or another slave's bytes
+// (one process image, emulator-spec §8); reported at the slave (validate/slaves.cpp).
+void check_slave_overlaps(const std::vector<GatewayReport>& gateways,
+                          std::vector<SlaveReport>& slaves);
+
 struct Report {
   std::string file;      // the configuration file as given
   std::string gsd_file;  // --gsd FILE, or ""
   std::string gsd_name;  // "esd CAN-DP/2, Ident_Number 0x04A4"
   std::vector<GatewayReport> gateways;
+  std::vector<SlaveReport> slaves;  // generic DP-V0 slaves (validate/slaves.hpp)
 
   bool valid() const;
   std::size_t warning_count() const;

@@ -106,6 +106,8 @@ inline constexpr std::uint8_t kDiag2WdOn = 0x08;
 inline constexpr std::uint8_t kDiag2FreezeMode = 0x10;
 inline constexpr std::uint8_t kDiag2SyncMode = 0x20;
 inline constexpr std::uint8_t kDiag2Deactivated = 0x80;
+// Station_Status_3 (IEC 61158-6-3): more Ext_Diag_Data than fit into the diagnosis.
+inline constexpr std::uint8_t kDiag3ExtDiagOverflow = 0x80;
 // Diagnosis byte 3 before any master parameterized the slave.
 inline constexpr std::uint8_t kNoMaster = 0xFF;
 

@@ -19,10 +19,10 @@ namespace candp2::dp {
 // The DP-V0 services a class 1 master sends (EN 50170 vol. 2; emulator-spec §10 "DP services over
 // FDL").
 enum class Service : std::uint8_t {
-  SlaveDiag,      // SAP 60: answer = the diagnosis bytes (emulator-spec §3: 11 bytes)
-  SetPrm,         // SAP 61, data = the whole Set_Prm telegram: answer = acknowledge
-  ChkCfg,         // SAP 62, data = Chk_Cfg bytes: answer = acknowledge
-  GetCfg,         // SAP 59: answer = the configuration bytes
+  SlaveDiag,  // SAP 60: answer = the diagnosis bytes (6..244; the CAN-DP/2: 11, emulator-spec §3)
+  SetPrm,     // SAP 61, data = the whole Set_Prm telegram: answer = acknowledge
+  ChkCfg,     // SAP 62, data = Chk_Cfg bytes: answer = acknowledge
+  GetCfg,     // SAP 59: answer = the configuration bytes
   DataExchange,   // default SAP, data = output bytes: answer = input bytes
   GlobalControl,  // SAP 58, data = Control_Command, Group_Select: unacknowledged (SDN)
 };
@@ -59,7 +59,8 @@ class SlaveLink {
   virtual void request(Request req, Time now, Completion done) = 0;
 };
 
-// The in-process link: calls the DpSlave's services directly and completes before returning.
+// The in-process link: calls the DpSlave's services directly and completes before returning. A
+// slave that is offline (DpSlave::set_offline) gives no response.
 class InProcessLink final : public SlaveLink {
  public:
   explicit InProcessLink(DpSlave& slave) : slave_(slave) {}

@@ -85,9 +85,10 @@ std::optional<Reply> SlaveFrontEnd::on_telegram(const Telegram& t, Time request_
     if (is_sdn(fn) && t.dsap == kSapGlobalControl &&
         (!options_.master_address || t.sa == *options_.master_address)) {
       for (Station* st : stations_) {
-        if (!st) continue;
+        if (!st || st->slave->offline()) continue;
         ++st->stats.requests;
-        st->slave->global_control(t.sa, t.du.empty() ? 0 : t.du[0], request_end);
+        st->slave->global_control(t.sa, t.du.empty() ? 0 : t.du[0], request_end,
+                                  t.du.size() > 1 ? t.du[1] : 0);
       }
     }
     return std::nullopt;
@@ -95,6 +96,11 @@ std::optional<Reply> SlaveFrontEnd::on_telegram(const Telegram& t, Time request_
   Station* st = stations_[t.da];
   if (!st) return std::nullopt;  // another station's telegram
   ++st->stats.requests;
+  if (st->slave->offline()) {  // off the bus: it hears nothing, answers nothing
+    ++st->stats.ignored;
+    st->slave->advance(request_end);
+    return std::nullopt;
+  }
   const bool debug = log_.enabled(LogLevel::Debug);
   if (debug) log_.debug(who(t.da, t.sa) + " request " + hex_bytes(encode(t)));
 
@@ -116,7 +122,8 @@ std::optional<Reply> SlaveFrontEnd::on_telegram(const Telegram& t, Time request_
   } else if (is_sdn(fn)) {
     // SDN: never answered. Global_Control to this station; anything else is dropped.
     if (t.dsap == kSapGlobalControl)
-      st->slave->global_control(t.sa, t.du.empty() ? 0 : t.du[0], request_end);
+      st->slave->global_control(t.sa, t.du.empty() ? 0 : t.du[0], request_end,
+                                t.du.size() > 1 ? t.du[1] : 0);
     ++st->stats.ignored;
     return std::nullopt;
   } else if (is_srd(fn)) {
@@ -153,9 +160,10 @@ std::optional<std::vector<std::uint8_t>> SlaveFrontEnd::execute(Station& st, con
   if (!t.dsap) return data_exchange(st, t, now);
   switch (*t.dsap) {
     case kSapSlaveDiag: {
-      const auto d = dp.slave_diag(now);
-      st.diag_read[t.sa] = d;
-      return data_response(t, kFcDl, d);
+      auto d = dp.diagnosis(now);
+      auto response = data_response(t, kFcDl, d);
+      st.diag_read[t.sa] = std::move(d);
+      return response;
     }
     case kSapSetPrm: {
       // emulator-spec §10: Set_Prm -> SC; a fault shows in the diagnosis (§1).
@@ -180,11 +188,12 @@ std::optional<std::vector<std::uint8_t>> SlaveFrontEnd::execute(Station& st, con
     case kSapRdOutp:
       return data_response(t, kFcDl, dp.outputs());
     case kSapGlobalControl:
-      dp.global_control(t.sa, t.du.empty() ? 0 : t.du[0], now);
+      dp.global_control(t.sa, t.du.empty() ? 0 : t.du[0], now, t.du.size() > 1 ? t.du[1] : 0);
       return encode(Telegram::sc());
+    case kSapSetSlaveAdd:
+      return set_slave_add(st, t, now);
     default:
-      // Set_Slave_Add (55, emulator-spec §1: not supported), MM services (54) and unknown SAPs:
-      // RS, "no service activated" (emulator-spec §10).
+      // MM services (54) and unknown SAPs: RS, "no service activated" (emulator-spec §10).
       log_.debug(who(t.da, t.sa) + ": SAP " + std::to_string(*t.dsap) + " not activated: RS");
       return short_response(t, kFcRs);
   }
@@ -206,7 +215,7 @@ std::optional<std::vector<std::uint8_t>> SlaveFrontEnd::data_exchange(Station& s
   }
   // DH while new diagnosis is pending: the diagnosis differs from what this master last read
   // with Slave_Diag (docs/decisions.md).
-  const bool pending = st.diag_read[t.sa] != dp.slave_diag(now);
+  const bool pending = st.diag_read[t.sa] != dp.diagnosis(now);
   const std::uint8_t fn = pending ? kFcDh : kFcDl;
   if (in->empty()) {
     // emulator-spec §10: SC when the slave has no input bytes; with diagnosis pending the short
@@ -216,6 +225,23 @@ std::optional<std::vector<std::uint8_t>> SlaveFrontEnd::data_exchange(Station& s
   }
   return encode(Telegram::with_data(t.sa, t.da, response_fc(fn), std::nullopt, std::nullopt,
                                     std::vector<std::uint8_t>(in->begin(), in->end())));
+}
+
+// Set_Slave_Add (SAP 55): SC when the slave took the new address (it answers there from now on),
+// RS when it refuses (the CAN-DP/2 never takes one, emulator-spec §1) or the address is taken.
+std::optional<std::vector<std::uint8_t>> SlaveFrontEnd::set_slave_add(Station& st,
+                                                                      const Telegram& t, Time now) {
+  const std::uint8_t old = st.slave->info().address;
+  const bool taken = !t.du.empty() && t.du[0] < stations_.size() && stations_[t.du[0]] &&
+                     stations_[t.du[0]] != &st;
+  if (taken || !st.slave->set_slave_add(t.sa, t.du, now)) {
+    log_.debug(who(t.da, t.sa) + ": Set_Slave_Add " + hex_bytes(t.du) + " not taken: RS");
+    return short_response(t, kFcRs);
+  }
+  stations_[old] = nullptr;
+  stations_[st.slave->info().address] = &st;
+  st.links = {};
+  return encode(Telegram::sc());
 }
 
 std::optional<Reply> SlaveFrontEnd::drain(Time now) {

@@ -46,7 +46,8 @@ class SlaveFrontEnd {
   explicit SlaveFrontEnd(SlaveFrontEndOptions options, LogSink* log = nullptr);
 
   // Serves `slave` at slave.info().address. False (and nothing added) when the address is not
-  // 0..126 or already served.
+  // 0..126 or already served. A slave that is offline (dp::DpSlave::set_offline) answers nothing;
+  // one that accepts Set_Slave_Add moves to its new address.
   bool add(dp::DpSlave& slave);
 
   // A decoded telegram seen on the line whose last character arrived at `request_end`. Returns
@@ -82,11 +83,12 @@ class SlaveFrontEnd {
     StationStats stats;
     std::array<Link, 128> links{};  // per master address
     // Per master: the diagnosis it last read with Slave_Diag (docs/decisions.md: "DH").
-    std::array<std::optional<dp::DpSlave::Diag>, 128> diag_read{};
+    std::array<std::optional<std::vector<std::uint8_t>>, 128> diag_read{};
   };
 
   std::optional<std::vector<std::uint8_t>> execute(Station& st, const Telegram& t, Time now);
   std::optional<std::vector<std::uint8_t>> data_exchange(Station& st, const Telegram& t, Time now);
+  std::optional<std::vector<std::uint8_t>> set_slave_add(Station& st, const Telegram& t, Time now);
   std::optional<Reply> drain(Time now);
 
   SlaveFrontEndOptions options_;

@@ -25,13 +25,14 @@ std::string_view to_string(MasterSlaveState s) {
   return "?";
 }
 
-std::string describe_diag(const DpSlave::Diag& d) {
+std::string describe_diag(std::span<const std::uint8_t> d) {
   std::string out;
   auto add = [&](bool on, const char* word) {
     if (!on) return;
     if (!out.empty()) out += ' ';
     out += word;
   };
+  if (d.size() < kDiagStdLen) return "short diagnosis " + hex_bytes(d);
   add(d[0] & kDiag1StationNonExistent, "Station_Non_Existent");
   add(d[0] & kDiag1StationNotReady, "Station_Not_Ready");
   add(d[0] & kDiag1CfgFault, "Cfg_Fault");
@@ -40,16 +41,22 @@ std::string describe_diag(const DpSlave::Diag& d) {
   add(d[0] & kDiag1PrmFault, "Prm_Fault");
   add(d[1] & kDiag2PrmReq, "Prm_Req");
   add(d[1] & kDiag2WdOn, "WD_On");
+  add(d[1] & kDiag2FreezeMode, "Freeze_Mode");
+  add(d[1] & kDiag2SyncMode, "Sync_Mode");
+  add(d[2] & kDiag3ExtDiagOverflow, "Ext_Diag_Overflow");
   if (!out.empty()) out += ' ';
   out += d[3] == kNoMaster ? "master=none" : "master=" + std::to_string(d[3]);
-  out += " ident=" + hex_bytes(std::span(d).subspan(4, 2), '\0');
-  if (d[8] == kExtDiagPrmSap) {
+  out += " ident=" + hex_bytes(d.subspan(4, 2), '\0');
+  const bool candp2 = d.size() == DpSlave::kDiagLen && d[4] == 0x04 && d[5] == 0xA4;
+  if (candp2 && d[8] == kExtDiagPrmSap) {
     out += " Prm fault: byte " + std::to_string(d[9]) + ", correct value 0x" +
-           hex_bytes(std::span(d).subspan(10, 1));
-  } else if (d[8] == kExtDiagCfgSap) {
+           hex_bytes(d.subspan(10, 1));
+  } else if (candp2 && d[8] == kExtDiagCfgSap) {
     out += " Cfg fault: slot " + std::to_string(d[9]) + ", code " + std::to_string(d[10]);
-  } else {
-    out += " ext=" + hex_bytes(std::span(d).subspan(8, 3));
+  } else if (candp2) {
+    out += " ext=" + hex_bytes(d.subspan(8, 3));
+  } else if (d.size() > kDiagStdLen) {
+    out += " ext=" + hex_bytes(d.subspan(kDiagStdLen));
   }
   return out;
 }
@@ -137,17 +144,20 @@ void DpMaster::send(Entry& e, Service service, std::vector<std::uint8_t> data, T
                   });
 }
 
-void DpMaster::set_diag(Entry& e, const DpSlave::Diag& d) {
-  if (!e.last_diag || *e.last_diag != d)
+void DpMaster::set_diag(Entry& e, std::vector<std::uint8_t> d) {
+  if (e.diag_bytes != d || !e.last_diag)
     log_.info("slave " + std::to_string(e.address()) + " diagnosis " + hex_bytes(d) + ": " +
               describe_diag(d));
-  e.last_diag = d;
+  DpSlave::Diag first{};
+  std::copy_n(d.begin(), std::min(d.size(), first.size()), first.begin());
+  e.last_diag = first;
+  e.diag_bytes = std::move(d);
 }
 
 void DpMaster::lost(Entry& e, std::string_view what) {
   // What a real master's diagnosis shows for a station that does not answer: Station_Non_Existent
   // (manual table 3.4.3, diag byte 0 bit 0, set by the master), no master address.
-  DpSlave::Diag d{};
+  std::vector<std::uint8_t> d(kDiagStdLen, 0);
   d[0] = kDiag1StationNonExistent;
   d[3] = kNoMaster;
   const bool was_there = !e.last_diag || !((*e.last_diag)[0] & kDiag1StationNonExistent);
@@ -156,15 +166,16 @@ void DpMaster::lost(Entry& e, std::string_view what) {
     log_.warn("slave " + std::to_string(e.address()) + ": no response to " + std::string(what) +
               ": station lost");
   }
-  set_diag(e, d);
+  set_diag(e, std::move(d));
   go(e, MasterSlaveState::Init, "no response to " + std::string(what));
 }
 
 void DpMaster::invalid(Entry& e, Time now, std::string_view why) {
   // manual table 3.4.3, diag byte 0 bit 5 Invalid_Slave_Response (set by the master).
-  DpSlave::Diag d = e.last_diag.value_or(DpSlave::Diag{});
+  std::vector<std::uint8_t> d = e.diag_bytes;
+  if (d.size() < kDiagStdLen) d.resize(kDiagStdLen, 0);
   d[0] = static_cast<std::uint8_t>((d[0] & ~kDiag1StationNonExistent) | kDiag1InvalidSlaveResponse);
-  set_diag(e, d);
+  set_diag(e, std::move(d));
   fault(e, now, "invalid slave response: " + std::string(why));
 }
 
@@ -184,17 +195,17 @@ bool DpMaster::answered(Entry& e, const Response& r, Time /*now*/, std::string_v
 
 bool DpMaster::take_diag(Entry& e, const Response& r, Time now) {
   if (!answered(e, r, now, "Slave_Diag")) return false;
-  if (r.status != Response::Status::Ok || r.data.size() != DpSlave::kDiagLen) {
+  // IEC 61158-6-3: 6 standard bytes and up to 238 bytes of Ext_Diag_Data.
+  if (r.status != Response::Status::Ok || r.data.size() < kDiagStdLen ||
+      r.data.size() > kDiagMaxLen) {
     invalid(e, now,
             r.status != Response::Status::Ok
                 ? "Slave_Diag refused"
                 : "Slave_Diag with " + std::to_string(r.data.size()) + " bytes (expected " +
-                      std::to_string(DpSlave::kDiagLen) + ", emulator-spec §3)");
+                      std::to_string(kDiagStdLen) + ".." + std::to_string(kDiagMaxLen) + ")");
     return false;
   }
-  DpSlave::Diag d;
-  std::copy(r.data.begin(), r.data.end(), d.begin());
-  set_diag(e, d);
+  set_diag(e, r.data);
   return true;
 }
 
@@ -250,7 +261,7 @@ void DpMaster::on_check_diag(Entry& e, Time now) {
 void DpMaster::check_diag_answered(Entry& e, const Response& r, Time now) {
   if (!take_diag(e, r, now)) return;
   if (not_ready(*e.last_diag))
-    return fault(e, now, "slave not ready after parameterization: " + describe_diag(*e.last_diag));
+    return fault(e, now, "slave not ready after parameterization: " + describe_diag(e.diag_bytes));
   go(e, MasterSlaveState::DataExch, "slave ready");
   on_data_exch(e, now);  // the first Data_Exchange in the same cycle
 }
@@ -266,7 +277,7 @@ void DpMaster::diag_due_answered(Entry& e, const Response& r, Time now) {
   e.diag_due = false;
   if (!take_diag(e, r, now)) return;
   if (not_ready(*e.last_diag))
-    return fault(e, now, "diagnosis during Data_Exch: " + describe_diag(*e.last_diag));
+    return fault(e, now, "diagnosis during Data_Exch: " + describe_diag(e.diag_bytes));
 }
 
 void DpMaster::exchange_answered(Entry& e, const Response& r, Time now) {
@@ -288,7 +299,7 @@ void DpMaster::exchange_answered(Entry& e, const Response& r, Time now) {
 
 void DpMaster::refused_diag_answered(Entry& e, const Response& r, Time now) {
   if (!take_diag(e, r, now)) return;
-  fault(e, now, "Data_Exchange not answered: " + describe_diag(*e.last_diag));
+  fault(e, now, "Data_Exchange not answered: " + describe_diag(e.diag_bytes));
 }
 
 // ---------------------------------------------------------------- cycle, control, views
@@ -329,7 +340,7 @@ std::vector<DpMaster::SlaveView> DpMaster::slaves() const {
   std::vector<SlaveView> out;
   for (const auto& e : entries_)
     out.push_back({e->address(), e->state, e->last_diag, e->data_exchanges, e->parameterizations,
-                   e->station_lost, e->addressed});
+                   e->station_lost, e->addressed, e->diag_bytes});
   return out;
 }
 
@@ -373,13 +384,15 @@ std::string_view to_string(Response::Status s) {
 
 void InProcessLink::request(Request req, Time now, Completion done) {
   Response r;
+  if (slave_.offline()) {
+    slave_.advance(now);  // off the bus, its time runs on
+    return done(r, now);  // NoResponse
+  }
   r.status = Response::Status::Ok;
   switch (req.service) {
-    case Service::SlaveDiag: {
-      const auto d = slave_.slave_diag(now);
-      r.data.assign(d.begin(), d.end());
+    case Service::SlaveDiag:
+      r.data = slave_.diagnosis(now);
       break;
-    }
     case Service::SetPrm:
       slave_.set_prm(req.master, req.data, now);  // the result shows in the diagnosis
       break;
@@ -396,7 +409,8 @@ void InProcessLink::request(Request req, Time now, Completion done) {
         r.status = Response::Status::Refused;  // not in Data_Exch: the FDL answer would be RS
       break;
     case Service::GlobalControl:
-      slave_.global_control(req.master, req.data.empty() ? 0 : req.data[0], now);
+      slave_.global_control(req.master, req.data.empty() ? 0 : req.data[0], now,
+                            req.data.size() > 1 ? req.data[1] : 0);
       break;
   }
   done(r, now);

@@ -6,8 +6,9 @@
 // one PLC process image (I and Q, 8192 bytes each) shared by all slaves, as in a PLC; slot bytes
 // are copied between the image and each slave's DP data at the PLC addresses of the configuration.
 //
-// Each slave is reached through a dp::SlaveLink (profibus_sim/dp/slave_link.hpp): in-process (a
-// DpSlave in the same process, answers at once) or over FDL (fdl::FdlMaster, answers later). One
+// The diagnosis may be 6..244 bytes (IEC 61158-6-3); the CAN-DP/2 always sends 11 (emulator-spec
+// §3). Each slave is reached through a dp::SlaveLink (profibus_sim/dp/slave_link.hpp): in-process
+// (a DpSlave in the same process, answers at once) or over FDL (fdl::FdlMaster, answers later). One
 // request per slave is outstanding at a time; a slave whose answer has not come yet is skipped in
 // that cycle. A station that does not answer shows Station_Non_Existent (diag byte 0 bit 0) in the
 // diagnosis the master exposes and is parameterized again from Init when it answers again, as a
@@ -20,6 +21,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -121,11 +123,13 @@ class DpMaster {
   struct SlaveView {
     std::uint8_t address;
     MasterSlaveState state;
+    // The first 11 bytes of the last diagnosis, zero-padded (the CAN-DP/2's whole diagnosis).
     std::optional<DpSlave::Diag> last_diag;
     std::uint32_t data_exchanges;
     std::uint32_t parameterizations;
     std::uint32_t station_lost = 0;  // times the station stopped answering
     bool addressed = true;
+    std::vector<std::uint8_t> diag_bytes;  // the last diagnosis as received (6..244 bytes)
   };
   std::vector<SlaveView> slaves() const;
   std::optional<SlaveView> slave(std::uint8_t address) const;
@@ -140,6 +144,7 @@ class DpMaster {
     std::vector<std::uint8_t> out_buf;
     MasterSlaveState state = MasterSlaveState::Init;
     std::optional<DpSlave::Diag> last_diag;
+    std::vector<std::uint8_t> diag_bytes;
     Time retry_at{0};
     std::uint32_t data_exchanges = 0;
     std::uint32_t parameterizations = 0;
@@ -175,12 +180,12 @@ class DpMaster {
   void exchange_answered(Entry& e, const Response& r, Time now);
   void refused_diag_answered(Entry& e, const Response& r, Time now);
 
-  // Shared answer handling: NoResponse → station lost; a Slave_Diag answer that is not 11 bytes
-  // → Invalid_Slave_Response. False when the answer was consumed that way.
+  // Shared answer handling: NoResponse → station lost; a Slave_Diag answer shorter than 6 or longer
+  // than 244 bytes → Invalid_Slave_Response. False when the answer was consumed that way.
   bool answered(Entry& e, const Response& r, Time now, std::string_view what);
   bool take_diag(Entry& e, const Response& r, Time now);
   void go(Entry& e, MasterSlaveState next, std::string_view why);
-  void set_diag(Entry& e, const DpSlave::Diag& d);
+  void set_diag(Entry& e, std::vector<std::uint8_t> d);
   void fault(Entry& e, Time now, std::string_view why);
   void lost(Entry& e, std::string_view what);
   void invalid(Entry& e, Time now, std::string_view why);
@@ -193,7 +198,9 @@ class DpMaster {
 };
 
 // "02 05 00 FF 04 A4 05 04 00 00 00" decoded into words, for logs and reports:
-// "Station_Not_Ready Prm_Req master=none ident=04A4 ext=00 00 00".
-std::string describe_diag(const DpSlave::Diag& d);
+// "Station_Not_Ready Prm_Req master=none ident=04A4 ext=00 00 00". Bytes 8..10 of an 11-byte
+// diagnosis with Ident_Number 04A4 are read as the CAN-DP/2's (manual table 3.4.5); any other
+// Ext_Diag_Data is shown as "ext=" and its bytes.
+std::string describe_diag(std::span<const std::uint8_t> d);
 
 }  // namespace candp2::dp

@@ -1,7 +1,8 @@
 // candp2 validate CONFIG [--gsd FILE] [--json] [--strict]: what the emulated CAN-DP/2 makes of
-// every gateway of a daemon configuration (docs/validate.md). Exit status: 0 valid, 1 invalid (a
-// gateway rejects its Set_Prm or Chk_Cfg; with --strict also any warning), 2 unusable input (file
-// missing, JSON syntax, configuration error, unusable GSD).
+// every gateway of a daemon configuration, and every generic slave of its own GSD
+// (docs/validate.md). Exit status: 0 valid, 1 invalid (a gateway or slave rejects its Set_Prm or
+// Chk_Cfg; with --strict also any warning), 2 unusable input (file missing, JSON syntax,
+// configuration error, unusable GSD).
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -122,6 +123,22 @@ int run_validate(const ValidateArgs& a) {
     report.gateways.push_back(validate::check_gateway(std::move(in)));
   }
   validate::check_overlaps(report.gateways);
+  // Generic slaves: checked against their own GSD (the --gsd option is for the gateways).
+  for (const auto& s : cfg.slaves) {
+    validate::SlaveInput in;
+    in.name = s.name;
+    in.json_path = s.json_path;
+    in.gsd_file = s.gsd;
+    in.master_address = cfg.master_address;
+    in.setup = s.setup();
+    in.params = config::slave_parameters(s);
+    for (const auto& m : s.modules) in.module_paths.push_back(m.json_path);
+    in.prm_source = s.json_path + (s.prm_hex ? ".prm_hex" : ".parameters");
+    in.cfg_source = s.json_path + (s.cfg_hex ? ".cfg_hex" : ".modules");
+    in.field_unit = s.field_unit;
+    report.slaves.push_back(validate::check_slave(std::move(in)));
+  }
+  validate::check_slave_overlaps(report.gateways, report.slaves);
 
   const int rc = validate::exit_code(report, a.strict);
   if (a.json)
@@ -137,9 +154,9 @@ void add_validate(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<ValidateArgs>();
   auto* cmd = app.add_subcommand(
       "validate",
-      "Show, per gateway of a daemon configuration, the Set_Prm and Chk_Cfg bytes the master "
-      "sends, the slot table, the diagnosis the emulated CAN-DP/2 answers and warnings; exit 0 "
-      "valid, 1 invalid, 2 unusable input");
+      "Show, per gateway and generic slave of a daemon configuration, the Set_Prm and Chk_Cfg "
+      "bytes the master sends, the slot or module table, the diagnosis the emulated device "
+      "answers and warnings; exit 0 valid, 1 invalid, 2 unusable input");
   cmd->add_option("CONFIG", args->config, "daemon configuration (docs/configuration.md)")
       ->required();
   cmd->add_option("--gsd", args->gsd,

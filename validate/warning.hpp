@@ -1,0 +1,26 @@
+// A warning of `candp2 validate` (docs/validate.md "Warnings"): behaviour the emulated device
+// accepts but a user rarely wants. Shared by the gateway and the generic-slave checks.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+namespace candp2::validate {
+
+enum class WarningKind {
+  AddressClamped,  // manual §2.1: DP address outside 3..124
+  DuplicateRx,     // manual §5.2.1: the later input slot wins, the earlier never receives
+  DuplicateTx,     // emulator-spec §2: accepted, two slots send the same identifier
+  InputCycle,      // emulator-spec §2: cycle bytes on an input slot are ignored
+  Overlap,         // emulator-spec §8: PLC addresses overlap (one PLC image for all gateways)
+  GsdEncoding,     // --gsd: the GSD encodes the parameters differently from the built-in encoding
+};
+std::string_view to_string(WarningKind k);  // "duplicate-rx", ...
+
+struct Warning {
+  WarningKind kind;
+  std::string json_path;  // where in the configuration ("$.gateways[0].slots[2]")
+  std::string message;
+};
+
+}  // namespace candp2::validate
