@@ -545,9 +545,9 @@ void check_shared_bitrates(const DaemonConfig& c) {
 DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   DaemonConfig c;
   c.file = file;
-  const Object top(
-      root, "$",
-      {"modbus", "http", "master", "buses", "gateways", "drives", "log", "state_file", "profibus"});
+  const Object top(root, "$",
+                   {"modbus", "http", "master", "buses", "gateways", "drives", "log", "state_file",
+                    "profibus", "capture"});
   if (const json* p = top.find("profibus"))
     c.profibus = parse_profibus(*p, top.path("profibus"), file);
   const bool remote = c.remote_gateways();
@@ -578,6 +578,8 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
     if (auto p = find_string(o, "can_log", "a file name")) c.can_log = resolve(file, *p);
   }
   if (auto p = find_string(top, "state_file", "a file name")) c.state_file = resolve(file, *p);
+  if (const json* cap = top.find("capture"))
+    c.capture = parse_capture(*cap, top.path("capture"), file);
 
   // Role master: the gateways are remote stations; buses only serve simulated drives.
   static const json kNoBuses = json::object();
