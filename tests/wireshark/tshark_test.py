@@ -75,8 +75,11 @@ def case_demo(tmp):
     cap = os.path.join(tmp, "demo.pcapng")
     run([ARGS.demo_capture, cap])
     names = ["frame.number", "frame.time_epoch", "dp.service", "dp.response", "dp.outputs",
-             "dp.inputs", "can.id", "data.data", "candp2.note"]
+             "dp.inputs", "can.id", "data.data", "candp2.can.data", "candp2.can.station",
+             "candp2.note"]
     rows = fields(cap, names)
+    for r in rows:  # a CAN frame's payload: the dissector's view of a slot's frame, else data
+        r["payload"] = r["candp2.can.data"] or r["data.data"]
     if len(rows) < 500:
         fail(f"only {len(rows)} packets")
     times = [float(r["frame.time_epoch"]) for r in rows]
@@ -88,15 +91,15 @@ def case_demo(tmp):
     if dx_req is None:
         fail("no Data_Exchange carrying 51 00 00")
     can_201 = first(rows, dx_req, lambda r: r["can.id"] == "513"
-                    and r["data.data"] == "5100000000")
+                    and r["payload"] == "5100000000" and r["candp2.can.station"] == "3")
     if can_201 is None:
         fail("no CAN frame 0x201 51 00 00 00 00 after the Data_Exchange")
     read_cmd = first(rows, can_201, lambda r: r["can.id"] == "513"
-                     and r["data.data"].startswith("3da864"))
+                     and r["payload"].startswith("3da864"))
     if read_cmd is None:
         fail("no read command 0x201 3D A8 64 after the enable")
     reply = first(rows, read_cmd, lambda r: r["can.id"] == "385"
-                  and r["data.data"].startswith("a8"))
+                  and r["payload"].startswith("a8"))
     if reply is None:
         fail("no drive reply on 0x181 after the read command")
     shown = first(rows, reply, lambda r: r["dp.service"] == "1" and r["dp.response"] == "1"

@@ -196,6 +196,8 @@ F.slot_len = field(p_cdp, ProtoField.uint8("candp2.slot.length", "Length in the 
 F.slot_counter = field(p_cdp, ProtoField.bool("candp2.slot.counter", "Last byte is the counter"))
 F.slot_offset = field(p_cdp, ProtoField.uint16("candp2.slot.offset", "Offset in the DP image"))
 F.slot_data = field(p_cdp, ProtoField.bytes("candp2.slot.data", "Data"))
+F.can_station = field(p_cdp, ProtoField.uint8("candp2.can.station", "Gateway (DP address)"))
+F.can_data = field(p_cdp, ProtoField.bytes("candp2.can.data", "CAN data"))
 F.diag_sap = field(p_cdp, ProtoField.uint8("candp2.diag.sap", "Faulty service", base.HEX,
   { [0x3D] = "Set_Prm (SAP 61)", [0x3E] = "Chk_Cfg (SAP 62)" }))
 F.prm_byte = field(p_cdp, ProtoField.uint8("candp2.diag.prm_byte", "Faulty Set_Prm byte"))
@@ -213,18 +215,34 @@ p_cdp.experts = { E.cfg }
 -- and station: the CAN-DP/2 user parameters and slots last sent. Saved per frame on the first
 -- pass, so a frame clicked later shows what it showed in order.
 local f_interface = Field.new("frame.interface_id")
-local last_request, stations, frames
+local f_can_id, f_can_xtd = Field.new("can.id"), Field.new("can.flags.xtd")
+local last_request, stations, frames, can_ids, can_frames
 
 local function reset()
-  last_request, stations, frames = {}, {}, {}
+  last_request, stations, frames, can_ids, can_frames = {}, {}, {}, {}, {}
 end
 reset()
 p_fdl.init = reset  -- a new capture file
 
 local function station_state(iface, station)
   local key = iface .. ":" .. station
-  stations[key] = stations[key] or {}
+  stations[key] = stations[key] or { station = station }
   return stations[key]
+end
+
+-- CAN identifiers of every station's slots (for the CAN frames' meaning), rebuilt when a
+-- station's slots change.
+local function index_can_ids()
+  can_ids = {}
+  for _, st in pairs(stations) do
+    for _, sl in ipairs(st.slots or {}) do
+      if sl.id and not sl.dummy then
+        local key = (sl.ext and "x" or "s") .. sl.id
+        can_ids[key] = can_ids[key] or {}
+        table.insert(can_ids[key], { station = st.station, slot = sl })
+      end
+    end
+  end
 end
 
 local function hex(range)
@@ -628,7 +646,9 @@ function p_fdl.dissector(tvb, pinfo, tree)
     local work = { prm = ctx.before and ctx.before.prm, slots = ctx.before and ctx.before.slots }
     local dp_text = dissect_dp(t.du or tvb(0, 0), tree, ctx, work)
     if not pinfo.visited and ctx.state then
+      local changed = ctx.state.slots ~= work.slots
       ctx.state.prm, ctx.state.slots = work.prm, work.slots
+      if changed then index_can_ids() end
     end
     if sd == SC then info = "SC" end
     info = info .. " " .. dp_text
@@ -638,6 +658,36 @@ function p_fdl.dissector(tvb, pinfo, tree)
   pinfo.cols.info = info
   return total
 end
+
+-- CAN frames on identifiers of CAN-DP/2 slots seen in a Chk_Cfg: which gateway slot sends or
+-- receives them (manual §5.2). A heuristic of Wireshark's CAN dissector; frames on other
+-- identifiers are left to it.
+local function can_heuristic(tvb, pinfo, tree)
+  local users
+  if not pinfo.visited then
+    local id, xtd = f_can_id(), f_can_xtd()
+    if id then users = can_ids[((xtd and xtd.value) and "x" or "s") .. id.value] end
+    can_frames[pinfo.number] = users or false
+  else
+    users = can_frames[pinfo.number]
+  end
+  if not users then return false end
+  local parts = {}
+  for _, u in ipairs(users) do
+    local sl = u.slot
+    local what = "station " .. u.station .. " slot" .. sl.index .. " " .. sl.kind
+    local t = tree:add(p_cdp, tvb(), "CAN-DP/2 station " .. u.station .. " " .. slot_text(sl))
+    t:add(F.can_station, tvb(), u.station):set_generated()
+    t:add(F.slot, tvb(), sl.index):set_generated()
+    t:add(F.slot_kind, tvb(), sl.kind):set_generated()
+    if tvb:len() > 0 then t:add(F.can_data, tvb()) end
+    parts[#parts + 1] = what
+  end
+  pinfo.cols.info:append((tvb:len() > 0 and ": " .. hex(tvb()) or "") .. " (" ..
+    table.concat(parts, ", ") .. ")")
+  return true
+end
+p_cdp:register_heuristic("can", can_heuristic)
 
 -- The emulator's own records, exported PDUs for the "candp2" dissector: operator notes.
 function p_cdp.dissector(tvb, pinfo, tree)
