@@ -117,8 +117,14 @@ def case_demo(tmp):
     if not slots or slots[0]["candp2.slot.id"] != "0x00000201,0x00000202,0x00000181,0x00000182" \
             or slots[0]["candp2.slot.kind"] != "tx,tx,rx,rx":
         fail(f"Chk_Cfg slots: {slots[:1]}")
+    # dp.changed: only the exchanges whose data changed (the timeline of docs/capture.md).
+    changed = fields(cap, ["dp.outputs"], "dp.changed && dp.response == 0")
+    outs = [r["dp.outputs"][:6] for r in changed]
+    if outs != ["000000", "510000", "3da864", "316626"]:
+        fail(f"changed outputs: {outs}")
     for f in ["fdl.da == 3 && dp.service == Set_Prm", "fdl.fc.fcb == 1", "candp2.slot.id == 0x201",
-              "can.id == 0x181", "frame.comment contains \"axis1\"", "candp2.prm.bitrate == 2"]:
+              "can.id == 0x181", "frame.comment contains \"axis1\"", "candp2.prm.bitrate == 2",
+              "candp2.note || can || dp.service != Data_Exchange || dp.changed"]:
         if count(cap, f) == 0:
             fail(f"display filter {f!r} matches nothing")
 

@@ -103,6 +103,7 @@ p_fdl.experts = { E.fcs, E.le, E.ed, E.short, E.sd, E.trailing, E.sap }
 p_dp.fields = {}
 F.service = field(p_dp, ProtoField.uint8("dp.service", "Service", base.DEC, services))
 F.response = field(p_dp, ProtoField.bool("dp.response", "Response"))
+F.changed = field(p_dp, ProtoField.bool("dp.changed", "Data changed since the previous exchange"))
 F.prm_status = field(p_dp, ProtoField.uint8("dp.prm.station_status", "Station_Status", base.HEX))
 F.prm_lock = field(p_dp, ProtoField.bool("dp.prm.lock_req", "Lock_Req", 8, nil, 0x80))
 F.prm_unlock = field(p_dp, ProtoField.bool("dp.prm.unlock_req", "Unlock_Req", 8, nil, 0x40))
@@ -478,6 +479,7 @@ local function dissect_dp(tvb, tree, ctx, st)
   local t = tree:add(p_dp, tvb)
   t:add(F.service, ctx.service):set_generated()
   t:add(F.response, not ctx.request):set_generated()
+  if ctx.changed then t:add(F.changed, true):set_generated() end  -- present only when true
   local name = services[ctx.service] or "?"
   local text = ""
   if ctx.service == 61 and ctx.request then
@@ -538,6 +540,12 @@ local function context(pinfo, t)
     last_request[iface] = nil
   end
   if ctx.station then ctx.state = station_state(iface, ctx.station) end
+  if ctx.state and ctx.service == S_DX then
+    -- dp.changed: the outputs (inputs) differ from the station's previous exchange.
+    local data, key = t.du and t.du:raw() or "", t.request and "last_out" or "last_in"
+    ctx.changed = ctx.state[key] ~= data
+    ctx.state[key] = data
+  end
   return ctx
 end
 
