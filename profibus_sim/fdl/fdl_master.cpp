@@ -74,8 +74,8 @@ void FdlMaster::start_next(Time now) {
 
 std::vector<std::uint8_t> FdlMaster::build(Outstanding& o) {
   Remote& st = *o.pending.station;
-  // emulator-spec §10: FDL_Status request SD1 FC 0x49 (no FCB/FCV); DP requests with the
-  // station's FCB sequence ("FCB/FCV"), Global_Control as SDN (profibus_sim/fdl/dp_wire.hpp).
+  // FDL_Status (SD1 FC 0x49, no FCB/FCV) before a station's first request; DP requests with the
+  // station's FCB sequence, Global_Control as SDN (profibus_sim/fdl/dp_wire.hpp).
   const Telegram t = o.fdl_status
                          ? fdl_status_request(st.address(), options_.address)
                          : dp_request(o.pending.request, st.address(), options_.address, st.fcb);

@@ -206,8 +206,8 @@ std::optional<std::vector<std::uint8_t>> SlaveFrontEnd::data_exchange(Station& s
   // DH while new diagnosis is pending: the diagnosis differs from what this master last read
   // with Slave_Diag (docs/decisions.md).
   const bool pending = st.diag_read[t.sa] != dp.slave_diag(now);
-  // emulator-spec §10: SC when the slave has no input bytes; with diagnosis pending the short
-  // acknowledge cannot say so, so an SD1 with FC DH is sent (profibus_sim/fdl/dp_wire.hpp).
+  // SC when the slave has no input bytes; with diagnosis pending the short acknowledge cannot say
+  // so, so an SD1 with FC DH is sent (docs/decisions.md "FDL on the wire", dp_wire.hpp).
   return encode(data_exchange_answer(t, *in, pending));
 }
 

@@ -7,8 +7,8 @@ own code writes (docs/capture.md "Tests"). One case per run:
               drive's reply on 0x181, and the gateway's input slot showing it
   malformed   demo_capture --frames 100000: no packet marked malformed or with an expert info of
               severity error, and every decoder path present (faults, bus state, notes)
-  sniff-file  candp2 sniff --pcapng of tests/sniff/spec10.bin (the emulator-spec capture with line
-              noise): Set_Prm ident 04A4 and the user parameters, the Chk_Cfg slots, the FCS error
+  sniff-file  candp2 sniff --pcapng of tests/sniff/spec10.bin (a real master parameterizing
+              slave 3, with line noise; tests/sniff/make_capture.py): Set_Prm ident 04A4 and the user parameters, the Chk_Cfg slots, the FCS error
   sniff-pty   the same telegrams written into candp2 sniff's pty:PATH, captured as they arrive
 
 Every tshark run is bounded (timeout) and checks that the Lua script loaded without an error.
@@ -205,7 +205,7 @@ def case_sniff_file(tmp):
         fail(f"comments of the abandoned candidates: {texts}")
 
 
-# The emulator-spec capture (tests/sniff/make_capture.py): master 2 parameterizing slave 3.
+# The capture of tests/sniff/make_capture.py: master 2 parameterizing slave 3.
 SPEC_TELEGRAMS = [
     "10 03 02 49 4E 16", "10 02 03 00 05 16",
     "68 05 05 68 83 82 6D 3C 3E EC 16",

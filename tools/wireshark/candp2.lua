@@ -524,11 +524,14 @@ local function context(pinfo, t)
     elseif t.dsap then ctx.service = service_of_sap(t.dsap)
     else ctx.service = S_DX end
     ctx.station = t.da
-    last_request[iface] = { service = ctx.service, station = t.da, frame = pinfo.number }
+    last_request[iface] = {
+      service = ctx.service, station = t.da, master = t.sa, frame = pinfo.number,
+    }
   else
     local req = last_request[iface]
     if t.sd == SC and req then
       ctx.service, ctx.station, ctx.request_in = req.service, req.station, req.frame
+      ctx.src, ctx.dst = req.station, req.master  -- an SC names neither: its request does
     elseif t.ssap then
       ctx.service, ctx.station = service_of_sap(t.ssap), t.sa
     elseif req and req.station == t.sa then
@@ -549,98 +552,75 @@ local function context(pinfo, t)
   return ctx
 end
 
-function p_fdl.dissector(tvb, pinfo, tree)
-  local n = tvb:len()
-  pinfo.cols.protocol = "FDL"
-  local ft = tree:add(p_fdl, tvb())
-  if n == 0 then ft:add_proto_expert_info(E.short); return 0 end
-  local sd = tvb(0, 1):uint()
-  ft:add(F.sd, tvb(0, 1))
-  local t = { sd = sd }
-  local total, hdr
-  if sd == SC then total = 1
-  elseif sd == SD4 then total = 3
-  elseif sd == SD1 then total, hdr = 6, 1
-  elseif sd == SD3 then total, hdr = 14, 1
-  elseif sd == SD2 then
-    if n < 4 then ft:add_proto_expert_info(E.short); return n end
-    local le = tvb(1, 1):uint()
-    ft:add(F.le, tvb(1, 1)); ft:add(F.ler, tvb(2, 1))
-    if le ~= tvb(2, 1):uint() or tvb(3, 1):uint() ~= SD2 or le < 3 then
-      ft:add_proto_expert_info(E.le)
-      pinfo.cols.info = "SD2 with a wrong LE/LEr"
-      return n
-    end
-    total, hdr = le + 6, 4
-  else
+-- The telegram's length from its start delimiter (and LE); nil and a reason when it has none.
+local function frame_length(tvb, ft)
+  local n, sd = tvb:len(), tvb(0, 1):uint()
+  if sd == SC then return 1 end
+  if sd == SD4 then return 3 end
+  if sd == SD1 then return 6, 1 end
+  if sd == SD3 then return 14, 1 end
+  if sd ~= SD2 then
     ft:add_proto_expert_info(E.sd)
-    pinfo.cols.info = string.format("not a telegram (first byte %02X)", sd)
-    return n
+    return nil, string.format("not a telegram (first byte %02X)", sd)
   end
-  ft:add(F.kind, tvb(0, 1), sd_names[sd]):set_generated()
-  if n < total then
-    ft:add_proto_expert_info(E.short)
-    pinfo.cols.info = sd_names[sd] .. " truncated"
-    return n
+  if n < 4 then ft:add_proto_expert_info(E.short); return nil, "SD2 truncated" end
+  local le = tvb(1, 1):uint()
+  ft:add(F.le, tvb(1, 1)); ft:add(F.ler, tvb(2, 1))
+  if le ~= tvb(2, 1):uint() or tvb(3, 1):uint() ~= SD2 or le < 3 then
+    ft:add_proto_expert_info(E.le)
+    return nil, "SD2 with a wrong LE/LEr"
   end
-  if n > total then ft:add_tvb_expert_info(E.trailing, tvb(total)) end
-  local info = sd_names[sd]
-  if sd == SC then
-    t.request = false
+  return le + 6, 4
+end
+
+-- FC, address extensions, data unit, FCS and ED of an SD1/SD2/SD3 whose DA is at `at`; fills
+-- `t` and returns the Info text for them.
+local function dissect_body(tvb, ft, t, at, total)
+  local info = ""
+  local r_fc = tvb(at + 2, 1)
+  local fc = r_fc:uint()
+  t.request, t.fn = has(fc, 0x40), band(fc, 0x0F)
+  local fct = ft:add(F.fc, r_fc)
+  fct:add(F.fc_req, r_fc)
+  if t.request then
+    fct:add(F.fc_reqfn, r_fc)
+    local fcb_fcv = t.fn == 0x3 or t.fn == 0x5 or t.fn == 0xC or t.fn == 0xD
+    if t.fn ~= 0x9 then info = info .. " " .. (req_functions[t.fn] or "?") end
+    if fcb_fcv then
+      fct:add(F.fc_fcb, r_fc); fct:add(F.fc_fcv, r_fc)
+      info = info .. string.format(" FCB=%d FCV=%d", band(shr(fc, 5), 1), band(shr(fc, 4), 1))
+    end
   else
-    local at = hdr or 1
-    t.da, t.sa = band(tvb(at, 1):uint(), 0x7F), band(tvb(at + 1, 1):uint(), 0x7F)
-    ft:add(F.da, tvb(at, 1))
-    if sd ~= SD4 then ft:add(F.da_ext, tvb(at, 1)) end
-    ft:add(F.sa, tvb(at + 1, 1))
-    if sd ~= SD4 then ft:add(F.sa_ext, tvb(at + 1, 1)) end
-    pinfo.cols.src, pinfo.cols.dst = tostring(t.sa), tostring(t.da)
-    info = info .. " " .. t.sa .. "→" .. t.da
-    if sd == SD4 then
-      t.request = true
-    else
-      local fc = tvb(at + 2, 1):uint()
-      t.request, t.fn = has(fc, 0x40), band(fc, 0x0F)
-      local fct = ft:add(F.fc, tvb(at + 2, 1))
-      fct:add(F.fc_req, tvb(at + 2, 1))
-      if t.request then
-        fct:add(F.fc_reqfn, tvb(at + 2, 1))
-        local fcb_fcv = t.fn == 0x3 or t.fn == 0x5 or t.fn == 0xC or t.fn == 0xD
-        if fcb_fcv then fct:add(F.fc_fcb, tvb(at + 2, 1)); fct:add(F.fc_fcv, tvb(at + 2, 1)) end
-        if t.fn ~= 0x9 then info = info .. " " .. (req_functions[t.fn] or "?") end
-        if fcb_fcv then
-          info = info .. string.format(" FCB=%d FCV=%d", band(shr(fc, 5), 1), band(shr(fc, 4), 1))
-        end
-      else
-        fct:add(F.fc_stype, tvb(at + 2, 1)); fct:add(F.fc_resfn, tvb(at + 2, 1))
-        info = info .. " " .. (res_functions[t.fn] or "?")
-      end
-      local pos, fcs_at = at + 3, total - 2
-      for _, which in ipairs({ "da", "sa" }) do
-        if has(tvb(at + (which == "da" and 0 or 1), 1):uint(), 0x80) and pos < fcs_at then
-          local sap = tvb(pos, 1):uint()
-          if has(sap, 0xC0) then ft:add_proto_expert_info(E.sap) end
-          ft:add(which == "da" and F.dsap or F.ssap, tvb(pos, 1))
-          t[which == "da" and "dsap" or "ssap"] = band(sap, 0x3F)
-          pos = pos + 1
-        end
-      end
-      if t.dsap or t.ssap then
-        info = info .. " [" .. (t.ssap or "-") .. "→" .. (t.dsap or "-") .. "]"
-      end
-      t.du = pos < fcs_at and tvb(pos, fcs_at - pos) or nil
-      if t.du then ft:add(F.du, t.du) end
-      local fcs, want = tvb(fcs_at, 1):uint(), sum(tvb, at, fcs_at)
-      local fi = ft:add(F.fcs, tvb(fcs_at, 1))
-      fi:add(F.fcs_ok, tvb(fcs_at, 1), fcs == want):set_generated()
-      if fcs ~= want then
-        fi:add_proto_expert_info(E.fcs, string.format("FCS wrong: %02X, expected %02X", fcs, want))
-        info = "[FCS wrong] " .. info
-      end
-      ft:add(F.ed, tvb(total - 1, 1))
-      if tvb(total - 1, 1):uint() ~= ED then ft:add_proto_expert_info(E.ed) end
+    fct:add(F.fc_stype, r_fc); fct:add(F.fc_resfn, r_fc)
+    info = info .. " " .. (res_functions[t.fn] or "?")
+  end
+  local pos, fcs_at = at + 3, total - 2
+  for i, which in ipairs({ "dsap", "ssap" }) do
+    if has(tvb(at + i - 1, 1):uint(), 0x80) and pos < fcs_at then
+      local sap = tvb(pos, 1):uint()
+      if has(sap, 0xC0) then ft:add_proto_expert_info(E.sap) end
+      ft:add(F[which], tvb(pos, 1))
+      t[which] = band(sap, 0x3F)
+      pos = pos + 1
     end
   end
+  if t.dsap or t.ssap then info = info .. " [" .. (t.ssap or "-") .. "→" .. (t.dsap or "-") .. "]" end
+  t.du = pos < fcs_at and tvb(pos, fcs_at - pos) or nil
+  if t.du then ft:add(F.du, t.du) end
+  local fcs, want = tvb(fcs_at, 1):uint(), sum(tvb, at, fcs_at)
+  local fi = ft:add(F.fcs, tvb(fcs_at, 1))
+  fi:add(F.fcs_ok, tvb(fcs_at, 1), fcs == want):set_generated()
+  if fcs ~= want then
+    fi:add_proto_expert_info(E.fcs, string.format("FCS wrong: %02X, expected %02X", fcs, want))
+    t.fcs_bad = true
+  end
+  ft:add(F.ed, tvb(total - 1, 1))
+  if tvb(total - 1, 1):uint() ~= ED then ft:add_proto_expert_info(E.ed) end
+  return info
+end
+
+-- The DP layer of a telegram, with the station's state as the frame found it on the first pass.
+local function dissect_service(tvb, pinfo, tree, ft, t)
   if not pinfo.visited then
     local ctx = context(pinfo, t)
     -- The station's parameters as this frame found them: what later passes dissect it with.
@@ -649,21 +629,56 @@ function p_fdl.dissector(tvb, pinfo, tree)
   end
   local ctx = frames[pinfo.number]
   if ctx.request_in then ft:add(F.request_in, ctx.request_in):set_generated() end
-  if ctx.service and ctx.service ~= S_TOKEN then
-    pinfo.cols.protocol = "DP"
-    local work = { prm = ctx.before and ctx.before.prm, slots = ctx.before and ctx.before.slots }
-    local dp_text = dissect_dp(t.du or tvb(0, 0), tree, ctx, work)
-    if not pinfo.visited and ctx.state then
-      local changed = ctx.state.slots ~= work.slots
-      ctx.state.prm, ctx.state.slots = work.prm, work.slots
-      if changed then index_can_ids() end
-    end
-    if sd == SC then info = "SC" end
-    info = info .. " " .. dp_text
+  if ctx.src then pinfo.cols.src, pinfo.cols.dst = tostring(ctx.src), tostring(ctx.dst) end
+  if not ctx.service or ctx.service == S_TOKEN then return nil end
+  pinfo.cols.protocol = "DP"
+  local work = { prm = ctx.before and ctx.before.prm, slots = ctx.before and ctx.before.slots }
+  local text = dissect_dp(t.du or tvb(0, 0), tree, ctx, work)
+  if not pinfo.visited and ctx.state then
+    local changed = ctx.state.slots ~= work.slots
+    ctx.state.prm, ctx.state.slots = work.prm, work.slots
+    if changed then index_can_ids() end
+  end
+  return text
+end
+
+function p_fdl.dissector(tvb, pinfo, tree)
+  local n = tvb:len()
+  pinfo.cols.protocol = "FDL"
+  local ft = tree:add(p_fdl, tvb())
+  if n == 0 then ft:add_proto_expert_info(E.short); return 0 end
+  local sd = tvb(0, 1):uint()
+  ft:add(F.sd, tvb(0, 1))
+  local total, at = frame_length(tvb, ft)
+  if not total then pinfo.cols.info = at; return n end
+  ft:add(F.kind, tvb(0, 1), sd_names[sd]):set_generated()
+  if n < total then
+    ft:add_proto_expert_info(E.short)
+    pinfo.cols.info = sd_names[sd] .. " truncated"
+    return n
+  end
+  if n > total then ft:add_tvb_expert_info(E.trailing, tvb(total)) end
+  local t = { sd = sd, request = sd ~= SC }
+  local info = sd_names[sd]
+  if sd ~= SC then
+    at = at or 1
+    local r_da, r_sa = tvb(at, 1), tvb(at + 1, 1)
+    t.da, t.sa = band(r_da:uint(), 0x7F), band(r_sa:uint(), 0x7F)
+    ft:add(F.da, r_da)
+    if sd ~= SD4 then ft:add(F.da_ext, r_da) end
+    ft:add(F.sa, r_sa)
+    if sd ~= SD4 then ft:add(F.sa_ext, r_sa) end
+    pinfo.cols.src, pinfo.cols.dst = tostring(t.sa), tostring(t.da)
+    info = info .. " " .. t.sa .. "→" .. t.da
+    if sd ~= SD4 then info = info .. dissect_body(tvb, ft, t, at, total) end
+  end
+  local text = dissect_service(tvb, pinfo, tree, ft, t)
+  if text then
+    info = (sd == SC and "SC" or info) .. " " .. text
   elseif sd == SD4 then
     info = info .. " token"
   end
-  pinfo.cols.info = info
+  pinfo.cols.info = (t.fcs_bad and "[FCS wrong] " or "") .. info
   return total
 end
 
