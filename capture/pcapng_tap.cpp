@@ -46,7 +46,8 @@ std::uint64_t PcapngTap::time_ns(Time t) const {
 
 void PcapngTap::check_writer() {
   if (auto failure = writer_.take_failure())
-    log_.error("pcapng capture stopped: " + *failure + " (the daemon goes on without capture)");
+    log_.error("pcapng capture stopped: " + *failure +
+               "; nothing more is captured, everything else goes on");
 }
 
 std::optional<std::uint32_t> PcapngTap::interface(Side side, std::uint16_t index,

@@ -178,8 +178,8 @@ TEST(PcapngTap, FullDiskDoesNotStopTheDpCycle) {
     if (l.level == LogLevel::Error) {
       ++errors;
       EXPECT_EQ(l.message,
-                "pcapng capture stopped: cannot write /full/c.pcapng: No space left on device "
-                "(the daemon goes on without capture)");
+                "pcapng capture stopped: cannot write /full/c.pcapng: No space left on device; "
+                "nothing more is captured, everything else goes on");
     }
   EXPECT_EQ(errors, 1);
 }

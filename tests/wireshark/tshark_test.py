@@ -190,6 +190,13 @@ def check_spec_capture(cap, expect_errors):
 
 
 def case_sniff_file(tmp):
+    # A capture file in a directory that does not exist: exit 2 before reading, saying why.
+    missing = os.path.join(tmp, "no-such-dir", "x.pcapng")
+    r = subprocess.run([ARGS.candp2, "sniff", "--pcapng", missing,
+                        os.path.join(ARGS.source_dir, "tests", "sniff", "spec10.bin")],
+                       capture_output=True, text=True, timeout=30)
+    if r.returncode != 2 or "does not exist" not in r.stderr or r.stdout:
+        fail(f"sniff --pcapng {missing}: exit {r.returncode}: {r.stdout} {r.stderr}")
     cap = os.path.join(tmp, "spec10.pcapng")
     run([ARGS.candp2, "sniff", "--pcapng", cap,
          os.path.join(ARGS.source_dir, "tests", "sniff", "spec10.bin")])
