@@ -1,6 +1,7 @@
 // DP services as FDL telegrams (profibus_sim/fdl/dp_wire.hpp): the requests and answers of the
-// capture of tests/profibus/fdl_capture.hpp (a real master parameterizing slave 3) byte for byte, and the in-process link's wire image equal to what the
-// FDL master and slave front end put on a line for the same master run.
+// capture in tests/profibus/fdl_capture.hpp (a real master parameterizing slave 3) byte for byte,
+// and the in-process link's wire image equal to what the FDL master and slave front end put on a
+// line for the same master run.
 #include "profibus_sim/fdl/dp_wire.hpp"
 
 #include <gtest/gtest.h>
