@@ -35,6 +35,7 @@ packages=(
   libmicrohttpd-dev python3-prometheus-client chromium  # HTTP face; /metrics and page tests
   libsystemd-dev systemd                                # sd_notify (Type=notify); systemd-analyze verify
   dpkg-dev lintian                                      # the .deb: dpkg-shlibdeps, dpkg-deb, lintian
+  tshark                                                # the Wireshark dissector's tests (docs/capture.md)
   ccache git                                            # compiler cache; the source revision (--version)
 )
 
