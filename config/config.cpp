@@ -540,7 +540,7 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   c.file = file;
   const Object top(root, "$",
                    {"modbus", "http", "master", "buses", "gateways", "slaves", "drives", "log",
-                    "state_file", "profibus"});
+                    "state_file", "profibus", "capture"});
   if (const json* p = top.find("profibus"))
     c.profibus = parse_profibus(*p, top.path("profibus"), file);
   const bool remote = c.remote_gateways();
@@ -571,6 +571,8 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
     if (auto p = find_string(o, "can_log", "a file name")) c.can_log = resolve(file, *p);
   }
   if (auto p = find_string(top, "state_file", "a file name")) c.state_file = resolve(file, *p);
+  if (const json* cap = top.find("capture"))
+    c.capture = parse_capture(*cap, top.path("capture"), file);
 
   // Role master: the gateways are remote stations; buses only serve simulated drives.
   static const json kNoBuses = json::object();

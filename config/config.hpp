@@ -17,6 +17,7 @@
 #include <variant>
 #include <vector>
 
+#include "config/capture_config.hpp"
 #include "config/slaves_config.hpp"
 #include "gateway/user_prm.hpp"
 #include "profibus_sim/master/dp_master.hpp"
@@ -140,6 +141,7 @@ struct DaemonConfig {
   std::optional<std::string> state_file;   // stored wake-up/SYNC values across restarts
   std::vector<ConfigError> warnings;       // from every part of the file
   std::optional<ProfibusConfig> profibus;  // emulator-spec §10; none: everything in-process (§8)
+  std::optional<CaptureConfig> capture;    // pcapng captures (docs/capture.md); none: off
 
   bool remote_gateways() const { return profibus && profibus->role == ProfibusRole::Master; }
   const BusConfig* bus(const std::string& name) const;

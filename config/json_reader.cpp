@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <filesystem>
 
 #include "config/config.hpp"
 
@@ -63,6 +64,13 @@ int hex_digit(char c) {
   if (c >= 'a' && c <= 'f') return c - 'a' + 10;
   if (c >= 'A' && c <= 'F') return c - 'A' + 10;
   return -1;
+}
+
+std::string relative_to(const std::string& file, const std::string& path) {
+  namespace fs = std::filesystem;
+  if (fs::path(path).is_absolute()) return path;
+  const fs::path dir = fs::path(file).parent_path();
+  return dir.empty() ? path : (dir / path).lexically_normal().string();
 }
 
 Object::Object(const json& j, std::string path, std::vector<std::string> allowed)

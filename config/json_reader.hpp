@@ -34,6 +34,8 @@ std::string kind_of(const json& j);
 std::string join(const std::vector<std::string>& words);
 // 0..15 for a hex digit, -1 otherwise.
 int hex_digit(char c);
+// A path from the configuration `file`: relative paths are relative to the file's directory.
+std::string relative_to(const std::string& file, const std::string& path);
 
 // An object whose keys are checked: unknown keys are errors, '_' keys are comments.
 class Object {

@@ -45,6 +45,7 @@ test_packages=(
   qemu-system-x86 linux-image-amd64 busybox-static iproute2 # the SocketCAN guest (vcan, SJA1000: ip)
   python3-prometheus-client chromium                    # /metrics and page tests
   systemd                                               # systemd-analyze verify
+  tshark                                                # the Wireshark dissector's tests (docs/capture.md)
   ccache                                                # compiler cache for the many test builds
 )
 

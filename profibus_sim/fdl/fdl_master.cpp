@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "common/hex.hpp"
+#include "profibus_sim/fdl/dp_wire.hpp"
 
 namespace candp2::fdl {
 
@@ -10,26 +11,6 @@ namespace {
 
 // emulator-spec §10: a telegram is preceded by ≥ 33 bit times of idle (TSYN).
 constexpr std::uint32_t kTsynBits = 33;
-// emulator-spec §10 "DP services over FDL": the master's SSAP for every DP service.
-constexpr std::uint8_t kMasterSap = kSapChkCfg;  // 62
-
-std::optional<std::uint8_t> dsap_of(dp::Service s) {
-  switch (s) {
-    case dp::Service::SlaveDiag:
-      return kSapSlaveDiag;
-    case dp::Service::SetPrm:
-      return kSapSetPrm;
-    case dp::Service::ChkCfg:
-      return kSapChkCfg;
-    case dp::Service::GetCfg:
-      return kSapGetCfg;
-    case dp::Service::GlobalControl:
-      return kSapGlobalControl;
-    case dp::Service::DataExchange:
-      return std::nullopt;  // the default SAP: no address extension
-  }
-  return std::nullopt;
-}
 
 }  // namespace
 
@@ -42,9 +23,8 @@ class FdlMaster::Remote final : public dp::SlaveLink {
     master_.enqueue({this, std::move(req), std::move(done)}, now);
   }
 
-  bool known = false;     // answered FDL_Status since start or since it was lost
-  bool next_fcb = true;   // FCB of the next new SRD
-  bool next_fcv = false;  // FCV of the next new SRD
+  bool known = false;  // answered FDL_Status since start or since it was lost
+  FcbSequence fcb;     // FCB/FCV of the next new SRD
   MasterStationStats stats;
 
  private:
@@ -94,25 +74,13 @@ void FdlMaster::start_next(Time now) {
 
 std::vector<std::uint8_t> FdlMaster::build(Outstanding& o) {
   Remote& st = *o.pending.station;
-  const std::uint8_t da = st.address();
-  const std::uint8_t sa = options_.address;
-  if (o.fdl_status) {
-    // emulator-spec §10: FDL_Status request SD1, FC 0x49 (no FCB/FCV).
-    o.fc = request_fc(kFcFdlStatus);
-    return encode(Telegram::no_data(da, sa, o.fc));
-  }
-  const auto& req = o.pending.request;
-  if (req.service == dp::Service::GlobalControl) {
-    // emulator-spec §10: Global_Control is SDN (no answer), DSAP 58; SDN carries no FCB/FCV.
-    o.fc = request_fc(kFcSdnHigh);
-    return encode(Telegram::with_data(da, sa, o.fc, kSapGlobalControl, kMasterSap, req.data));
-  }
-  // emulator-spec §10 "FCB/FCV": FCB=1 FCV=0 first after FDL_Status, then toggled with FCV=1.
-  o.fc = request_fc(kFcSrdHigh, st.next_fcb, st.next_fcv);
-  const auto dsap = dsap_of(req.service);
-  if (!dsap && req.data.empty()) return encode(Telegram::no_data(da, sa, o.fc));
-  return encode(Telegram::with_data(da, sa, o.fc, dsap,
-                                    dsap ? std::optional(kMasterSap) : std::nullopt, req.data));
+  // FDL_Status (SD1 FC 0x49, no FCB/FCV) before a station's first request; DP requests with the
+  // station's FCB sequence, Global_Control as SDN (profibus_sim/fdl/dp_wire.hpp).
+  const Telegram t = o.fdl_status
+                         ? fdl_status_request(st.address(), options_.address)
+                         : dp_request(o.pending.request, st.address(), options_.address, st.fcb);
+  o.fc = t.fc;
+  return encode(t);
 }
 
 void FdlMaster::transmit(Time now) {
@@ -248,8 +216,7 @@ void FdlMaster::on_telegram(const Telegram& t, Time now) {
   if (o.fdl_status) {
     // emulator-spec §10: the FCB sequence starts afresh after FDL_Status.
     st.known = true;
-    st.next_fcb = true;
-    st.next_fcv = false;
+    st.fcb.restart();
     log_.info("station " + std::to_string(st.address()) + " answers FDL_Status (FC 0x" +
               hex_bytes(std::span(&t.fc, 1)) + ")");
     queue_.push_front(std::move(o.pending));
@@ -257,8 +224,7 @@ void FdlMaster::on_telegram(const Telegram& t, Time now) {
     start_next(now);  // the DP request follows after TSYN (advance())
     return;
   }
-  st.next_fcb = !st.next_fcb;
-  st.next_fcv = true;
+  st.fcb.advance();
   finish(std::move(*r), now);
 }
 

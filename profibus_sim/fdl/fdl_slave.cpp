@@ -4,22 +4,21 @@
 #include <string>
 
 #include "common/hex.hpp"
+#include "profibus_sim/fdl/dp_wire.hpp"
 
 namespace candp2::fdl {
 
 namespace {
 
 std::vector<std::uint8_t> short_response(const Telegram& req, std::uint8_t function) {
-  return encode(Telegram::no_data(req.sa, req.da, response_fc(function)));
+  return encode(short_answer(req, function));
 }
 
 // A response carrying data, SAPs swapped (emulator-spec §10: "SD2 with DSAP 62 / SSAP 60
-// swapped"); SD1 when there is neither a SAP nor data (an SD2 needs LE >= 4).
+// swapped"); SD1 when there is neither a SAP nor data (profibus_sim/fdl/dp_wire.hpp).
 std::vector<std::uint8_t> data_response(const Telegram& req, std::uint8_t function,
                                         std::span<const std::uint8_t> data) {
-  if (!req.dsap && !req.ssap && data.empty()) return short_response(req, function);
-  return encode(Telegram::with_data(req.sa, req.da, response_fc(function), req.ssap, req.dsap,
-                                    std::vector<std::uint8_t>(data.begin(), data.end())));
+  return encode(data_answer(req, function, data));
 }
 
 bool is_srd(std::uint8_t function) {
@@ -216,15 +215,9 @@ std::optional<std::vector<std::uint8_t>> SlaveFrontEnd::data_exchange(Station& s
   // DH while new diagnosis is pending: the diagnosis differs from what this master last read
   // with Slave_Diag (docs/decisions.md).
   const bool pending = st.diag_read[t.sa] != dp.diagnosis(now);
-  const std::uint8_t fn = pending ? kFcDh : kFcDl;
-  if (in->empty()) {
-    // emulator-spec §10: SC when the slave has no input bytes; with diagnosis pending the short
-    // acknowledge cannot say so, so an SD1 with FC DH is sent.
-    if (!pending) return encode(Telegram::sc());
-    return short_response(t, fn);
-  }
-  return encode(Telegram::with_data(t.sa, t.da, response_fc(fn), std::nullopt, std::nullopt,
-                                    std::vector<std::uint8_t>(in->begin(), in->end())));
+  // SC when the slave has no input bytes; with diagnosis pending the short acknowledge cannot say
+  // so, so an SD1 with FC DH is sent (docs/decisions.md "FDL on the wire", dp_wire.hpp).
+  return encode(data_exchange_answer(t, *in, pending));
 }
 
 // Set_Slave_Add (SAP 55): SC when the slave took the new address (it answers there from now on),

@@ -62,6 +62,7 @@ def main():
         "/usr/share/candp2/examples/scenarios/slots-manual-5.1.4.json",
         "/usr/share/candp2/examples/systemd/candp2d-bitrate-apply.conf",
         "/usr/share/candp2/examples/systemd/candp2d-serial.conf",
+        "/usr/share/candp2/wireshark/candp2.lua",
         "/usr/share/man/man8/candp2d.8.gz", "/usr/share/man/man1/candp2.1.gz",
         "/usr/share/man/man1/candp2-drive.1.gz",
         "/usr/share/doc/candp2/copyright", "/usr/share/doc/candp2/changelog.Debian.gz",

@@ -121,6 +121,7 @@ struct FdlRig {
   void to_slaves(std::span<const std::uint8_t> b, Time now) {
     std::vector<std::uint8_t> bytes(b.begin(), b.end());
     sent.push_back(bytes);
+    if (observe) observe(bytes, true);
     // A pulled cable: the station never sees its requests.
     if (bytes.size() > 2 &&
         unplugged.count(bytes[0] == fdl::kSD2 ? bytes[4] & 0x7F : bytes[1] & 0x7F))
@@ -129,6 +130,7 @@ struct FdlRig {
         std::move(bytes), now, line.wire_time(1), [this](std::span<const std::uint8_t> in, Time t) {
           auto reply = front.on_bytes(in, t);
           if (!reply) return;
+          if (observe) observe(reply->bytes, false);
           const Time start = std::max(t, reply->not_before);
           pipe.carry(
               std::move(reply->bytes), start, line.wire_time(1),
@@ -141,6 +143,8 @@ struct FdlRig {
   BytePipe pipe;
   std::set<std::uint8_t> unplugged;
   std::vector<std::vector<std::uint8_t>> sent;  // every telegram the master put on the line
+  // Every telegram on the line in order: the master's (true) and the slaves' answers (false).
+  std::function<void(std::span<const std::uint8_t>, bool from_master)> observe;
 };
 
 }  // namespace candp2::dp::test

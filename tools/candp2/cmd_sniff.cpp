@@ -9,6 +9,7 @@
 // opened or read.
 #include <poll.h>
 #include <signal.h>
+#include <sys/stat.h>
 
 #include <array>
 #include <cerrno>
@@ -18,6 +19,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -27,7 +29,9 @@
 #include <variant>
 #include <vector>
 
+#include "capture/pcapng_tap.hpp"
 #include "common/hex.hpp"
+#include "config/capture_config.hpp"
 #include "gateway/slot_config.hpp"
 #include "gateway/user_prm.hpp"
 #include "profibus_sim/fdl/fdl.hpp"
@@ -45,7 +49,9 @@ struct SniffArgs {
   bool errors = false;
   bool hex = false;
   bool generic = false;
-  std::uint64_t count = 0;  // 0 = unlimited
+  std::uint64_t count = 0;   // 0 = unlimited
+  std::string pcapng;        // also write a pcapng capture (docs/capture.md)
+  bool profibus_dl = false;  // ... with LINKTYPE_PROFIBUS_DL instead of exported PDUs
 };
 
 std::string hex2(std::uint8_t b) {
@@ -160,12 +166,21 @@ class CanDp2Decoder {
 
 class Sniffer {
  public:
-  explicit Sniffer(const SniffArgs& a) : args_(a) {}
+  // `capture`: also write every telegram (and abandoned candidate, with the parser's error as a
+  // comment) to it, at the time `time_of` gives for the event.
+  Sniffer(const SniffArgs& a, capture::PcapngTap* capture = nullptr,
+          std::function<Time(const fdl::ParserEvent&)> time_of = {})
+      : args_(a), capture_(capture), time_of_(std::move(time_of)) {}
 
   // Prints the parser's pending events; `stamp` prefixes each line. False once --count is reached.
   bool print_events(fdl::StreamParser& p, const std::string* stamp) {
     while (auto ev = p.next()) {
       std::string line = stamp ? *stamp : offset_stamp(ev->offset);
+      if (capture_)
+        capture_->write_dp(time_of_(*ev), 0, args_.source, ev->raw, false,
+                           ev->error == fdl::Error::None
+                               ? std::string()
+                               : "candp2 sniff: " + std::string(fdl::to_string(ev->error)));
       if (ev->error != fdl::Error::None) {
         if (!args_.errors) continue;
         line += " ERROR " + std::string(fdl::to_string(ev->error)) + ": " + hex_bytes(ev->raw);
@@ -194,6 +209,8 @@ class Sniffer {
   }
 
   const SniffArgs& args_;
+  capture::PcapngTap* capture_;
+  std::function<Time(const fdl::ParserEvent&)> time_of_;
   fdl::Describer describer_;
   CanDp2Decoder candp2_;
   std::uint64_t printed_ = 0;
@@ -206,14 +223,49 @@ void print_stats(const fdl::ParserStats& s) {
             << s.parity_errors << " parity errors, " << s.garbage_bytes << " garbage bytes\n";
 }
 
-int sniff_file(const SniffArgs& a) {
+// Warnings and errors of the capture on stderr ("candp2 sniff: pcapng capture stopped: ...").
+class StderrLog final : public LogSink {
+ public:
+  bool enabled(LogLevel level) const override { return level >= LogLevel::Warn; }
+  void write(LogLevel, std::string_view, std::string_view message) override {
+    std::cout.flush();
+    std::cerr << "candp2 sniff: " << message << "\n";
+  }
+};
+StderrLog g_log;
+
+// The --pcapng capture (docs/capture.md): one file; `wall_offset` turns the sniffer's times
+// (microseconds from its start) into wall-clock time.
+std::unique_ptr<capture::PcapngTap> open_capture(const SniffArgs& a, Duration wall_offset) {
+  if (a.pcapng.empty()) return nullptr;
+  capture::PcapngTapOptions o;
+  o.writer.path = a.pcapng;
+  o.writer.application = "candp2 sniff";
+  o.profibus = a.profibus_dl ? capture::ProfibusLinktype::ProfibusDl
+                             : capture::ProfibusLinktype::WiresharkUpperPdu;
+  o.wall_offset = wall_offset;
+  return std::make_unique<capture::PcapngTap>(o, &g_log);
+}
+
+// A capture's modification time as microseconds since the Unix epoch (0 when unknown).
+Duration file_mtime(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return Duration(0);
+  return seconds(st.st_mtim.tv_sec) + microseconds(st.st_mtim.tv_nsec / 1000);
+}
+
+int sniff_file(const SniffArgs& a, capture::PcapngTap* capture) {
   std::ifstream in(a.source, std::ios::binary);
   if (!in) {
     std::cerr << "candp2 sniff: " << a.source << ": cannot open: " << std::strerror(errno) << "\n";
     return 2;
   }
   fdl::StreamParser parser;
-  Sniffer sniffer(a);
+  // Capture time stamps: the file's modification time, plus the wire time of the bytes before
+  // each telegram at --baud (11 bits a character), docs/sniff.md.
+  Sniffer sniffer(a, capture, [baud = a.baud](const fdl::ParserEvent& ev) {
+    return Time(static_cast<std::int64_t>(ev.offset * 11 * 1'000'000 / baud));
+  });
   std::vector<char> buf(4096);
   while (in) {
     in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
@@ -237,7 +289,7 @@ void on_signal(int) {
   g_stop = 1;
 }
 
-int sniff_port(const SniffArgs& a) {
+int sniff_port(const SniffArgs& a, capture::PcapngTap* capture) {
   serial::SerialOptions o;
   o.port = a.source;
   o.baud = a.baud;
@@ -262,7 +314,8 @@ int sniff_port(const SniffArgs& a) {
   const auto tsyn = std::chrono::microseconds(
       static_cast<long long>(std::ceil(33.0 * 1e6 / static_cast<double>(a.baud))));
   fdl::StreamParser parser;
-  Sniffer sniffer(a);
+  Time event_time{0};  // when the bytes that completed the current events arrived
+  Sniffer sniffer(a, capture, [&](const fdl::ParserEvent&) { return event_time; });
   std::optional<Time> first;
   std::vector<serial::RxByte> rx;
   int rc = 0;
@@ -277,6 +330,7 @@ int sniff_port(const SniffArgs& a) {
       break;
     }
     const Time t = now();
+    event_time = t;
     if (r == 0) {
       parser.gap();
     } else {
@@ -309,7 +363,24 @@ bool looks_like_port(const std::string& source) {
 }
 
 int run_sniff(const SniffArgs& a) {
-  return looks_like_port(a.source) ? sniff_port(a) : sniff_file(a);
+  const bool port = looks_like_port(a.source);
+  if (!a.pcapng.empty()) {
+    if (const auto why = config::directory_not_writable(a.pcapng); !why.empty()) {
+      std::cerr << "candp2 sniff: --pcapng " << a.pcapng << ": " << why << "\n";
+      return 2;
+    }
+  }
+  // Capture time stamps: a port's from the wall clock at start, a file's from its modification
+  // time (docs/sniff.md).
+  auto capture = open_capture(a, port ? std::chrono::duration_cast<Duration>(
+                                            std::chrono::system_clock::now().time_since_epoch())
+                                      : file_mtime(a.source));
+  int rc = port ? sniff_port(a, capture.get()) : sniff_file(a, capture.get());
+  if (capture) {
+    capture->sync();
+    if (capture->stats().stopped) rc = 2;  // the message is on stderr already
+  }
+  return rc;
 }
 
 }  // namespace
@@ -336,6 +407,12 @@ void add_sniff(CLI::App& app, int& exit_code) {
   cmd->add_flag("-x,--hex", args->hex, "print each telegram's raw bytes before its description");
   cmd->add_flag("--generic", args->generic, "generic DP decoding only (no CAN-DP/2 payloads)");
   cmd->add_option("-n,--count", args->count, "exit after this many telegrams");
+  cmd->add_option(
+      "--pcapng", args->pcapng,
+      "also write the telegrams to this pcapng capture for Wireshark (docs/capture.md)");
+  cmd->add_flag("--profibus-dl", args->profibus_dl,
+                "write the capture with LINKTYPE_PROFIBUS_DL (257) instead of exported PDUs for "
+                "the candp2 dissector (252; Wireshark 4.0 opens only these)");
   cmd->callback([args, &exit_code] { exit_code = run_sniff(*args); });
 }
 

@@ -1,0 +1,145 @@
+// pcapng blocks (draft-ietf-opsawg-pcapng: §4.1 Section Header Block, §4.2 Interface
+// Description Block, §4.3 Enhanced Packet Block, §3.5 options).
+#include "capture/pcapng.hpp"
+
+#include <algorithm>
+
+namespace candp2::capture::pcapng {
+
+namespace {
+
+void le16(std::vector<std::uint8_t>& out, std::uint16_t v) {
+  out.push_back(static_cast<std::uint8_t>(v));
+  out.push_back(static_cast<std::uint8_t>(v >> 8));
+}
+void le32(std::vector<std::uint8_t>& out, std::uint32_t v) {
+  for (int i = 0; i < 4; ++i) out.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+}
+void be16(std::vector<std::uint8_t>& out, std::uint16_t v) {
+  out.push_back(static_cast<std::uint8_t>(v >> 8));
+  out.push_back(static_cast<std::uint8_t>(v));
+}
+void put_le32(std::vector<std::uint8_t>& out, std::size_t at, std::uint32_t v) {
+  for (int i = 0; i < 4; ++i) out[at + i] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+void pad4(std::vector<std::uint8_t>& out, std::size_t from) {
+  while ((out.size() - from) % 4) out.push_back(0);
+}
+
+// Options carry at most 65535 value bytes; a longer text is cut (comments, names).
+constexpr std::size_t kMaxOptionLen = 0xFFF0;
+
+void option(std::vector<std::uint8_t>& out, std::uint16_t code, std::span<const std::uint8_t> v) {
+  const std::size_t n = std::min(v.size(), kMaxOptionLen);
+  le16(out, code);
+  le16(out, static_cast<std::uint16_t>(n));
+  const std::size_t start = out.size();
+  out.insert(out.end(), v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n));
+  pad4(out, start);
+}
+void option(std::vector<std::uint8_t>& out, std::uint16_t code, std::string_view text) {
+  option(out, code, std::span(reinterpret_cast<const std::uint8_t*>(text.data()), text.size()));
+}
+void end_of_options(std::vector<std::uint8_t>& out) {
+  le16(out, kOptEndOfOpt);
+  le16(out, 0);
+}
+
+// Block Type, Block Total Length (patched by close_block), body, Block Total Length.
+std::size_t open_block(std::vector<std::uint8_t>& out, std::uint32_t type) {
+  const std::size_t start = out.size();
+  le32(out, type);
+  le32(out, 0);
+  return start;
+}
+void close_block(std::vector<std::uint8_t>& out, std::size_t start) {
+  pad4(out, start);
+  const auto total = static_cast<std::uint32_t>(out.size() - start + 4);
+  le32(out, total);
+  put_le32(out, start + 4, total);
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> section_header(std::string_view application, std::string_view os) {
+  std::vector<std::uint8_t> out;
+  const std::size_t b = open_block(out, kSectionHeaderBlock);
+  le32(out, kByteOrderMagic);
+  le16(out, 1);                                     // major version
+  le16(out, 0);                                     // minor version
+  for (int i = 0; i < 8; ++i) out.push_back(0xFF);  // section length -1: not given
+  if (!os.empty()) option(out, kShbOs, os);
+  if (!application.empty()) option(out, kShbUserAppl, application);
+  end_of_options(out);
+  close_block(out, b);
+  return out;
+}
+
+std::vector<std::uint8_t> interface_description(std::uint16_t linktype, std::string_view name,
+                                                std::string_view description) {
+  std::vector<std::uint8_t> out;
+  const std::size_t b = open_block(out, kInterfaceDescriptionBlock);
+  le16(out, linktype);
+  le16(out, 0);  // reserved
+  le32(out, 0);  // snaplen: no limit
+  if (!name.empty()) option(out, kIfName, name);
+  if (!description.empty()) option(out, kIfDescription, description);
+  const std::uint8_t tsresol = 9;  // 10^-9 s
+  option(out, kIfTsresol, std::span(&tsresol, 1));
+  end_of_options(out);
+  close_block(out, b);
+  return out;
+}
+
+void enhanced_packet(std::vector<std::uint8_t>& out, std::uint32_t interface_id,
+                     std::uint64_t time_ns, std::span<const std::uint8_t> data, Direction direction,
+                     std::string_view comment) {
+  const std::size_t b = open_block(out, kEnhancedPacketBlock);
+  le32(out, interface_id);
+  le32(out, static_cast<std::uint32_t>(time_ns >> 32));
+  le32(out, static_cast<std::uint32_t>(time_ns));
+  le32(out, static_cast<std::uint32_t>(data.size()));  // captured length
+  le32(out, static_cast<std::uint32_t>(data.size()));  // original length
+  const std::size_t at = out.size();
+  out.insert(out.end(), data.begin(), data.end());
+  pad4(out, at);
+  if (!comment.empty()) option(out, kOptComment, comment);
+  if (direction != Direction::Unknown) {
+    std::vector<std::uint8_t> flags;
+    le32(flags, static_cast<std::uint32_t>(direction));
+    option(out, kEpbFlags, flags);
+  }
+  if (!comment.empty() || direction != Direction::Unknown) end_of_options(out);
+  close_block(out, b);
+}
+
+std::array<std::uint8_t, kSocketcanLen> socketcan(const can::Frame& frame) {
+  std::array<std::uint8_t, kSocketcanLen> out{};
+  std::uint32_t id = frame.id;
+  if (frame.extended) id |= kCanEffFlag;
+  if (frame.remote) id |= kCanRtrFlag;
+  for (int i = 0; i < 4; ++i) out[i] = static_cast<std::uint8_t>(id >> (24 - 8 * i));
+  out[4] = std::min<std::uint8_t>(frame.dlc, 8);
+  if (!frame.remote) std::copy_n(frame.data.begin(), out[4], out.begin() + 8);
+  return out;
+}
+
+void exported_pdu(std::vector<std::uint8_t>& out, std::string_view dissector,
+                  std::span<const std::uint8_t> pdu, std::string_view protocol_column) {
+  // Each tag: type and length big-endian, the value padded with zero bytes to 4 (the padding
+  // counts in the length; readers strip trailing zero bytes of strings).
+  auto tag = [&](std::uint16_t type, std::string_view value) {
+    const std::size_t padded = (value.size() + 3) / 4 * 4;
+    be16(out, type);
+    be16(out, static_cast<std::uint16_t>(padded));
+    out.insert(out.end(), value.begin(), value.end());
+    out.insert(out.end(), padded - value.size(), 0);
+  };
+  tag(kExpPduDissectorName, dissector);
+  if (!protocol_column.empty()) tag(kExpPduColProtText, protocol_column);
+  be16(out, kExpPduEndOfOpt);
+  be16(out, 0);
+  out.insert(out.end(), pdu.begin(), pdu.end());
+}
+
+}  // namespace candp2::capture::pcapng

@@ -1,0 +1,277 @@
+#!/usr/bin/python3
+"""The Wireshark dissector (tools/wireshark/candp2.lua) with Debian's tshark on captures candp2's
+own code writes (docs/capture.md "Tests"). One case per run:
+
+  demo        demo_capture's README walk-through: in time order the Data_Exchange carrying
+              51 00 00 .., the CAN frame 0x201 51 00 00 00 00, then after the read command the
+              drive's reply on 0x181, and the gateway's input slot showing it
+  malformed   demo_capture --frames 100000: no packet marked malformed or with an expert info of
+              severity error, and every decoder path present (faults, bus state, notes)
+  sniff-file  candp2 sniff --pcapng of tests/sniff/spec10.bin (a real master parameterizing
+              slave 3, with line noise; tests/sniff/make_capture.py): Set_Prm ident 04A4 and the user parameters, the Chk_Cfg slots, the FCS error
+  sniff-pty   the same telegrams written into candp2 sniff's pty:PATH, captured as they arrive
+
+Every tshark run is bounded (timeout) and checks that the Lua script loaded without an error.
+"""
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+ARGS = None
+
+
+def fail(message):
+    print("FAIL:", message, file=sys.stderr)
+    sys.exit(1)
+
+
+def tshark(capture, *extra, timeout=240):
+    cmd = [ARGS.tshark, "-X", "lua_script:" + ARGS.lua, "-r", capture, *extra]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    errors = [l for l in r.stderr.splitlines() if "Lua" in l or "rror" in l]
+    if r.returncode != 0 or errors:
+        fail(f"{' '.join(cmd)}: exit {r.returncode}: {r.stderr}")
+    return r.stdout
+
+
+def fields(capture, names, display_filter=None):
+    """Rows of -T fields output as dicts (empty fields are "")."""
+    extra = ["-T", "fields", "-E", "separator=\t", "-E", "occurrence=a", "-E", "aggregator=,"]
+    for n in names:
+        extra += ["-e", n]
+    if display_filter:
+        extra += ["-Y", display_filter]
+    rows = []
+    for line in tshark(capture, *extra).splitlines():
+        parts = line.split("\t")
+        parts += [""] * (len(names) - len(parts))
+        rows.append(dict(zip(names, parts)))
+    return rows
+
+
+def count(capture, display_filter):
+    return len(tshark(capture, "-Y", display_filter, "-T", "fields", "-e", "frame.number")
+               .splitlines())
+
+
+def run(cmd, timeout=300):
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    if r.returncode != 0:
+        fail(f"{' '.join(cmd)}: exit {r.returncode}: {r.stdout} {r.stderr}")
+    return r.stdout
+
+
+def first(rows, start, pred):
+    for i in range(start, len(rows)):
+        if pred(rows[i]):
+            return i
+    return None
+
+
+def case_demo(tmp):
+    cap = os.path.join(tmp, "demo.pcapng")
+    run([ARGS.demo_capture, cap])
+    names = ["frame.number", "frame.time_epoch", "dp.service", "dp.response", "dp.outputs",
+             "dp.inputs", "can.id", "data.data", "candp2.can.data", "candp2.can.station",
+             "candp2.note"]
+    rows = fields(cap, names)
+    for r in rows:  # a CAN frame's payload: the dissector's view of a slot's frame, else data
+        r["payload"] = r["candp2.can.data"] or r["data.data"]
+    if len(rows) < 500:
+        fail(f"only {len(rows)} packets")
+    times = [float(r["frame.time_epoch"]) for r in rows]
+    if times != sorted(times):
+        fail("packets are not in time order")
+    # dp.service 1 = Data_Exchange (candp2.lua); a request has dp.response False ("0").
+    dx_req = first(rows, 0, lambda r: r["dp.service"] == "1" and r["dp.response"] == "0"
+                   and r["dp.outputs"].startswith("510000"))
+    if dx_req is None:
+        fail("no Data_Exchange carrying 51 00 00")
+    can_201 = first(rows, dx_req, lambda r: r["can.id"] == "513"
+                    and r["payload"] == "5100000000" and r["candp2.can.station"] == "3")
+    if can_201 is None:
+        fail("no CAN frame 0x201 51 00 00 00 00 after the Data_Exchange")
+    read_cmd = first(rows, can_201, lambda r: r["can.id"] == "513"
+                     and r["payload"].startswith("3da864"))
+    if read_cmd is None:
+        fail("no read command 0x201 3D A8 64 after the enable")
+    reply = first(rows, read_cmd, lambda r: r["can.id"] == "385"
+                  and r["payload"].startswith("a8"))
+    if reply is None:
+        fail("no drive reply on 0x181 after the read command")
+    shown = first(rows, reply, lambda r: r["dp.service"] == "1" and r["dp.response"] == "1"
+                  and r["dp.inputs"].startswith("a8"))
+    if shown is None:
+        fail("the gateway's inputs never show the drive's reply")
+    if not any("enable axis1" in r["candp2.note"] for r in rows[:dx_req + 1]):
+        fail("the step note before the Data_Exchange is missing")
+    print(f"demo: Data_Exchange 51 00 00 in frame {rows[dx_req]['frame.number']}, CAN 0x201 in "
+          f"{rows[can_201]['frame.number']}, read command in {rows[read_cmd]['frame.number']}, "
+          f"reply 0x181 in {rows[reply]['frame.number']}, inputs A8 in "
+          f"{rows[shown]['frame.number']}")
+    # The Chk_Cfg slots with the gateway's meaning, and the display filters docs/capture.md names.
+    slots = fields(cap, ["candp2.slot.id", "candp2.slot.kind"], "dp.service == Chk_Cfg")
+    if not slots or slots[0]["candp2.slot.id"] != "0x00000201,0x00000202,0x00000181,0x00000182" \
+            or slots[0]["candp2.slot.kind"] != "tx,tx,rx,rx":
+        fail(f"Chk_Cfg slots: {slots[:1]}")
+    # dp.changed: only the exchanges whose data changed (the timeline of docs/capture.md).
+    changed = fields(cap, ["dp.outputs"], "dp.changed && dp.response == 0")
+    outs = [r["dp.outputs"][:6] for r in changed]
+    if outs != ["000000", "510000", "3da864", "316626"]:
+        fail(f"changed outputs: {outs}")
+    for f in ["fdl.da == 3 && dp.service == Set_Prm", "fdl.fc.fcb == 1", "candp2.slot.id == 0x201",
+              "can.id == 0x181", "frame.comment contains \"axis1\"", "candp2.prm.bitrate == 2",
+              "candp2.note || can || dp.service != Data_Exchange || dp.changed"]:
+        if count(cap, f) == 0:
+            fail(f"display filter {f!r} matches nothing")
+
+
+PI_ERROR = 0x00800000  # Wireshark's expert severity "error" (epan/proto.h PI_ERROR)
+
+
+def case_malformed(tmp):
+    cap = os.path.join(tmp, "long.pcapng")
+    out = run([ARGS.demo_capture, cap, "--frames", "100000"])
+    # The packet count without the dissector (fast), then one pass with it.
+    total = len(run([ARGS.tshark, "-r", cap, "-T", "fields", "-e", "frame.number"]).splitlines())
+    if total < 100000:
+        fail(f"only {total} packets ({out.strip()})")
+    bad = "_ws.malformed || _ws.expert.severity >= error"
+    # Not vacuous: every path of the gateway's payloads occurs (faults, bus state, notes, slots).
+    wanted = ["candp2.diag.cfg_code == 4", "candp2.diag.prm_byte == 8",
+              "candp2.diag.bus_state == 0x40", "candp2.note contains \"power cycle\"",
+              "dp.service == FDL_Status", "candp2.slot.data && frame.number < 1000",
+              "can.id == 0x181 && frame.number < 1000"]
+    names = ["frame.number", "_ws.malformed", "_ws.expert.severity", "candp2.diag.cfg_code",
+             "candp2.diag.prm_byte", "candp2.diag.bus_state", "candp2.note", "dp.service",
+             "candp2.slot.data", "can.id"]
+    rows = fields(cap, names, "(" + bad + ") || " + " || ".join("(" + w + ")" for w in wanted))
+    marked = [r["frame.number"] for r in rows if r["_ws.malformed"] or any(
+        int(v, 0) >= PI_ERROR for v in r["_ws.expert.severity"].split(",") if v)]
+    if marked:
+        fail(f"{len(marked)} packets match {bad!r}, e.g. frames {marked[:10]}")
+    seen = {
+        wanted[0]: any(r["candp2.diag.cfg_code"] == "4" for r in rows),
+        wanted[1]: any(r["candp2.diag.prm_byte"] == "8" for r in rows),
+        wanted[2]: any(r["candp2.diag.bus_state"] == "0x40" for r in rows),
+        wanted[3]: any("power cycle" in r["candp2.note"] for r in rows),
+        wanted[4]: any(r["dp.service"] == "2" for r in rows),
+        wanted[5]: any(r["candp2.slot.data"] for r in rows),
+        wanted[6]: any(r["can.id"] == "385" for r in rows),
+    }
+    missing = [w for w, ok in seen.items() if not ok]
+    if missing:
+        fail(f"never occurs: {missing}")
+    print(f"malformed: {total} packets, none matches {bad!r}")
+
+
+def check_spec_capture(cap, expect_errors):
+    prm = fields(cap, ["dp.prm.ident", "candp2.prm.bitrate", "candp2.prm.module_id"],
+                 "dp.service == Set_Prm && dp.response == 0")
+    if [r["dp.prm.ident"] for r in prm] != ["0x04a4"] or prm[0]["candp2.prm.bitrate"] != "2" \
+            or prm[0]["candp2.prm.module_id"] != "1":
+        fail(f"Set_Prm: {prm}")
+    cfg = fields(cap, ["candp2.slot.id", "candp2.slot.kind", "candp2.slot.form",
+                       "candp2.slot.offset"], "dp.service == Chk_Cfg && dp.response == 0")
+    want = {"candp2.slot.id": "0x00000289,0x00000309", "candp2.slot.kind": "rx,tx",
+            "candp2.slot.form": "0xb8,0xb8", "candp2.slot.offset": "0,0"}
+    if cfg != [want]:
+        fail(f"Chk_Cfg slots: {cfg}")
+    sc = fields(cap, ["fdl.request_in"], "fdl.sd == 0xe5 && dp.service == Set_Prm")
+    if len(sc) != 1 or not sc[0]["fdl.request_in"]:
+        fail(f"the SC after Set_Prm is not tied to its request: {sc}")
+    fcs_bad = count(cap, "fdl.fcs.bad")
+    if fcs_bad != (1 if expect_errors else 0):
+        fail(f"{fcs_bad} telegrams with a bad FCS")
+    print(f"Set_Prm ident 04A4, slots 289 rx / 309 tx form B8, {fcs_bad} bad FCS")
+
+
+def case_sniff_file(tmp):
+    # A capture file in a directory that does not exist: exit 2 before reading, saying why.
+    missing = os.path.join(tmp, "no-such-dir", "x.pcapng")
+    r = subprocess.run([ARGS.candp2, "sniff", "--pcapng", missing,
+                        os.path.join(ARGS.source_dir, "tests", "sniff", "spec10.bin")],
+                       capture_output=True, text=True, timeout=30)
+    if r.returncode != 2 or "does not exist" not in r.stderr or r.stdout:
+        fail(f"sniff --pcapng {missing}: exit {r.returncode}: {r.stdout} {r.stderr}")
+    cap = os.path.join(tmp, "spec10.pcapng")
+    run([ARGS.candp2, "sniff", "--pcapng", cap,
+         os.path.join(ARGS.source_dir, "tests", "sniff", "spec10.bin")])
+    check_spec_capture(cap, True)
+    # The filter of the malformed case does find what is wrong on a line.
+    marked = count(cap, "_ws.malformed || _ws.expert.severity >= error")
+    if marked != 3:
+        fail(f"{marked} packets marked as errors, expected the FCS, LE and truncated ones")
+    comments = fields(cap, ["frame.comment"], "frame.comment")
+    texts = [r["frame.comment"] for r in comments]
+    if texts != ["candp2 sniff: FCS wrong", "candp2 sniff: LE != LEr",
+                 "candp2 sniff: truncated telegram"]:
+        fail(f"comments of the abandoned candidates: {texts}")
+
+
+# The capture of tests/sniff/make_capture.py: master 2 parameterizing slave 3.
+SPEC_TELEGRAMS = [
+    "10 03 02 49 4E 16", "10 02 03 00 05 16",
+    "68 05 05 68 83 82 6D 3C 3E EC 16",
+    "68 10 10 68 82 83 08 3E 3C 02 05 00 FF 04 A4 05 04 00 00 00 3E 16",
+    "68 15 15 68 83 82 5D 3D 3E 88 1E 01 00 04 A4 00 00 02 00 01 00 00 FF FF FF 2C 16", "E5",
+    "68 0F 0F 68 83 82 7D 3E 3E 43 85 02 89 B8 83 85 03 09 B8 D5 16", "E5",
+    "68 05 05 68 83 82 5D 3C 3E DC 16",
+    "68 10 10 68 82 83 08 3E 3C 00 0C 00 02 04 A4 05 04 00 00 00 46 16",
+    "68 09 09 68 03 02 7D 11 22 33 44 55 66 E7 16",
+    "68 09 09 68 02 03 08 00 00 00 00 00 00 0D 16",
+]
+
+
+def case_sniff_pty(tmp):
+    cap = os.path.join(tmp, "pty.pcapng")
+    link = os.path.join(tmp, "line")
+    proc = subprocess.Popen([ARGS.candp2, "sniff", "--pcapng", cap, "-n", str(len(SPEC_TELEGRAMS)),
+                             "--baud", "19200", "pty:" + link],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 10
+        while not os.path.islink(link):
+            if proc.poll() is not None or time.monotonic() > deadline:
+                fail(f"sniffer did not create {link}: {proc.stderr.read()}")
+            time.sleep(0.01)
+        fd = os.open(link, os.O_RDWR | os.O_NOCTTY)
+        for telegram in SPEC_TELEGRAMS:
+            os.write(fd, bytes.fromhex(telegram))
+            time.sleep(0.05)  # > TSYN at 19200 baud: each write is one telegram
+        out, err = proc.communicate(timeout=10)
+        os.close(fd)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    if proc.returncode != 0 or len(out.splitlines()) != len(SPEC_TELEGRAMS):
+        fail(f"sniff exit {proc.returncode}: {out} {err}")
+    check_spec_capture(cap, False)
+    rel = [float(r["frame.time_relative"]) for r in fields(cap, ["frame.time_relative"])]
+    if len(rel) != len(SPEC_TELEGRAMS) or rel[-1] < 0.04 * (len(rel) - 1):
+        fail(f"time stamps do not follow the arrival: {rel}")
+
+
+def main():
+    global ARGS
+    ap = argparse.ArgumentParser()
+    ap.add_argument("case", choices=["demo", "malformed", "sniff-file", "sniff-pty"])
+    ap.add_argument("--tshark", default="tshark")
+    ap.add_argument("--lua", required=True)
+    ap.add_argument("--demo-capture", required=True)
+    ap.add_argument("--candp2", required=True)
+    ap.add_argument("--source-dir", required=True)
+    ARGS = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        {"demo": case_demo, "malformed": case_malformed, "sniff-file": case_sniff_file,
+         "sniff-pty": case_sniff_pty}[ARGS.case](tmp)
+    print(ARGS.case + ": ok")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
