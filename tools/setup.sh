@@ -9,7 +9,8 @@
 #                         tests, the unit tests again under ASan/UBSan, every libFuzzer target for a
 #                         bounded time, and the SocketCAN tests inside a QEMU guest; development
 #                         builds with warnings as errors (CANDP2_WERROR)
-#   tools/setup.sh deb    install what is needed, build, write dist/candp2_VERSION_ARCH.deb
+#   tools/setup.sh deb    install what is needed, build, write dist/candp2_VERSION_ARCH.deb and
+#                         dist/python3-candp2_VERSION_all.deb
 #   tools/setup.sh deps   only install the packages
 #
 # Environment: CANDP2_FUZZ_SECONDS (default 20 per target), CANDP2_JOBS (default: nproc).
@@ -31,6 +32,8 @@ packages=(
   can-utils mbpoll                                      # independent CAN and Modbus peers
   libsocketcan-dev iproute2                             # SocketCAN bit rate and controller state (netlink); ip in the guest
   python3-can python3-pymodbus python3-serial-asyncio   # independent python peers (/usr/bin/python3)
+  python3-pytest python3-pytest-xdist mypy flake8       # the candp2 Python package: tests, typing, lint
+  python3-pip python3-setuptools python3-wheel python3-venv # its wheel, its .deb, the pip install check
   qemu-system-x86 linux-image-amd64 busybox-static python3 # the SocketCAN guest (vcan)
   libmicrohttpd-dev python3-prometheus-client chromium  # HTTP face; /metrics and page tests
   libsystemd-dev systemd                                # sd_notify (Type=notify); systemd-analyze verify
@@ -86,7 +89,8 @@ run_daemon() {
   exec "$release_dir/bin/candp2d" "$@"
 }
 
-# dist/candp2_VERSION_ARCH.deb from the run command's build (packaging/deb/build-deb.sh).
+# dist/candp2_VERSION_ARCH.deb from the run command's build and dist/python3-candp2_VERSION_all.deb
+# (packaging/deb/build-deb.sh).
 build_deb() {
   build_release
   packaging/deb/build-deb.sh "$release_dir" dist
