@@ -7,8 +7,8 @@
 #    setuptools), its version checked against VERSION (the CMake project's)
 # 2. the wheel unpacked into /usr/lib/python3/dist-packages (Debian Python Policy §1.5: the
 #    module and its .dist-info with the pytest11 entry point; no RECORD, dpkg owns the files),
-#    copyright, changelog.Debian.gz, postinst/prerm byte-compiling as dh_python3 does, md5sums,
-#    lintian overrides
+#    the examples in /usr/share/doc/python3-candp2/examples, copyright, changelog.Debian.gz,
+#    postinst/prerm byte-compiling as dh_python3 does, md5sums, lintian overrides
 # 3. DEBIAN/control (Architecture: all; Depends: candp2 of the same version and the Debian
 #    packages of the Python dependencies), Installed-Size from du
 # 4. dpkg-deb --root-owner-group --build, then lintian (exit status 0 required)
@@ -47,6 +47,8 @@ esac
 install -d "$site" "$doc" "$stage/usr/share/lintian/overrides"
 /usr/bin/python3 -m zipfile -e "$wheel" "$site"
 rm -f "$site"/candp2-*.dist-info/RECORD
+install -d "$doc/examples"
+install -m 644 "$root"/python/examples/*.py "$doc/examples/"
 install -m 644 "$here/copyright" "$doc/copyright"
 gzip -9n <"$here/changelog" >"$doc/changelog.Debian.gz"
 install -m 644 "$pkg/lintian-overrides" "$stage/usr/share/lintian/overrides/python3-candp2"

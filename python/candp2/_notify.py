@@ -8,16 +8,27 @@ from __future__ import annotations
 
 import os
 import socket
+import threading
+
+
+#: How many datagrams a NotifySocket keeps (the newest).
+KEEP = 1000
 
 
 class NotifySocket:
-    """A bound AF_UNIX datagram socket at `path` (give it to candp2d as NOTIFY_SOCKET)."""
+    """A bound AF_UNIX datagram socket at `path` (give it to candp2d as NOTIFY_SOCKET).
+
+    After READY=1 the daemon goes on sending STATUS= lines; `drain()` reads them in a thread
+    until close(), since sd_notify(3) blocks the sender when nobody reads (and logs an error
+    when the socket is gone)."""
 
     def __init__(self, path: str) -> None:
         self.path = path
         self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         self.sock.bind(path)
         self.messages: list[dict[str, str]] = []
+        self._closing = threading.Event()
+        self._thread: threading.Thread | None = None
 
     def receive(self, timeout: float) -> dict[str, str] | None:
         """The next datagram as {"READY": "1", "STATUS": "...", ...}, or None after `timeout`."""
@@ -29,7 +40,19 @@ class NotifySocket:
         fields = dict(line.split("=", 1) for line in data.decode(errors="replace").splitlines()
                       if "=" in line)
         self.messages.append(fields)
+        del self.messages[:-KEEP]
         return fields
+
+    def drain(self) -> None:
+        """Reads every further datagram in a background thread until close()."""
+        def run() -> None:
+            while not self._closing.is_set():
+                try:
+                    self.receive(0.2)
+                except OSError:
+                    return
+        self._thread = threading.Thread(target=run, name="candp2-notify", daemon=True)
+        self._thread.start()
 
     def last(self, key: str) -> str | None:
         """The last value of `key` received so far."""
@@ -39,6 +62,9 @@ class NotifySocket:
         return None
 
     def close(self) -> None:
+        self._closing.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
         self.sock.close()
         try:
             os.unlink(self.path)

@@ -82,8 +82,9 @@ class Daemon(Connection):
     at the end of a `with` block.
 
     `binary` is the candp2d to run (default: `find_binary()`); `timeout` bounds the start;
-    `args` are extra command-line arguments ("--log-level", "debug"). `log` is the daemon's
-    output so far, `config` the configuration it runs, `config_path` where it lies.
+    `args` are extra command-line arguments ("--log-level", "debug"); `wrapper` runs candp2d
+    under another program (("chrt", "-f", "20"), ("valgrind",)). `log` is the daemon's output
+    so far, `config` the configuration it runs, `config_path` where it lies.
 
     A configuration the daemon refuses raises ConfigError (with the JSON path of the error);
     a start that fails, or a daemon that exits while a test talks to it, raises DaemonError
@@ -91,7 +92,7 @@ class Daemon(Connection):
 
     def __init__(self, config: Mapping[str, Any] | str | os.PathLike[str],
                  binary: str | os.PathLike[str] | None = None, *, timeout: float = 15.0,
-                 args: tuple[str, ...] = ()) -> None:
+                 args: tuple[str, ...] = (), wrapper: tuple[str, ...] = ()) -> None:
         self.binary = find_binary(binary)
         if isinstance(config, (str, os.PathLike)):
             source = Path(config)
@@ -107,11 +108,13 @@ class Daemon(Connection):
         self.returncode: int | None = None
         self._final_log: str | None = None
         self._process: subprocess.Popen[bytes] | None = None
+        self._notify: NotifySocket | None = None
         with open(self.config_path, "w") as f:
             json.dump(self.config, f, indent=2)
         try:
             register_map = RegisterMap.from_binary(self.binary, self.config_path)
-            modbus, http, socketcand = self._start(timeout, args)
+            modbus, http, socketcand = self._start(timeout, (*wrapper, self.binary, "--config",
+                                                             self.config_path, *args))
         except BaseException:
             self._cleanup()
             raise
@@ -119,18 +122,17 @@ class Daemon(Connection):
                          channels=channels)
         _running.add(self)
 
-    def _start(self, timeout: float, args: tuple[str, ...]
+    def _start(self, timeout: float, argv: tuple[str, ...]
                ) -> tuple[str, str | None, dict[str, str]]:
-        notify = NotifySocket(os.path.join(self.dir, "notify"))
+        notify = self._notify = NotifySocket(os.path.join(self.dir, "notify"))
         env = {k: v for k, v in os.environ.items()
                if k not in ("NOTIFY_SOCKET", "WATCHDOG_USEC", "WATCHDOG_PID", "JOURNAL_STREAM",
                             "LISTEN_FDS", "LISTEN_PID")}
         env["NOTIFY_SOCKET"] = notify.path
         try:
             with open(self.log_path, "wb") as log:
-                self._process = subprocess.Popen(
-                    [self.binary, "--config", self.config_path, *args], stdout=log,
-                    stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env)
+                self._process = subprocess.Popen(argv, stdout=log, stderr=subprocess.STDOUT,
+                                                 stdin=subprocess.DEVNULL, env=env)
             deadline = time.monotonic() + timeout
             while True:
                 fields = notify.receive(min(0.1, max(0.0, deadline - time.monotonic())))
@@ -152,8 +154,10 @@ class Daemon(Connection):
                     self._kill()
                     raise DaemonError("candp2d not ready within %.0f s" % timeout, self.log,
                                       self.returncode)
-        finally:
-            notify.close()
+        except BaseException:
+            self._close_notify()
+            raise
+        notify.drain()
         try:
             socketcand = {name: "%s:%d" % address for name, address in
                           parse_socketcand(fields.get("X_CANDP2_SOCKETCAND", "")).items()}
@@ -162,6 +166,16 @@ class Daemon(Connection):
             self._kill()
             raise DaemonError("READY=1 without the X_CANDP2_* addresses (%s); is candp2d older "
                               "than this package?" % e, self.log) from e
+
+    def _close_notify(self) -> None:
+        if self._notify is not None:
+            self._notify.close()
+            self._notify = None
+
+    @property
+    def status_line(self) -> str | None:
+        """The last STATUS= the daemon sent ("1 gateway, 1 in Data_Exch, 1 Modbus client")."""
+        return self._notify.last("STATUS") if self._notify else None
 
     # ---- the process ---------------------------------------------------------------------
 
@@ -248,6 +262,7 @@ class Daemon(Connection):
         return self.returncode if self.returncode is not None else -1
 
     def _cleanup(self) -> None:
+        self._close_notify()
         if os.environ.get("CANDP2_KEEP"):
             return
         shutil.rmtree(self.dir, ignore_errors=True)

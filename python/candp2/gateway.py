@@ -88,7 +88,13 @@ class Diagnosis:
         return cls(bytes(raw), bits, None if master == layout.no_master else master, ident,
                    cfg, prm, can_state, irq, msg)
 
-    def __getitem__(self, index: int) -> int:
+    @overload
+    def __getitem__(self, index: int) -> int: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> bytes: ...
+
+    def __getitem__(self, index: int | slice) -> int | bytes:
         return self.raw[index]
 
     def __len__(self) -> int:

@@ -47,7 +47,8 @@ class Field:
 @dataclass(frozen=True)
 class SlotMap:
     """Where one configured slot's bytes live: PLC `plc` ("I"/"Q") bytes `address` ..
-    `address + length - 1`, Modbus registers `first_register` .. `last_register` of `table`."""
+    `address + length - 1`, Modbus registers `first_register` .. `last_register` of `table`,
+    bits `first_bit` .. `last_bit` of `bit_table` (coils or discrete inputs)."""
 
     slot: int
     io: str
@@ -58,6 +59,9 @@ class SlotMap:
     table: str
     first_register: int
     last_register: int
+    bit_table: str
+    first_bit: int
+    last_bit: int
 
 
 @dataclass(frozen=True)
@@ -176,7 +180,9 @@ class RegisterMap:
     def _gateway(g: Mapping[str, Any]) -> GatewayMap:
         slots = tuple(SlotMap(int(s["slot"]), s["io"], s["plc"], int(s["address"]),
                               int(s["length"]), s["comment"], s["registers"]["table"],
-                              int(s["registers"]["first"]), int(s["registers"]["last"]))
+                              int(s["registers"]["first"]), int(s["registers"]["last"]),
+                              s["bits"]["table"], int(s["bits"]["first"]),
+                              int(s["bits"]["last"]))
                       for s in g["slots"])
         return GatewayMap(g["name"], int(g["dp_address"]), _ints(g["units"]), g["bus"],
                           bool(g["remote"]), slots)

@@ -120,3 +120,13 @@ def test_drives_get_units_and_other_files_stay(candp2_binary: str, tmp_path: Pat
         units = {d.name: d.unit for d in daemon.register_map.drives}
         assert units["b"] == 254 and units["a"] is not None and units["a"] != 254
         assert units["a"] not in {g.dp_address for g in daemon.register_map.gateways}
+
+
+def test_status_lines_are_read_after_ready(candp2d: Factory) -> None:
+    """After READY=1 the Daemon keeps reading its NOTIFY_SOCKET: STATUS= changes reach it and
+    candp2d never meets a full or missing socket."""
+    daemon = candp2d(MANUAL_514)
+    gw = daemon.gateway(5)
+    gw.wait_until(lambda g: g.state == "Data_Exch")
+    gw.wait_until(lambda g: daemon.status_line == "1 gateway, 1 in Data_Exch, 1 Modbus client")
+    assert "sd_notify" not in daemon.log
