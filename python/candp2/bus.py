@@ -6,10 +6,10 @@ send_periodic(), Notifier) plus what a test needs: `expect()` a frame or fail li
 seen, `expect_no_frame()`, `drain()`, `record()` a candump -L log.
 
 Why not python-can's own `interface="socketcand"`: the python-can of Debian 12 (4.1.0) loses a
-frame whenever a TCP read ends inside one and marks every received frame as extended
-(python-can pull request 1700, issue 1504; fixed in later releases). The protocol is small
-(linux-can/socketcand doc/protocol.md), so the framing lives here as pure functions
-(`format_send`, `parse_element`), the way python-can keeps framing apart from its transports.
+frame whenever a TCP read ends inside one and marks every received frame as extended (both fixed
+in later python-can releases; docs/python.md "Decisions"). The protocol is small (socketcand's
+raw mode, docs/transports.md), so the framing lives here as pure functions (`format_send`,
+`parse_element`), the way python-can keeps framing apart from its transports.
 """
 
 from __future__ import annotations

@@ -161,9 +161,9 @@ def mode_deb(args, tmp):
         fail("shipped examples differ from python/examples: %s %s" % (mismatch, errors))
     examples = os.path.join(tmp, "examples")
     shutil.copytree(shipped, examples)
-    out = run_pytest(python, env, examples, "-q")
+    out = run_pytest(python, env, examples, "-v")
     print("ok: the shipped examples pass against %s/usr/bin/candp2d" % root)
-    out = run_pytest(python, env, examples, "-q", "-n", "4")
+    out = run_pytest(python, env, examples, "-v", "-n", "4")
     if "passed" not in out:
         fail("pytest -n 4 python/examples")
     print("ok: pytest -n 4 on the examples")
