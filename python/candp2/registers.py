@@ -284,6 +284,26 @@ class RegisterMap:
             raise TypeError("status field %s is not a number" % field)
         return value
 
+    def shell(self) -> str:
+        """The register numbers as POSIX shell assignments, for scripts that cannot read JSON
+        (the QEMU guest scripts): STATUS_<FIELD> (first register of each status field),
+        STATUS_FIRST, STATUS_COUNT, CONTROL_REGISTER, FAULT_FORCED_CAN_STATE, FAULT_DROP_RX,
+        DRIVE_<REGISTER>, and per configured slot GW<address>_SLOT<n>_FIRST / _LAST (its
+        registers)."""
+        lines = ["# candp2d --print-modbus-map --json as shell assignments (docs/python.md)",
+                 "STATUS_FIRST=%d" % self.status.first, "STATUS_COUNT=%d" % self.status.count]
+        lines += ["STATUS_%s=%d" % (f.name.upper(), f.register) for f in self.fields.values()]
+        lines += ["CONTROL_REGISTER=%d" % self.control_register,
+                  "FAULT_FORCED_CAN_STATE=%d" % self.forced_state_register,
+                  "FAULT_DROP_RX=%d" % self.drop_rx_register]
+        lines += ["DRIVE_%s=%d" % (name.upper(), r) for name, r in self.drive_registers.items()]
+        for g in self.gateways:
+            for slot in g.slots:
+                name = "GW%d_SLOT%d" % (g.dp_address, slot.slot)
+                lines += ["%s_FIRST=%d" % (name, slot.first_register),
+                          "%s_LAST=%d" % (name, slot.last_register)]
+        return "\n".join(lines) + "\n"
+
     def value_name(self, field: str, value: int) -> str:
         """The name of an enumerated status value ("dp_state", 2 → "Data_Exch"); the number
         as text when the map has no name for it."""

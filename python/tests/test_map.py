@@ -2,7 +2,9 @@
 
 import ast
 import json
+import os
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -83,3 +85,24 @@ def test_a_document_of_another_version_is_refused(candp2_binary: str) -> None:
     document["version"] = 99
     with pytest.raises(Candp2Error, match="do not match"):
         RegisterMap(document)
+
+
+def test_shell_assignments(candp2_binary: str, tmp_path: Path) -> None:
+    """python3 -m candp2 map --shell: what the QEMU guest scripts source."""
+    out = tmp_path / "registers.sh"
+    r = subprocess.run([sys.executable, "-m", "candp2", "map", "--shell", "--binary",
+                        candp2_binary, "--config", str(write(tmp_path, MANUAL_514)),
+                        "--output", str(out)], capture_output=True, text=True,
+                       env=dict(os.environ, PYTHONPATH=str(PACKAGE.parent)))
+    assert r.returncode == 0, r.stderr
+    m = RegisterMap.from_binary(candp2_binary, tmp_path / "plant.json")
+    values = dict(line.split("=", 1) for line in out.read_text().splitlines()
+                  if not line.startswith("#"))
+    assert values["STATUS_DP_STATE"] == str(m.fields["dp_state"].register)
+    assert values["STATUS_DIAG"] == str(m.fields["diag"].register)
+    assert values["FAULT_DROP_RX"] == str(m.drop_rx_register)
+    assert values["GW5_SLOT1_FIRST"] == str(172 // 2) and values["GW5_SLOT1_LAST"] == str(177 // 2)
+    # sh reads it.
+    r = subprocess.run(["sh", "-c", ". %s && echo $((STATUS_DIAG + 8))" % out],
+                       capture_output=True, text=True)
+    assert r.stdout.strip() == str(m.fields["diag"].register + 8)
