@@ -185,6 +185,11 @@ class Daemon(Connection):
         return self._process.pid if self._process and self.returncode is None else None
 
     @property
+    def stopped(self) -> bool:
+        """stop() has run (the daemon is gone and its directory cleaned up)."""
+        return self._final_log is not None
+
+    @property
     def log(self) -> str:
         """Everything candp2d wrote so far (its log and warnings)."""
         if self._final_log is not None:
@@ -271,7 +276,7 @@ class Daemon(Connection):
         return self
 
     def __exit__(self, *exc: object) -> None:
-        if self._final_log is None:
+        if not self.stopped:
             self.stop(check=exc[0] is None)
 
     def report(self) -> str:

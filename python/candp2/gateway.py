@@ -340,13 +340,22 @@ class Image:
 # ---------------------------------------------------------------------------------- gateway
 
 def _describe_predicate(predicate: Callable[..., object]) -> str:
+    """The lambda's source text ("lambda g: g.state == 'Data_Exch'"), else its repr."""
     try:
         source = inspect.getsource(predicate).strip()
     except (OSError, TypeError):
         return repr(predicate)
-    if "lambda" in source:
-        source = source[source.index("lambda"):]
-    return source.rstrip(",)") if source.count("(") < source.count(")") else source
+    if "lambda" not in source:
+        return repr(predicate)
+    source = " ".join(source[source.index("lambda"):].split())
+    # The statement around the lambda may go on: cut at the parenthesis that closes the call.
+    depth = 0
+    for i, c in enumerate(source):
+        depth += c in "([{"
+        depth -= c in ")]}"
+        if depth < 0 or (depth == 0 and c == ","):
+            return source[:i].rstrip()
+    return source.rstrip(",")
 
 
 class Gateway:

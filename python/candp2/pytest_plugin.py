@@ -56,7 +56,7 @@ class DaemonFactory:
         stop cleanly (after stopping the rest)."""
         errors: list[DaemonError] = []
         for d in self.daemons:
-            if d.returncode is not None and d.pid is None and d.log and d._final_log is not None:
+            if d.stopped:
                 continue  # stopped by the test itself
             try:
                 d.stop()

@@ -11,8 +11,8 @@
                when dist/ has no packages.
 
 Either way:
-  1. `import candp2` comes from the installation, and the pytest11 entry point
-     candp2.pytest_plugin is registered by it;
+  1. `import candp2` comes from the installation, and it registers the entry points pytest11
+     candp2.pytest_plugin and can.interface candp2 (`can.Bus(interface="candp2", ...)`);
   2. a throwaway project outside the repository (one 10-line test file, no conftest, no -p
      option) passes: pytest finds the plugin through its entry point and candp2d on PATH;
   3. deb mode: the examples as shipped (/usr/share/doc/python3-candp2/examples, the same files
@@ -38,6 +38,23 @@ import tempfile
 
 SKIP = 77
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+# python-can's own factory finds the package's bus through the can.interface entry point.
+CAN_BUS = '''\
+import can, candp2
+config = {"buses": {"can0": {"type": "virtual"}},
+          "gateways": [{"address": 3, "bus": "can0", "slots": [
+              {"io": "output", "address": 0, "length": 2, "comment": "02,01,00"},
+              {"io": "input", "address": 0, "length": 2, "comment": "01,81,00"}]}]}
+with candp2.Daemon(config) as daemon:
+    host, port = daemon.socketcand["can0"]
+    with can.Bus(interface="candp2", channel="can0", host=host, port=port) as bus:
+        gw = daemon.gateway(3)
+        gw.wait_until(lambda g: g.state == "Data_Exch")
+        bus.send(can.Message(arbitration_id=0x181, data=b"\\x12\\x34", is_extended_id=False))
+        gw.wait_until(lambda g: g.inputs[0:2] == b"\\x12\\x34")
+print("can.Bus(interface='candp2') ok")
+'''
 
 THROWAWAY = '''\
 def test_gateway_sends_what_the_plc_writes(candp2d):
@@ -66,15 +83,19 @@ def check_installation(python, env, where):
     """1: the module and the entry point come from `where`."""
     r = run([python, "-c", "import candp2, importlib.metadata as m; print(candp2.__file__); "
              "print([e.value for e in m.entry_points(group='pytest11') "
-             "if e.name == 'candp2.pytest_plugin'])"], env=env)
+             "if e.name == 'candp2.pytest_plugin']); "
+             "import can.interfaces as i; print(i.BACKENDS.get('candp2'))"], env=env)
     if r.returncode != 0:
         fail("import candp2: %s" % r.stderr)
-    module, entry = r.stdout.splitlines()[:2]
+    module, entry, backend = r.stdout.splitlines()[:3]
     if not os.path.realpath(module).startswith(os.path.realpath(where)):
         fail("candp2 imported from %s, not from the installation in %s" % (module, where))
     if entry != "['candp2.pytest_plugin']":
         fail("pytest11 entry point candp2.pytest_plugin not registered: %s" % entry)
-    print("ok: candp2 from %s, entry point pytest11 candp2.pytest_plugin" % module)
+    if backend != "('candp2.bus', 'Bus')":
+        fail("python-can interface candp2 not registered: %s" % backend)
+    print("ok: candp2 from %s, entry points pytest11 candp2.pytest_plugin and can.interface "
+          "candp2" % module)
 
 
 def run_pytest(python, env, cwd, *args):
@@ -119,6 +140,10 @@ def mode_pip(args, tmp):
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     env["PATH"] = os.path.dirname(os.path.abspath(args.candp2d)) + os.pathsep + env["PATH"]
     check_installation(python, env, venv)
+    r = run([python, "-c", CAN_BUS], env=env, cwd=tmp)
+    if r.returncode != 0 or "ok" not in r.stdout:
+        fail("can.Bus(interface='candp2'): %s%s" % (r.stdout, r.stderr))
+    print("ok: " + r.stdout.strip())
     throwaway_project(python, env, tmp)
 
 
