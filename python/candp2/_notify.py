@@ -64,6 +64,12 @@ class NotifySocket:
     def close(self) -> None:
         self._closing.set()
         if self._thread is not None:
+            # An empty datagram of our own wakes the reading thread at once.
+            try:
+                with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as wake:
+                    wake.sendto(b"", self.path)
+            except OSError:
+                pass
             self._thread.join(timeout=5)
         self.sock.close()
         try:
