@@ -217,8 +217,8 @@ struct ControlCommand {
 };
 std::span<const ControlCommand> control_commands();
 
-// Unit IDs that address the first configured gateway (emulator-spec §8: clients that always send
-// 0 or 255 keep working).
+// Unit IDs that address the first configured gateway (docs/modbus.md "Unit IDs": clients that
+// always send 0 or 255 keep working).
 inline constexpr std::array<std::uint8_t, 2> kFirstGatewayUnits = {0, 255};
 
 using StatusBlock = std::array<std::uint16_t, status::kCount>;
