@@ -3,10 +3,10 @@
     import candp2
 
     with candp2.Daemon("plant.json") as daemon:
-        gw = daemon.gateway(3)
+        gw, can0 = daemon.gateway(3), daemon.bus("can0")
         gw.wait_until(lambda g: g.state == "Data_Exch")
         gw.outputs[0:5] = bytes.fromhex("51 00 00 00 00")
-        daemon.bus("can0").expect(0x201, bytes.fromhex("51 00 00 00 00"))
+        can0.expect(0x201, bytes.fromhex("51 00 00 00 00"))
 
 A thin, typed client of candp2d's public faces: Modbus/TCP (the PLC process image, the status
 block, the fault registers), HTTP (slots, parameters, drives) and socketcand (the CAN buses).

@@ -61,8 +61,8 @@ def test_failing_expect_lists_what_it_saw(candp2d: Factory) -> None:
     can0 = daemon.bus("can0")
     gw.outputs[172:178] = bytes.fromhex("0A0B0C0D0E0F")
     with pytest.raises(FrameNotSeen) as info:
-        can0.expect(0x309, bytes.fromhex("0102030405"), timeout=0.5)
-    assert str(info.value) == ("frame 309#0102030405 not seen on can0 within 0.5 s; saw 1 "
+        can0.expect(0x309, bytes.fromhex("0102030405"), timeout=2.0)
+    assert str(info.value) == ("frame 309#0102030405 not seen on can0 within 2.0 s; saw 1 "
                                "frame: 309#0B0A0F0E0D0C")
     assert len(info.value.seen) == 1
     with pytest.raises(FrameNotSeen, match=r"frame 181#\* not seen on can0 within 0.2 s; "

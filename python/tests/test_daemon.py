@@ -96,13 +96,13 @@ def test_connect_attaches_to_a_running_daemon(candp2d: Factory, candp2_binary: s
     http = daemon.http_url[len("http://"):]
     socketcand = "%s:%d" % daemon.socketcand["can0"]
     with candp2.connect(modbus, http=http, socketcand=socketcand, binary=candp2_binary) as c:
-        gw = c.gateway(5)
+        gw, can0 = c.gateway(5), c.bus("can0")  # the bus first: it sees what is sent after
         gw.wait_until(lambda g: g.state == "Data_Exch")
         assert [g.address for g in c.gateways()] == [5]
         assert gw.slot(1).description.startswith("slot 1: output Q172..177 (6 bytes) to CAN "
                                                  "0x309")
         gw.outputs[172:178] = bytes.fromhex("0A0B0C0D0E0F")
-        c.bus("can0").expect(0x309, bytes.fromhex("0B0A0F0E0D0C"))
+        can0.expect(0x309, bytes.fromhex("0B0A0F0E0D0C"))
     # With the configuration file it knows the gateways' names and slots without HTTP.
     path = tmp_path / "plant.json"
     path.write_text(json.dumps(daemon.config))

@@ -16,10 +16,10 @@ FAILING = textwrap.dedent('''
 
     def test_fails(candp2d):
         daemon = candp2d(PLANT)
-        gw = daemon.gateway(5)
+        gw, can0 = daemon.gateway(5), daemon.bus("can0")
         gw.wait_until(lambda g: g.state == "Data_Exch")
         gw.outputs[0:2] = b"\\x12\\x34"
-        daemon.bus("can0").expect(0x309, b"\\x12\\x34")
+        can0.expect(0x309, b"\\x12\\x34")
         assert gw.state == "Wait_Prm"
 
     def test_dies(candp2d):
