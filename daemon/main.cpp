@@ -2,7 +2,7 @@
 //
 //   candp2d --config FILE              run
 //   candp2d --config FILE --check      validate the configuration and exit
-//   candp2d --config FILE --print-modbus-map
+//   candp2d --config FILE --print-modbus-map [--json]
 //   candp2d                            run the built-in default (config/demo.json)
 //   candp2d --version                  version and source revision
 //
@@ -24,6 +24,7 @@
 #include "daemon/systemd_notify.hpp"
 #include "event_loop/event_loop.hpp"
 #include "logsink/spdlog_sink.hpp"
+#include "modbus/map_json.hpp"
 #include "modbus/map_report.hpp"
 #include "version/version.hpp"
 
@@ -78,7 +79,7 @@ int run(const candp2::config::DaemonConfig& config, candp2::LogLevel level) {
   }
   log.info("ready: " + d->listening());
   // Every listener is open now: READY=1 (Type=notify).
-  systemd.ready(*d);
+  systemd.ready(*d, config);
   loop.run();
   systemd.stopping();
   d->shutdown();
@@ -98,6 +99,7 @@ int main(int argc, char** argv) {
   std::string file;
   bool check = false;
   bool print_map = false;
+  bool json = false;
   std::string level_override;
   app.add_option("-c,--config", file,
                  "JSON configuration file (docs/configuration.md); without it the built-in "
@@ -105,8 +107,12 @@ int main(int argc, char** argv) {
                  "(config/demo.json), Modbus on 127.0.0.1:1502, socketcand on "
                  "127.0.0.1:29536");
   app.add_flag("--check", check, "validate the configuration, print warnings, and exit");
-  app.add_flag("--print-modbus-map", print_map,
-               "print the Modbus register map of the configuration and exit");
+  auto* map_flag = app.add_flag("--print-modbus-map", print_map,
+                                "print the Modbus register map of the configuration and exit");
+  app.add_flag("--json", json,
+               "with --print-modbus-map: the map as JSON, every register number a client needs "
+               "(docs/modbus.md)")
+      ->needs(map_flag);
   app.add_option("--log-level", level_override,
                  "override log.level: trace, debug, info, warn, error");
   try {
@@ -142,7 +148,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (print_map) {
-    std::cout << candp2::modbus::map_text(config);
+    std::cout << (json ? candp2::modbus::map_json_text(config) : candp2::modbus::map_text(config));
     return 0;
   }
   return run(config, *level);

@@ -41,6 +41,22 @@ std::string status_summary(Daemon& daemon) {
   return status_summary(slaves.size(), exchanging, daemon.modbus_clients());
 }
 
+std::string listen_assignments(Daemon& daemon, const config::DaemonConfig& config) {
+  std::string out =
+      "X_CANDP2_MODBUS=" + config.modbus_listen.host + ":" + std::to_string(daemon.modbus_port());
+  if (const auto http = daemon.http_port(); http && config.http_listen)
+    out += "\nX_CANDP2_HTTP=" + config.http_listen->host + ":" + std::to_string(*http);
+  std::string buses;
+  for (const auto& b : config.buses) {
+    const auto port = daemon.socketcand_port(b.name);
+    if (!port || !b.socketcand_listen) continue;
+    buses += (buses.empty() ? "" : ",") + b.name + "=" + b.socketcand_listen->host + ":" +
+             std::to_string(*port);
+  }
+  if (!buses.empty()) out += "\nX_CANDP2_SOCKETCAND=" + buses;
+  return out;
+}
+
 SystemdNotifier::SystemdNotifier(EventLoop& loop, LogSink* log)
     : loop_(loop), log_(log, "systemd") {
   const char* socket = std::getenv("NOTIFY_SOCKET");
@@ -58,11 +74,11 @@ void SystemdNotifier::send(const std::string& state) {
   if (rc < 0) log_.warn("sd_notify(" + state + "): " + std::strerror(-rc));
 }
 
-void SystemdNotifier::ready(Daemon& daemon) {
+void SystemdNotifier::ready(Daemon& daemon, const config::DaemonConfig& config) {
   if (!enabled_) return;
   daemon_ = &daemon;
   status_ = status_summary(daemon);
-  send("READY=1\nSTATUS=" + status_);
+  send("READY=1\nSTATUS=" + status_ + "\n" + listen_assignments(daemon, config));
   status_timer_ = loop_.add_periodic(kStatusPeriod, [this] { update_status(); });
   // sd_watchdog_enabled(3): > 0 when WATCHDOG_USEC is set (and WATCHDOG_PID, if set, is ours);
   // systemd recommends sending WATCHDOG=1 at half the interval.

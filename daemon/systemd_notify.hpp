@@ -1,7 +1,13 @@
 // candp2d under systemd (docs/daemon.md#systemd): the sd_notify(3) protocol of a Type=notify
 // service, driven by the daemon's one event loop (no threads).
 //
-//   READY=1      once Daemon::start() has opened every listener (Modbus, socketcand exports)
+//   READY=1      once Daemon::start() has opened every listener (Modbus, socketcand exports),
+//                with the addresses actually bound (a listener may ask for port 0) in variables
+//                of our own, X_ as sd_notify(3) recommends:
+//                  X_CANDP2_MODBUS=127.0.0.1:40313
+//                  X_CANDP2_HTTP=127.0.0.1:40315           (only with http.listen)
+//                  X_CANDP2_SOCKETCAND=can0=127.0.0.1:40314,can1=...   (exported virtual buses)
+//                The candp2 Python package waits for this datagram (docs/python.md).
 //   STATUS=...   "1 gateway, 1 in Data_Exch, 2 Modbus clients", re-sent when it changes (checked
 //                every second)
 //   STOPPING=1   on SIGTERM/SIGINT, before the shutdown
@@ -24,6 +30,9 @@ std::string status_summary(std::size_t gateways, std::size_t in_data_exch,
                            std::size_t modbus_clients);
 std::string status_summary(Daemon& daemon);
 
+// The X_CANDP2_* lines of the READY=1 datagram (above), without a final newline.
+std::string listen_assignments(Daemon& daemon, const config::DaemonConfig& config);
+
 class SystemdNotifier {
  public:
   SystemdNotifier(EventLoop& loop, LogSink* log);
@@ -31,9 +40,9 @@ class SystemdNotifier {
   SystemdNotifier(const SystemdNotifier&) = delete;
   SystemdNotifier& operator=(const SystemdNotifier&) = delete;
 
-  // READY=1 with the first STATUS=; arms the status and watchdog timers. `daemon` must outlive
-  // the notifier or stopping() must be called first.
-  void ready(Daemon& daemon);
+  // READY=1 with the first STATUS= and the bound addresses; arms the status and watchdog timers.
+  // `daemon` must outlive the notifier or stopping() must be called first.
+  void ready(Daemon& daemon, const config::DaemonConfig& config);
   // STATUS= for a failed start (the daemon exits right after).
   void failed(const std::string& why);
   // STOPPING=1 (once); cancels the timers.

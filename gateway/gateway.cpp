@@ -25,6 +25,8 @@ constexpr std::uint8_t kNmtResetComm = 0x82;
 constexpr std::uint32_t kBootIdManual = 0x080;  // manual table 5.1.2: "128 dez + Module-No."
 constexpr std::uint32_t kBootIdCia301 = 0x700;  // CiA 301 boot-up (NMT error control)
 
+}  // namespace
+
 std::uint8_t bus_state_code(can::BusState s) {
   // manual table 3.4.5, byte 8.
   switch (s) {
@@ -39,8 +41,6 @@ std::uint8_t bus_state_code(can::BusState s) {
   }
   return 0x00;
 }
-
-}  // namespace
 
 std::string_view to_string(NmtState s) {
   switch (s) {

@@ -37,6 +37,11 @@ struct GatewayOptions {
 enum class NmtState : std::uint8_t { Initialising, PreOperational, Operational, Stopped };
 std::string_view to_string(NmtState s);
 
+// Diagnosis byte 8 with CAN-Diagnosis on (manual §3.4.2 table 3.4.5): 00 OK, 40 WARN,
+// 80 ERROR_PASSIVE, C0 BUS_OFF in bits 7..6.
+std::uint8_t bus_state_code(can::BusState s);
+inline constexpr std::uint8_t kBusStateMask = 0xC0;
+
 // CAN-side counters and state, for the Modbus status block and logs.
 struct GatewayStatus {
   dp::SlaveState dp_state = dp::SlaveState::WaitPrm;

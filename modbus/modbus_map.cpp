@@ -266,6 +266,20 @@ std::span<const StatusField> status_fields() {
   return kFields;
 }
 
+std::span<const ControlCommand> control_commands() {
+  static constexpr ControlCommand kCommands[] = {
+      {Control::None, "none", "nothing (clears the register)"},
+      {Control::PowerCycle, "power_cycle",
+       "power-cycle the gateway: Wait_Prm, counters 0, stored wake-up/SYNC values kept"},
+      {Control::Reparameterize, "reparameterize",
+       "the master runs Slave_Diag, Set_Prm, Chk_Cfg, Slave_Diag again"},
+      {Control::MasterStops, "master_stop",
+       "the master stops addressing the gateway (a PLC in STOP; docs/faults.md)"},
+      {Control::MasterResumes, "master_resume", "the master addresses the gateway again"},
+  };
+  return kCommands;
+}
+
 led::Codes led::codes(const gw::GatewayStatus& g) {
   // manual table 3.3.1.
   Codes c;
@@ -361,7 +375,8 @@ ProcessImageMap::ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFac
 GatewayFace* ProcessImageMap::resolve(std::uint8_t unit) const {
   if (gateways_.empty()) return nullptr;
   // emulator-spec §8: unit IDs 0 and 255 address the first configured gateway.
-  if (unit == 0 || unit == 255) return gateways_.front();
+  for (auto u : kFirstGatewayUnits)
+    if (unit == u) return gateways_.front();
   for (auto* g : gateways_)
     if (g->dp_address() == unit) return g;
   return nullptr;

@@ -209,6 +209,17 @@ enum class Control : std::uint16_t {
   MasterStops = 3,    // the master stops addressing this gateway (docs/faults.md)
   MasterResumes = 4,  // the master addresses it again and parameterizes it
 };
+// Every command with the name the JSON map (map_json.hpp) and the candp2 Python package use.
+struct ControlCommand {
+  Control command;
+  std::string_view name;
+  std::string_view meaning;
+};
+std::span<const ControlCommand> control_commands();
+
+// Unit IDs that address the first configured gateway (docs/modbus.md "Unit IDs": clients that
+// always send 0 or 255 keep working).
+inline constexpr std::array<std::uint8_t, 2> kFirstGatewayUnits = {0, 255};
 
 using StatusBlock = std::array<std::uint16_t, status::kCount>;
 

@@ -9,7 +9,8 @@
 #                         tests, the unit tests again under ASan/UBSan, every libFuzzer target for a
 #                         bounded time, and the SocketCAN tests inside a QEMU guest; development
 #                         builds with warnings as errors (CANDP2_WERROR)
-#   tools/setup.sh deb    install what is needed, build, write dist/candp2_VERSION_ARCH.deb
+#   tools/setup.sh deb    install what is needed, build, write dist/candp2_VERSION_ARCH.deb and
+#                         dist/python3-candp2_VERSION_all.deb
 #   tools/setup.sh deps [run|test|deb]   only install the packages (default: test, all of them)
 #   tools/setup.sh packages run|test|deb print the packages that command installs, one a line
 #
@@ -36,12 +37,14 @@ run_packages=(
 )
 deb_packages=(
   dpkg-dev lintian                                      # the .deb: dpkg-shlibdeps, dpkg-deb, lintian
+  python3-pip python3-setuptools python3-wheel          # python3-candp2: its wheel, built offline
 )
 test_packages=(
   libgtest-dev libgmock-dev libbenchmark-dev            # tests and benchmarks
   clang-14 libclang-rt-14-dev clang-format              # libFuzzer, sanitizers, formatting
   can-utils                                             # independent CAN peer
   python3 python3-can python3-pymodbus python3-serial-asyncio # independent python peers (/usr/bin/python3)
+  python3-pytest python3-pytest-xdist mypy flake8 python3-venv # the candp2 Python package: tests, typing, lint, pip install
   qemu-system-x86 linux-image-amd64 busybox-static iproute2 # the SocketCAN guest (vcan, SJA1000: ip)
   python3-prometheus-client chromium                    # /metrics and page tests
   systemd                                               # systemd-analyze verify
@@ -111,7 +114,8 @@ run_daemon() {
   exec "$release_dir/bin/candp2d" "$@"
 }
 
-# dist/candp2_VERSION_ARCH.deb from the run command's build (packaging/deb/build-deb.sh).
+# dist/candp2_VERSION_ARCH.deb from the run command's build and dist/python3-candp2_VERSION_all.deb
+# (packaging/deb/build-deb.sh).
 build_deb() {
   build_release
   packaging/deb/build-deb.sh "$release_dir" dist

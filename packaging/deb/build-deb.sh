@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Builds dist/candp2_VERSION_ARCH.deb from an already built Release tree, without debhelper:
+# Builds dist/candp2_VERSION_ARCH.deb from an already built Release tree, without debhelper, and
+# beside it dist/python3-candp2_VERSION_all.deb (the Python package, build-python-deb.sh):
 #   packaging/deb/build-deb.sh BUILD_DIR OUT_DIR      (tools/setup.sh deb: build-release dist)
 #
 # 1. DESTDIR=STAGE cmake --install BUILD_DIR --prefix /usr (CMakeLists.txt: /etc/candp2, the
@@ -68,3 +69,6 @@ echo "build-deb: $deb"
 echo "build-deb: Depends: $shlibs"
 lintian --fail-on error,warning --suppress-tags-from-file /dev/null "$deb"
 echo "build-deb: lintian clean"
+
+# 5. The Python package of the same version.
+"$here/build-python-deb.sh" "$version" "$out"

@@ -83,8 +83,8 @@ class Gsd:
                 continue
             if k == "module":
                 m = re.match(r'"([^"]*)"\s*(.*)', value)
-                self.modules[m.group(1).strip()] = bytes(int(x, 0) for x in
-                                                         m.group(2).replace(" ", "").split(",") if x)
+                cfg = m.group(2).replace(" ", "").split(",")
+                self.modules[m.group(1).strip()] = bytes(int(x, 0) for x in cfg if x)
                 block = ("module",)
             elif k == "extuserprmdata":
                 block = ("ext", int(value.split()[0], 0))
@@ -153,8 +153,8 @@ class Slaves:
         self.proc = subprocess.Popen([HARNESS, self.path], stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, stderr=self.err, text=True, bufsize=1)
         self.lines = []
-        self.partial = b""  # read from the descriptor directly: select() and a buffered reader
-                            # do not mix
+        # Read from the descriptor directly: select() and a buffered reader do not mix.
+        self.partial = b""
 
     def read_until(self, predicate, timeout=WAIT, since=0):
         """The first line from index `since` on that matches, reading more as they come."""
@@ -178,7 +178,7 @@ class Slaves:
         """Sends a command and waits for its "ok" (tests/gsd_slave/pty_slaves.cpp)."""
         self.proc.stdin.write(text + "\n")
         self.proc.stdin.flush()
-        self.read_until(lambda l: l == "ok " + text or l.startswith("error "))
+        self.read_until(lambda line: line == "ok " + text or line.startswith("error "))
         if ("ok " + text) not in self.lines:
             raise AssertionError("harness refused %r: %s" % (text, self.lines))
         self.lines.remove("ok " + text)  # a command may be sent again
@@ -195,7 +195,6 @@ class Slaves:
         self.proc.stdin.close()
         self.proc.stdout.close()
         self.err.close()
-
 
 
 def response_fc(r):
@@ -231,7 +230,7 @@ class GenericSlavesOverPty(unittest.TestCase):
             ],
         }
         self.slaves = Slaves(self.tmp, config)
-        self.slaves.read_until(lambda l: l.startswith("ready "))
+        self.slaves.read_until(lambda line: line.startswith("ready "))
         self.master = FdlMaster(self.link)
 
     def tearDown(self):
@@ -273,7 +272,7 @@ class GenericSlavesOverPty(unittest.TestCase):
         self.assertEqual(diag.hex(" "), "00 0c 00 02 80 70")  # WD_On, master 2, ident 8070
         fc, inputs = self.exchange(self.COUPLER, bytes([0x11, 0x22, 0x33, 0x44, 0x55]))
         self.assertEqual(inputs, bytes(2))
-        self.slaves.read_until(lambda l: l == "outputs 9 11 22 33 44 55")
+        self.slaves.read_until(lambda line: line == "outputs 9 11 22 33 44 55")
         self.slaves.command("inputs 9 A5 5A")
         end = time.monotonic() + WAIT
         while inputs != bytes([0xA5, 0x5A]) and time.monotonic() < end:
@@ -305,7 +304,7 @@ class GenericSlavesOverPty(unittest.TestCase):
                                  c.chk_cfg(self.COUPLER_MODULES))
         self.assertEqual(diag[0], 0x00)
         self.exchange(self.COUPLER, bytes([1, 1, 1, 1, 1]))
-        self.slaves.read_until(lambda l: l == "outputs 9 01 01 01 01 01")
+        self.slaves.read_until(lambda line: line == "outputs 9 01 01 01 01 01")
         self.global_control(self.COUPLER, 0x20)  # Sync
         self.assertTrue(self.diag(self.COUPLER)[1] & 0x20)  # Sync_Mode
         self.exchange(self.COUPLER, bytes([2, 2, 2, 2, 2]))
@@ -314,7 +313,7 @@ class GenericSlavesOverPty(unittest.TestCase):
         self.slaves.command("ping")
         self.assertNotIn("outputs 9 02 02 02 02 02", self.slaves.lines)  # held until the next Sync
         self.global_control(self.COUPLER, 0x20)
-        self.slaves.read_until(lambda l: l == "outputs 9 02 02 02 02 02")
+        self.slaves.read_until(lambda line: line == "outputs 9 02 02 02 02 02")
 
     def test_leaves_the_bus_and_comes_back(self):
         c = self.coupler
@@ -323,7 +322,7 @@ class GenericSlavesOverPty(unittest.TestCase):
         self.slaves.command("offline 9")
         self.assertIsNone(self.master.srd(self.COUPLER, b"", dsap=SAP_DIAG))
         # Its watchdog (200 ms) expired meanwhile.
-        self.slaves.read_until(lambda l: l == "state 9 Wait_Prm", since=mark)
+        self.slaves.read_until(lambda line: line == "state 9 Wait_Prm", since=mark)
         self.slaves.command("online 9")
         diag = self.parameterize(self.COUPLER, c.set_prm(), c.chk_cfg(self.COUPLER_MODULES))
         self.assertEqual(diag[0], 0x00)

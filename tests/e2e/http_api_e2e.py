@@ -1,28 +1,29 @@
-#!/usr/bin/python3
-"""candp2d's HTTP face (issue 13, docs/daemon.md "HTTP face") against the running demo daemon:
+"""candp2d's HTTP face (issue 13, docs/daemon.md "HTTP face") against the running demo daemon
+(pytest on the candp2 package; ctest e2e_http_api):
 
   - GET /api/v1/status: the gateway's state, diagnosis, LEDs, counters and slot bytes; after a
-    Modbus write of Q 0..4 (holding registers 0..2, emulator-spec §8) the output slot shows the
-    written bytes and its Tx count moves; the numbers agree with the Modbus status block;
+    Modbus write of Q 0..4 (emulator-spec §8) the output slot shows the written bytes and its Tx
+    count moves; the numbers agree with the Modbus status block;
   - read-only: POST, PUT, DELETE get 405 with "Allow: GET, HEAD"; unknown paths 404;
   - GET /metrics parsed by Debian's python3-prometheus-client with values asserted;
   - GET /api/v1/events: Server-Sent Events, rate-limited (never faster than every 100 ms);
   - a stalled SSE client (never reads) does not hold up the others: they keep receiving and
     requests are answered; closing it ends its stream.
+
+The tests run in file order against one daemon; the only Modbus client is the package's own.
 """
 
-import argparse
 import json
 import os
 import socket
 import sys
 import time
 
+import pytest
+from prometheus_client.parser import text_string_to_metric_families  # python3-prometheus-client
+
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from http_common import Daemon  # noqa: E402
-
-from prometheus_client.parser import text_string_to_metric_families  # python3-prometheus-client
-from pymodbus.client import ModbusTcpClient  # python3-pymodbus
 
 UNIT = 3
 # Unitek REGID 0x3D with 0x30, period 0: read the actual speed once (Unitek manual example 10).
@@ -37,7 +38,22 @@ def slot_at(g, plc):
     return next(x for x in g["slots"] if x["plc"] == plc)
 
 
-def check_status(d, mb):
+@pytest.fixture(scope="module")
+def d(candp2_binary):
+    daemon = Daemon(candp2_binary)
+    try:
+        yield daemon
+    finally:
+        daemon.stop()
+
+
+@pytest.fixture(scope="module")
+def gw(d):
+    """Gateway 3 through the package: its image and status block over Modbus."""
+    return d.gateway(UNIT)
+
+
+def test_1_status(d, gw):
     s = d.wait_for("gateway 3 in Data_Exch", lambda s: gateway(s)["dp_state"] == "Data_Exch")
     g = gateway(s)
     # manual table 3.3.1: LED D on in Data_Exch, P on, E off (no flashing), C on (CAN ok).
@@ -49,9 +65,7 @@ def check_status(d, mb):
     assert out["id"] == 0x201 and not out["extended"] and out["length"] == 5, out
     tx_before = out["frames"]
 
-    rr = mb.write_registers(0, [(COMMAND[0] << 8) | COMMAND[1], (COMMAND[2] << 8) | COMMAND[3],
-                                COMMAND[4] << 8], slave=UNIT)
-    assert not rr.isError(), rr
+    gw.outputs[0:5] = bytes(COMMAND)  # Q 0..4: slot Q0
     want = " ".join("%02X" % b for b in COMMAND)
     s = d.wait_for("the written bytes in slot Q0",
                    lambda s: slot_at(gateway(s), "Q0")["bytes"] == want
@@ -62,12 +76,12 @@ def check_status(d, mb):
                    and slot_at(gateway(s), "I0")["frames"] > 0)
     i0 = slot_at(gateway(s), "I0")
     assert i0["age_ms"] is not None and 0 <= i0["age_ms"] < 10000, i0
-    # The same counters as the Modbus status block (docs/modbus.md: 8210..8211 Tx frames), read
-    # between two status requests: before <= modbus <= after.
+    # The same counters as the Modbus status block (docs/modbus.md: tx_frames), read between two
+    # status requests: before <= modbus <= after.
     before = gateway(d.status())["counters"]["tx_frames"]
-    r = mb.read_input_registers(8210, 2, slave=UNIT).registers
+    modbus = gw.counters.tx_frames
     after = gateway(d.status())["counters"]["tx_frames"]
-    assert before <= ((r[0] << 16) | r[1]) <= after, (before, r, after)
+    assert before <= modbus <= after, (before, modbus, after)
     s = d.status()
     assert s["modbus"]["requests"] >= 2 and s["modbus"]["clients"] == 1, s["modbus"]
     # The trace shows the command frame on the bus.
@@ -77,7 +91,7 @@ def check_status(d, mb):
     print("status: ok (slot Q0 = %s, I0 = %s)" % (want, i0["bytes"]))
 
 
-def check_methods(d):
+def test_2_methods(d):
     for m in ("POST", "PUT", "DELETE"):
         code, headers, body = d.get("/api/v1/status", method=m)
         assert code == 405, (m, code)
@@ -93,8 +107,8 @@ def check_methods(d):
     print("methods and paths: ok")
 
 
-def check_metrics(d, mb):
-    mb.read_input_registers(8192, 1, slave=UNIT)  # one more request: counted
+def test_3_metrics(d, gw):
+    assert gw.state == "Data_Exch"  # one more Modbus request: counted
     code, headers, body = d.get("/metrics")
     assert code == 200, code
     assert headers["Content-Type"].startswith("text/plain; version=0.0.4"), headers
@@ -126,7 +140,7 @@ def check_metrics(d, mb):
     print("metrics: ok (%d families, %d Data_Exchanges)" % (len(families), dx))
 
 
-def check_events(d):
+def test_4_events(d):
     """Reads the SSE stream for 1.5 s: snapshots arrive, at most one per 100 ms."""
     sock = socket.create_connection(("127.0.0.1", d.http_port), timeout=5)
     sock.sendall(b"GET /api/v1/events HTTP/1.1\r\nHost: x\r\nAccept: text/event-stream\r\n\r\n")
@@ -169,7 +183,7 @@ def read_events(port, seconds):
     return data.count(b"event: status\ndata: ")
 
 
-def check_stalled_client(d):
+def test_5_stalled_client(d):
     stalled = socket.socket()
     stalled.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
     stalled.connect(("127.0.0.1", d.http_port))
@@ -191,26 +205,3 @@ def check_stalled_client(d):
     finally:
         stalled.close()
     d.wait_for("the stalled stream closed", lambda s: s["http"]["sse_clients"] == 0)
-
-
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--candp2d", required=True)
-    args = ap.parse_args()
-    d = Daemon(args.candp2d)
-    try:
-        mb = ModbusTcpClient("127.0.0.1", port=d.modbus_port, timeout=3)
-        assert mb.connect()
-        check_status(d, mb)
-        check_methods(d)
-        check_metrics(d, mb)
-        check_events(d)
-        check_stalled_client(d)
-        mb.close()
-    finally:
-        d.stop()
-    print("PASS")
-
-
-if __name__ == "__main__":
-    main()

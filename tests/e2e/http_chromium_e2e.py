@@ -6,20 +6,17 @@ config/demo.json) the page must show the last written bytes in gateway 3's slot 
 (manual table 3.3.1: Data Exchange), the drive's replies in slot I0, the frame in the trace, and for
 gw5 LED D off, LED E flashing three times (waiting for Set_Prm after the Cfg fault) and the
 Cfg_Fault bit set — asserted on the DOM through the DevTools protocol (cdp.py). A screenshot is kept
-as <output-dir>/front-panel.png. Bounded: every wait has a deadline; chromium is killed at the end.
+as $CANDP2_TEST_OUTPUT/front-panel.png (ctest: build/test-output/; else pytest's tmp_path).
+Bounded: every wait has a deadline; chromium is killed at the end. pytest on the candp2 package
+(ctest e2e_http_chromium); $CHROMIUM names the browser (default /usr/bin/chromium).
 """
 
-import argparse
 import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from cdp import Browser  # noqa: E402
-from http_common import Daemon  # noqa: E402
-
-from pymodbus.client import ModbusTcpClient  # python3-pymodbus
-
-import json  # noqa: E402
+from http_common import Daemon, demo_config  # noqa: E402
 
 UNIT = 3
 # Unitek REGID commands (REGID, value little-endian; Unitek manual examples 2, 10, 11).
@@ -36,45 +33,37 @@ LED_D = """(() => { const l = document.getElementById('gw-3-led-D');
 # gw5's LED E: code 3 and, within one 6 s sequence, seen lit and dark (it flashes).
 LED_E5 = """new Promise(done => {
   const l = document.getElementById('gw-5-led-E'); let lit = false, dark = false;
-  const t = setInterval(() => { if (l.classList.contains('on')) lit = true; else dark = true; }, 20);
+  const t = setInterval(() => {
+    if (l.classList.contains('on')) lit = true; else dark = true; }, 20);
   setTimeout(() => { clearInterval(t); done(l.dataset.code === '3' && lit && dark); }, 2000); })"""
 
 
-def write(d, mb, cmd):
-    """Writes one 5-byte command to Q 0..4 and waits until slot Q0 has sent it."""
+def write(d, gw, cmd):
+    """Writes one 5-byte command to Q 0..4 (through the package) and waits until slot Q0 has
+    sent it."""
     def q0(s):
         g = next(g for g in s["gateways"] if g["dp_address"] == UNIT)
         return next(x for x in g["slots"] if x["plc"] == "Q0")
     before = q0(d.status())["frames"]
-    rr = mb.write_registers(0, [(cmd[0] << 8) | cmd[1], (cmd[2] << 8) | cmd[3], cmd[4] << 8],
-                            slave=UNIT)
-    assert not rr.isError(), rr
+    gw.outputs[0:5] = bytes(cmd)
     d.wait_for("command %02X sent" % cmd[0], lambda s: q0(s)["frames"] > before)
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--candp2d", required=True)
-    ap.add_argument("--output-dir", required=True)
-    ap.add_argument("--chromium", default="/usr/bin/chromium")
-    args = ap.parse_args()
-    os.makedirs(args.output_dir, exist_ok=True)
-    with open(os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
-            os.path.abspath(__file__)))), "config", "demo.json")) as f:
-        cfg = json.load(f)
-    cfg["modbus"]["listen"] = "127.0.0.1:0"
-    cfg["http"] = {"listen": "127.0.0.1:0"}
-    cfg["buses"]["can0"]["socketcand"] = "127.0.0.1:0"
+def test_front_panel(candp2_binary, tmp_path):
+    output_dir = os.environ.get("CANDP2_TEST_OUTPUT", str(tmp_path))
+    chromium = os.environ.get("CHROMIUM", "/usr/bin/chromium")
+    os.makedirs(output_dir, exist_ok=True)
+    cfg = demo_config()
     # emulator-spec §2: Page-Mode on with a plain slot is rejected (Cfg code 9).
     cfg["gateways"].append({"name": "gw5", "address": 5, "bus": "can0",
                             "parameters": {"can_bitrate": "500k", "page_mode": True},
                             "slots": [{"io": "output", "address": 32, "length": 2,
                                        "comment": "03,05,00"}]})
-    d = Daemon(args.candp2d, config=cfg)
+    d = Daemon(candp2_binary, config=cfg)
     browser = None
     try:
         d.wait_for("Data_Exch", lambda s: s["gateways"][0]["dp_state"] == "Data_Exch")
-        browser = Browser(args.chromium, width=1400, height=1000)
+        browser = Browser(chromium, width=1400, height=1000)
         browser.call("Page.enable")
         browser.call("Page.navigate", url=d.base + "/")
         browser.wait_for("gateway 3's panel", "!!document.getElementById('gw-3')")
@@ -82,11 +71,9 @@ def main():
         want = " ".join("%02X" % b for b in COMMANDS[-1])
         assert before != want, before
 
-        mb = ModbusTcpClient("127.0.0.1", port=d.modbus_port, timeout=3)
-        assert mb.connect()
+        gw = d.gateway(UNIT)
         for cmd in COMMANDS:
-            write(d, mb, cmd)
-        mb.close()
+            write(d, gw, cmd)
 
         browser.wait_for("the written bytes %s in slot Q0" % want,
                          "(%s) === '%s'" % (SLOT_BYTES % "Q0", want))
@@ -114,7 +101,7 @@ def main():
         # Let the frames/s plot collect three one-second points, then keep the picture.
         browser.wait_for("a frames/s plot", "(() => { const p = document.querySelector("
                          "'#gw-3 canvas'); return p && +p.dataset.points >= 3; })()", timeout=15)
-        path = os.path.join(args.output_dir, "front-panel.png")
+        path = os.path.join(output_dir, "front-panel.png")
         # The whole page in one viewport (parts painted beyond the viewport lose their styling).
         height = int(browser.evaluate("document.documentElement.scrollHeight"))
         browser.call("Emulation.setDeviceMetricsOverride", width=1400, height=min(height, 8000),
@@ -127,8 +114,3 @@ def main():
         if browser:
             browser.close()
         d.stop()
-    print("PASS")
-
-
-if __name__ == "__main__":
-    main()

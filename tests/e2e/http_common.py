@@ -1,56 +1,36 @@
-"""Shared by the HTTP face's end-to-end tests (http_api_e2e.py, http_chromium_e2e.py).
-
-Starts candp2d on config/demo.json with every listener on port 0 (the kernel picks free ports, so
-parallel test runs never collide) and reads the ports from the daemon's "ready: modbus
-127.0.0.1:P, http 127.0.0.1:Q, ..." log line, waiting for it with a deadline.
+"""Shared by the HTTP face's end-to-end tests (http_api_e2e.py, http_chromium_e2e.py) and
+bench/http_jitter.py: a candp2.Daemon (python/: every listener on a free loopback port, learnt
+from READY=1) with helpers for its HTTP face.
 """
 
 import json
 import os
-import re
-import subprocess
-import tempfile
+import sys
 import time
 import urllib.error
 import urllib.request
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.join(ROOT, "python"))
+import candp2  # noqa: E402
 
 
-class Daemon:
+def demo_config():
+    """config/demo.json (the Daemon moves its listeners to free ports)."""
+    with open(os.path.join(ROOT, "config", "demo.json")) as f:
+        return json.load(f)
+
+
+class Daemon(candp2.Daemon):
+    """candp2d running `config` (default: config/demo.json); `prefix` runs it under another
+    program (chrt)."""
+
     def __init__(self, candp2d, config=None, timeout=15.0, prefix=()):
-        self.dir = tempfile.mkdtemp(prefix="candp2-http-")
-        if config is None:
-            with open(os.path.join(ROOT, "config", "demo.json")) as f:
-                config = json.load(f)
-            config["modbus"]["listen"] = "127.0.0.1:0"
-            config["http"] = {"listen": "127.0.0.1:0"}
-            config["buses"]["can0"]["socketcand"] = "127.0.0.1:0"
-        self.config_path = os.path.join(self.dir, "candp2d.json")
-        with open(self.config_path, "w") as f:
-            json.dump(config, f)
-        self.log_path = os.path.join(self.dir, "candp2d.log")
-        self.log = open(self.log_path, "w")
-        self.proc = subprocess.Popen(list(prefix) + [candp2d, "--config", self.config_path],
-                                     stdout=self.log, stderr=subprocess.STDOUT)
-        end = time.monotonic() + timeout
-        while True:
-            if self.proc.poll() is not None:
-                raise SystemExit("FAIL: candp2d exited with %s:\n%s" % (self.proc.returncode,
-                                                                         self.text()))
-            m = re.search(r"ready: modbus [\d.]+:(\d+), http [\d.]+:(\d+)", self.text())
-            if m:
-                self.modbus_port, self.http_port = int(m.group(1)), int(m.group(2))
-                break
-            if time.monotonic() > end:
-                self.stop()
-                raise SystemExit("FAIL: no ready line from candp2d:\n" + self.text())
-            time.sleep(0.02)
-        self.base = "http://127.0.0.1:%d" % self.http_port
-
-    def text(self):
-        with open(self.log_path) as f:
-            return f.read()
+        super().__init__(demo_config() if config is None else config, candp2d,
+                         timeout=timeout, wrapper=tuple(prefix))
+        self.modbus_port = self.modbus_address[1]
+        self.http_port = self.http_address[1]
+        self.base = self.http_url
 
     def get(self, path, method="GET", timeout=5.0):
         """(status, headers, body bytes); HTTP errors are returned, not raised."""
@@ -75,16 +55,9 @@ class Daemon:
             if predicate(s):
                 return s
             if time.monotonic() > end:
-                raise SystemExit("FAIL: %s within %.0f s; last status:\n%s"
-                                 % (what, timeout, json.dumps(s)[:2000]))
+                raise AssertionError("%s not within %.0f s; last status:\n%s"
+                                     % (what, timeout, json.dumps(s)[:2000]))
             time.sleep(0.02)
 
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self.log.close()
+    def stop(self, timeout=10.0, check=False):
+        return super().stop(timeout, check)

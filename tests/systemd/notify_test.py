@@ -126,6 +126,11 @@ def test_service(candp2d, tmp):
         print("READY=1 with STATUS=%r; Modbus accepted at once" % ready.get("STATUS"))
         if not ready.get("STATUS", "").startswith("1 gateway, "):
             fail("first STATUS=%r" % ready.get("STATUS"))
+        # The bound addresses in the same datagram (docs/daemon.md "systemd").
+        if ready.get("X_CANDP2_MODBUS") != "127.0.0.1:%d" % port:
+            fail("X_CANDP2_MODBUS=%r, expected 127.0.0.1:%d" % (ready.get("X_CANDP2_MODBUS"), port))
+        if not re.fullmatch(r"can0=127\.0\.0\.1:\d+", ready.get("X_CANDP2_SOCKETCAND", "")):
+            fail("X_CANDP2_SOCKETCAND=%r" % ready.get("X_CANDP2_SOCKETCAND"))
 
         # 2. STATUS= follows the gateway (Data_Exch) and the client we hold open.
         want = "1 gateway, 1 in Data_Exch, 1 Modbus client"

@@ -1,0 +1,295 @@
+#include "modbus/map_json.hpp"
+
+#include <cstdio>
+
+#include "faults/can_fault.hpp"
+#include "faults/drive_fault.hpp"
+#include "gateway/gateway.hpp"
+#include "modbus/modbus_map.hpp"
+#include "profibus_sim/dp/dp_slave.hpp"
+#include "profibus_sim/dp/dp_telegram.hpp"
+#include "profibus_sim/master/dp_master.hpp"
+
+namespace candp2::modbus {
+
+namespace {
+
+using json = nlohmann::ordered_json;
+
+// The format name and version of the document; a change of meaning raises the version.
+constexpr const char* kFormat = "candp2-modbus-map";
+constexpr int kVersion = 1;
+
+// Table names as the JSON spells them (snake case of to_string(Table)).
+std::string table_name(Table t) {
+  std::string s(to_string(t));
+  for (auto& c : s)
+    if (c == ' ') c = '_';
+  return s;
+}
+
+json range(Table t, std::uint32_t first, std::uint32_t count) {
+  return {{"table", table_name(t)}, {"first", first}, {"count", count}};
+}
+
+json image_json() {
+  return {
+      {"bytes", dp::kImageSize},
+      {"outputs", range(Table::HoldingRegisters, 0, kImageRegisters)},
+      {"inputs", range(Table::InputRegisters, 0, kImageRegisters)},
+      {"output_bits", range(Table::Coils, 0, kImageBits)},
+      {"input_bits", range(Table::DiscreteInputs, 0, kImageBits)},
+      {"packing",
+       "register r = image bytes 2r (high) and 2r+1 (low); bit b = byte b/8, bit b%8 (bit 0 = "
+       "least significant)"},
+      // MB spec §6 quantity limits, which a client splits its requests by.
+      {"limits",
+       {{"read_registers", kMaxReadRegisters},
+        {"write_registers", kMaxWriteRegisters},
+        {"read_bits", kMaxReadBits},
+        {"write_bits", kMaxWriteBits}}},
+  };
+}
+
+json status_json() {
+  json fields = json::array();
+  for (const auto& f : status_fields())
+    fields.push_back({{"name", f.name},
+                      {"offset", f.offset},
+                      {"register", kStatusBase + f.offset},
+                      {"registers", f.registers},
+                      {"meaning", f.meaning}});
+  json j = range(Table::InputRegisters, kStatusBase, status::kCount);
+  j["words"] = "a field of 2 registers is a 32-bit value, high word first";
+  j["fields"] = std::move(fields);
+  return j;
+}
+
+json control_json() {
+  json commands = json::array();
+  for (const auto& c : control_commands())
+    commands.push_back({{"name", c.name},
+                        {"value", static_cast<std::uint16_t>(c.command)},
+                        {"meaning", c.meaning}});
+  return {{"table", table_name(Table::HoldingRegisters)},
+          {"register", kControlRegister},
+          {"commands", std::move(commands)}};
+}
+
+json faults_json() {
+  // faults/can_fault.hpp: 0 = the real state, 1..kForceMax = the BusState of that number.
+  json states = json::array();
+  states.push_back({{"name", "real"}, {"value", faults::kForceReal}});
+  for (std::uint16_t v = faults::kForceReal + 1; v <= faults::kForceMax; ++v)
+    states.push_back({{"name", can::to_string(static_cast<can::BusState>(v))}, {"value", v}});
+  return {
+      {"table", table_name(Table::HoldingRegisters)},
+      {"forced_can_state", {{"register", kForcedStateRegister}, {"values", std::move(states)}}},
+      {"drop_rx",
+       {{"register", kDropRxRegister},
+        {"meaning", "drop the next N frames the gateway would receive (IRQ_LOST); 0 cancels"}}},
+  };
+}
+
+json drive_faults_json() {
+  return {
+      {"table", table_name(Table::HoldingRegisters)},
+      {"unit", "the drive's modbus_unit"},
+      {"registers",
+       {{{"name", "mute"},
+         {"register", faults::kDriveMute},
+         {"meaning", "1 = the drive stops answering, 0 = it answers again"}},
+        {{"name", "error_bits"},
+         {"register", faults::kDriveErrorBits},
+         {"meaning", "ERR_BITMAP1 (REGID 0x8F) bits 0..15"}},
+        {{"name", "warning_bits"},
+         {"register", faults::kDriveWarningBits},
+         {"meaning", "ERR_BITMAP1 (REGID 0x8F) bits 16..31"}},
+        {{"name", "restart"},
+         {"register", faults::kDriveRestart},
+         {"meaning", "write 1: the drive restarts (power-on state)"}}}},
+  };
+}
+
+json exceptions_json() {
+  json out = json::array();
+  for (auto e :
+       {Exception::IllegalFunction, Exception::IllegalDataAddress, Exception::IllegalDataValue,
+        Exception::ServerDeviceFailure, Exception::GatewayTargetFailed})
+    out.push_back({{"code", static_cast<int>(e)}, {"name", to_string(e)}});
+  return out;
+}
+
+// Names of the status block's enumerated values, index = value.
+json values_json() {
+  json dp_state = json::array(), master_state = json::array(), bus_state = json::array(),
+       nmt_state = json::array();
+  for (auto s : {dp::SlaveState::WaitPrm, dp::SlaveState::WaitCfg, dp::SlaveState::DataExch})
+    dp_state.push_back(dp::to_string(s));
+  for (auto s : {dp::MasterSlaveState::Init, dp::MasterSlaveState::SetPrm,
+                 dp::MasterSlaveState::ChkCfg, dp::MasterSlaveState::CheckDiag,
+                 dp::MasterSlaveState::DataExch, dp::MasterSlaveState::Retry})
+    master_state.push_back(dp::to_string(s));
+  for (auto s : {can::BusState::Ok, can::BusState::Warning, can::BusState::ErrorPassive,
+                 can::BusState::BusOff})
+    bus_state.push_back(can::to_string(s));
+  for (auto s : {gw::NmtState::Initialising, gw::NmtState::PreOperational,
+                 gw::NmtState::Operational, gw::NmtState::Stopped})
+    nmt_state.push_back(gw::to_string(s));
+  return {{"dp_state", std::move(dp_state)},
+          {"master_state", std::move(master_state)},
+          {"bus_state", std::move(bus_state)},
+          {"nmt_state", std::move(nmt_state)}};
+}
+
+json leds_json() {
+  // manual §3.3 table 3.3.1, as modbus::led::codes() encodes it.
+  return {
+      {"fields", {{"P", "led_p"}, {"D", "led_d"}, {"E", "led_e"}, {"C", "led_c"}}},
+      {"off", led::kOff},
+      {"on", led::kOn},
+      {"morse", {{"E", led::kMorseE}, {"W", led::kMorseW}, {"O", led::kMorseO}}},
+      {"flashes", "LED E: a value n > 1 is n short flashes (3 waiting for Set_Prm, 4 for Chk_Cfg)"},
+  };
+}
+
+// The Slave_Diag bytes as the gateway fills them (manual §3.4, tables 3.4.3-3.4.5).
+json diagnosis_json() {
+  json bits = json::array();
+  auto bit = [&](int byte, std::uint8_t mask, const char* name) {
+    bits.push_back({{"byte", byte}, {"mask", mask}, {"name", name}});
+  };
+  bit(0, dp::kDiag1StationNonExistent, "Station_Non_Existent");
+  bit(0, dp::kDiag1StationNotReady, "Station_Not_Ready");
+  bit(0, dp::kDiag1CfgFault, "Cfg_Fault");
+  bit(0, dp::kDiag1ExtDiag, "Ext_Diag");
+  bit(0, dp::kDiag1NotSupported, "Not_Supported");
+  bit(0, dp::kDiag1InvalidSlaveResponse, "Invalid_Slave_Response");
+  bit(0, dp::kDiag1PrmFault, "Prm_Fault");
+  bit(0, dp::kDiag1MasterLock, "Master_Lock");
+  bit(1, dp::kDiag2PrmReq, "Prm_Req");
+  bit(1, dp::kDiag2StatDiag, "Stat_Diag");
+  bit(1, dp::kDiag2WdOn, "WD_On");
+  bit(1, dp::kDiag2FreezeMode, "Freeze_Mode");
+  bit(1, dp::kDiag2SyncMode, "Sync_Mode");
+  bit(1, dp::kDiag2Deactivated, "Deactivated");
+  json can_states = json::array();
+  for (auto s : {can::BusState::Ok, can::BusState::Warning, can::BusState::ErrorPassive,
+                 can::BusState::BusOff})
+    can_states.push_back({{"name", can::to_string(s)}, {"code", gw::bus_state_code(s)}});
+  return {
+      {"length", dp::DpSlave::kDiagLen},
+      {"bits", std::move(bits)},
+      {"master", {{"byte", 3}, {"none", dp::kNoMaster}}},
+      {"ident", {{"bytes", {4, 5}}}},
+      // Byte 8 says what bytes 8..10 hold (manual table 3.4.5): a Prm fault (telegram byte,
+      // correct value), a Cfg fault (slot, code), or with CAN-Diagnosis the CAN state in bits
+      // 7..6, IRQ_LOST in byte 9 and MSG_LOST in byte 10 (both saturate at 255).
+      {"ext",
+       {{"byte", 8},
+        {"prm_fault", {{"marker", dp::kExtDiagPrmSap}, {"byte", 9}, {"expected", 10}}},
+        {"cfg_fault", {{"marker", dp::kExtDiagCfgSap}, {"slot", 9}, {"code", 10}}},
+        {"can_state_mask", gw::kBusStateMask},
+        {"can_states", std::move(can_states)},
+        {"irq_lost", 9},
+        {"msg_lost", 10}}},
+  };
+}
+
+std::string hex_list(const std::vector<std::uint8_t>& bytes) {
+  std::string out;
+  char b[4];
+  for (auto v : bytes) {
+    std::snprintf(b, sizeof b, "%s%02X", out.empty() ? "" : ",", v);
+    out += b;
+  }
+  return out;
+}
+
+json slots_json(const config::GatewayConfig& g) {
+  json slots = json::array();
+  const auto params = config::slave_parameters(g);
+  const auto decoded = dp::decode_chk_cfg(params.cfg);
+  for (std::size_t i = 0; i < decoded.entries.size() && i < params.addresses.size(); ++i) {
+    const auto& e = decoded.entries[i];
+    for (const bool input : {true, false}) {
+      const std::size_t n = input ? e.in_bytes() : e.out_bytes();
+      const auto addr = input ? params.addresses[i].input : params.addresses[i].output;
+      if (!n || !addr) continue;
+      const std::uint32_t first = *addr, last = static_cast<std::uint32_t>(*addr + n - 1);
+      slots.push_back({
+          {"slot", i},
+          {"io", input ? "input" : "output"},
+          {"plc", input ? "I" : "Q"},
+          {"address", first},
+          {"length", n},
+          {"comment", hex_list(e.manufacturer)},
+          {"registers",
+           {{"table", table_name(input ? Table::InputRegisters : Table::HoldingRegisters)},
+            {"first", first / 2},
+            {"last", last / 2}}},
+          {"bits",
+           {{"table", table_name(input ? Table::DiscreteInputs : Table::Coils)},
+            {"first", first * 8},
+            {"last", last * 8 + 7}}},
+      });
+    }
+  }
+  return slots;
+}
+
+json gateways_json(const config::DaemonConfig& config) {
+  json out = json::array();
+  for (std::size_t i = 0; i < config.gateways.size(); ++i) {
+    const auto& g = config.gateways[i];
+    json units = json::array({g.dp_address()});
+    if (i == 0)
+      for (auto u : kFirstGatewayUnits) units.push_back(u);
+    out.push_back({{"name", g.name},
+                   {"dp_address", g.dp_address()},
+                   {"units", std::move(units)},
+                   {"bus", g.bus.empty() ? json(nullptr) : json(g.bus)},
+                   {"remote", config.remote_gateways()},
+                   {"slots", slots_json(g)}});
+  }
+  return out;
+}
+
+json drives_json(const config::DaemonConfig& config) {
+  json out = json::array();
+  for (const auto& d : config.drives)
+    out.push_back({{"name", d.name},
+                   {"bus", d.bus},
+                   {"rx_id", d.rx_id},
+                   {"tx_id", d.tx_id},
+                   {"unit", d.modbus_unit ? json(*d.modbus_unit) : json(nullptr)}});
+  return out;
+}
+
+}  // namespace
+
+nlohmann::ordered_json map_json(const config::DaemonConfig& config) {
+  return {
+      {"format", kFormat},
+      {"version", kVersion},
+      {"listen", config.modbus_listen.to_string()},
+      {"image", image_json()},
+      {"status", status_json()},
+      {"control", control_json()},
+      {"faults", faults_json()},
+      {"drive_faults", drive_faults_json()},
+      {"exceptions", exceptions_json()},
+      {"first_gateway_units", kFirstGatewayUnits},
+      {"values", values_json()},
+      {"leds", leds_json()},
+      {"diagnosis", diagnosis_json()},
+      {"gateways", gateways_json(config)},
+      {"drives", drives_json(config)},
+  };
+}
+
+std::string map_json_text(const config::DaemonConfig& config) {
+  return map_json(config).dump(2) + "\n";
+}
+
+}  // namespace candp2::modbus

@@ -1,0 +1,35 @@
+"""candp2: the CAN-DP/2 emulator as a test instrument (docs/python.md).
+
+    import candp2
+
+    with candp2.Daemon("plant.json") as daemon:
+        gw, can0 = daemon.gateway(3), daemon.bus("can0")
+        gw.wait_until(lambda g: g.state == "Data_Exch")
+        gw.outputs[0:5] = bytes.fromhex("51 00 00 00 00")
+        can0.expect(0x201, bytes.fromhex("51 00 00 00 00"))
+
+A thin, typed client of candp2d's public faces: Modbus/TCP (the PLC process image, the status
+block, the fault registers), HTTP (slots, parameters, drives) and socketcand (the CAN buses).
+It knows no register number: it reads them from `candp2d --print-modbus-map --json`.
+"""
+
+from .binary import find_binary, find_tool
+from .bus import Bus, Recorder, candump_line, frame_text
+from .connection import Connection, connect
+from .daemon import Daemon, running_daemons
+from .drive import Drive, DriveState
+from .errors import (Candp2Error, ConfigError, DaemonError, FrameNotSeen, ModbusError,
+                     UnexpectedFrame, WaitTimeout)
+from .gateway import CfgFault, Counters, Diagnosis, Gateway, Image, Leds, PrmFault, Slot
+from .registers import RegisterMap
+from .replay import ReplayResult, ReplayStep, replay
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Bus", "Candp2Error", "CfgFault", "ConfigError", "Connection", "Counters", "Daemon",
+    "DaemonError", "Diagnosis", "Drive", "DriveState", "FrameNotSeen", "Gateway", "Image",
+    "Leds", "ModbusError", "PrmFault", "Recorder", "RegisterMap", "ReplayResult", "ReplayStep",
+    "Slot", "UnexpectedFrame", "WaitTimeout", "candump_line", "connect", "find_binary",
+    "find_tool", "frame_text", "replay", "running_daemons",
+]

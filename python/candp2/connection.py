@@ -1,0 +1,160 @@
+"""A running candp2d reached through its public faces: Modbus/TCP (the PLC image, the status
+block, the fault registers), HTTP (slots, parameters, drives, the bus traces) and socketcand
+(the CAN buses). `candp2.Daemon` is a Connection that also owns the process; `connect()`
+attaches to one that runs already."""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Mapping
+
+from ._http import HttpFace
+from ._modbus import ModbusFace
+from ._notify import parse_address
+from .binary import find_binary
+from .bus import Bus
+from .drive import Drive
+from .errors import Candp2Error, ModbusError
+from .gateway import Gateway
+from .registers import RegisterMap
+
+#: How many frames of each bus's trace a report shows.
+REPORT_FRAMES = 20
+
+
+class Connection:
+    """The faces of one candp2d.
+
+    `modbus` is "HOST:PORT"; `http` the HTTP face's "HOST:PORT" (None: parameters, slot
+    descriptions and drive states are unavailable); `socketcand` maps bus names to the
+    "HOST:PORT" of their socketcand export, or is one "HOST:PORT" serving every bus
+    (`channels` maps bus names to the channel clients open, default the bus name);
+    `register_map` comes from the daemon's binary."""
+
+    def __init__(self, modbus: str, register_map: RegisterMap, http: str | None = None,
+                 socketcand: str | Mapping[str, str] | None = None,
+                 channels: Mapping[str, str] | None = None) -> None:
+        self.register_map = register_map
+        self.modbus_address = parse_address(modbus)
+        self.http_address = parse_address(http) if http else None
+        self._any_bus = parse_address(socketcand) if isinstance(socketcand, str) else None
+        self.socketcand: dict[str, tuple[str, int]] = {} if isinstance(socketcand, str) else {
+            name: parse_address(a) for name, a in (socketcand or {}).items()}
+        self.channels = dict(channels or {})
+        self.modbus = ModbusFace(*self.modbus_address, register_map,
+                                 on_failure=self._face_failed)
+        self.http = HttpFace("http://%s:%d" % self.http_address) if self.http_address else None
+        self._buses: list[Bus] = []
+
+    def __repr__(self) -> str:
+        return "<%s modbus %s:%d>" % ((type(self).__name__,) + self.modbus_address)
+
+    def _face_failed(self, error: ModbusError) -> None:
+        """A face did not answer; a Daemon raises DaemonError with the log when it exited."""
+
+    @property
+    def http_url(self) -> str | None:
+        """"http://127.0.0.1:PORT" of the HTTP face, or None."""
+        return self.http.base if self.http else None
+
+    def http_status(self) -> Mapping[str, Any]:
+        """GET /api/v1/status (docs/daemon.md "HTTP face")."""
+        if self.http is None:
+            raise Candp2Error("no HTTP face: connect(http=\"HOST:PORT\") or http.listen")
+        return self.http.status()
+
+    # ---- the objects a test works with ---------------------------------------------------
+
+    def gateway(self, address: int | str) -> Gateway:
+        """The gateway with this DP address (= Modbus unit ID), or by its configured name."""
+        if isinstance(address, str):
+            for g in self.register_map.gateways:
+                if g.name == address:
+                    return Gateway(self, g.dp_address)
+            raise KeyError("no gateway named %r (gateways: %s)" % (
+                address, ", ".join(g.name for g in self.register_map.gateways) or "unknown"))
+        return Gateway(self, address)
+
+    def gateways(self) -> list[Gateway]:
+        """Every configured gateway (from the HTTP face when the configuration is unknown)."""
+        if self.register_map.gateways:
+            return [Gateway(self, g.dp_address) for g in self.register_map.gateways]
+        if self.http is None:
+            return []
+        return [Gateway(self, int(g["dp_address"]))
+                for g in self.http_status().get("gateways", [])]
+
+    def bus(self, name: str, timeout: float = 5.0) -> Bus:
+        """A python-can bus on the socketcand export of bus `name` (closed with the
+        connection)."""
+        address = self.socketcand.get(name, self._any_bus)
+        if address is None:
+            raise KeyError("bus %r has no socketcand export (exported: %s)"
+                           % (name, ", ".join(sorted(self.socketcand)) or "none"))
+        host, port = address
+        bus = Bus(self.channels.get(name, name), host, port, timeout=timeout)
+        self._buses.append(bus)
+        return bus
+
+    def drive(self, name: str) -> Drive:
+        """The simulated drive `name`."""
+        if self.register_map.drives and self.register_map.drive(name) is None:
+            raise KeyError("no drive named %r (drives: %s)" % (
+                name, ", ".join(d.name for d in self.register_map.drives)))
+        return Drive(self, name)
+
+    # ---- reports ------------------------------------------------------------------------
+
+    def report(self) -> str:
+        """What a failing test wants to see: every gateway's state and decoded diagnosis and
+        the last frames of every bus (from the HTTP face's trace)."""
+        parts: list[str] = []
+        try:
+            for g in self.gateways():
+                parts.append(g.describe())
+        except (Candp2Error, OSError) as e:
+            parts.append("gateways: unavailable (%s)" % e)
+        if self.http is not None:
+            try:
+                for b in self.http_status().get("buses", []):
+                    trace = b.get("trace", [])[-REPORT_FRAMES:]
+                    lines = ["bus %s: last %d of %s frames"
+                             % (b["name"], len(trace), b.get("frames", "?"))]
+                    for f in trace:
+                        ident = ("%08X" if f.get("ext") else "%03X") % f["id"]
+                        data = "R" if f.get("rtr") else str(f["data"]).replace(" ", "")
+                        lines.append("  %10.3f ms  %s#%s" % (f["t_ms"], ident, data))
+                    parts.append("\n".join(lines))
+            except (Candp2Error, OSError) as e:
+                parts.append("buses: unavailable (%s)" % e)
+        return "\n".join(parts)
+
+    def close(self) -> None:
+        """Closes the Modbus connection and every bus opened through this connection."""
+        for b in self._buses:
+            b.shutdown()
+        self._buses.clear()
+        self.modbus.close()
+
+    def __enter__(self) -> Connection:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def connect(modbus: str = "127.0.0.1:1502", http: str | None = None,
+            socketcand: str | Mapping[str, str] | None = None, *,
+            binary: str | os.PathLike[str] | None = None,
+            config: str | os.PathLike[str] | None = None) -> Connection:
+    """Attaches to a candp2d that runs already (as a service, or started by someone else).
+
+    `modbus`, `http` are "HOST:PORT"; `socketcand` one "HOST:PORT" for every bus (the channel
+    opened is the bus name) or {bus name: "HOST:PORT"}. The register map comes from `binary`
+    (found like `find_binary()`); give `config` (the daemon's configuration file) to know its
+    gateways' slots and drives' units too."""
+    exe = find_binary(binary)
+    register_map = RegisterMap.from_binary(exe, config)
+    if config is None:
+        register_map = register_map.without_configuration()
+    return Connection(modbus, register_map, http=http, socketcand=socketcand)

@@ -1,0 +1,584 @@
+"""One emulated CAN-DP/2 as the PLC and a test engineer see it: the master's process image,
+the gateway's state, diagnosis, LEDs and counters (the Modbus status block), its slots and
+parameters (the HTTP face), and the faults a test can inject (docs/faults.md)."""
+
+from __future__ import annotations
+
+import inspect
+import time
+from dataclasses import dataclass, fields
+from typing import (TYPE_CHECKING, Any, Callable, Iterator, Mapping, Sequence, TypeVar,
+                    overload)
+
+from .errors import Candp2Error, WaitTimeout
+from .registers import DiagnosisLayout, RegisterMap, SlotMap, StatusValue
+
+if TYPE_CHECKING:
+    from .connection import Connection
+
+T = TypeVar("T")
+
+#: How often wait_until() asks again.
+POLL_INTERVAL = 0.02
+
+
+def hex_bytes(data: bytes) -> str:
+    """b"\\x01\\xab" → "01 AB"."""
+    return " ".join("%02X" % b for b in data)
+
+
+# ------------------------------------------------------------------------------- diagnosis
+
+@dataclass(frozen=True)
+class CfgFault:
+    """The gateway rejected Chk_Cfg: the slot and the fault code (manual §3.4.2)."""
+
+    slot: int
+    code: int
+
+
+@dataclass(frozen=True)
+class PrmFault:
+    """The gateway rejected Set_Prm: the telegram byte and the value it expected."""
+
+    byte: int
+    expected: int
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """The 11 Slave_Diag bytes, decoded (manual §3.4).
+
+    `raw` the bytes; `bits` the names of the station status bits that are set ("Ext_Diag",
+    "Cfg_Fault", "WD_On", ...); `master` the parameterizing master (None before one);
+    `ident` the ident number; `cfg_fault` / `prm_fault` when bytes 8..10 report one; else
+    `can_state` ("ok", "warning", "error-passive", "bus-off"), `irq_lost` and `msg_lost` as
+    bytes 8..10 carry them (all zero without the CAN-Diagnosis parameter).
+    `diag[8]` is byte 8; `"Ext_Diag" in diag` tests a bit.
+    """
+
+    raw: bytes
+    bits: frozenset[str]
+    master: int | None
+    ident: int
+    cfg_fault: CfgFault | None
+    prm_fault: PrmFault | None
+    can_state: str | None
+    irq_lost: int | None
+    msg_lost: int | None
+
+    @classmethod
+    def decode(cls, raw: bytes, layout: DiagnosisLayout) -> Diagnosis:
+        """Decodes the bytes with the daemon's layout (RegisterMap.diagnosis)."""
+        bits = frozenset(name for byte, mask, name in layout.bits if raw[byte] & mask)
+        master = raw[layout.master_byte]
+        ident = 0
+        for i in layout.ident_bytes:
+            ident = (ident << 8) | raw[i]
+        marker = raw[layout.ext_byte]
+        cfg = prm = None
+        can_state = irq = msg = None
+        if marker == layout.cfg_marker:
+            cfg = CfgFault(raw[layout.cfg_slot], raw[layout.cfg_code])
+        elif marker == layout.prm_marker:
+            prm = PrmFault(raw[layout.prm_byte], raw[layout.prm_expected])
+        else:
+            can_state = layout.can_states.get(marker & layout.can_state_mask)
+            irq, msg = raw[layout.irq_lost], raw[layout.msg_lost]
+        return cls(bytes(raw), bits, None if master == layout.no_master else master, ident,
+                   cfg, prm, can_state, irq, msg)
+
+    @overload
+    def __getitem__(self, index: int) -> int: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> bytes: ...
+
+    def __getitem__(self, index: int | slice) -> int | bytes:
+        return self.raw[index]
+
+    def __len__(self) -> int:
+        return len(self.raw)
+
+    def __contains__(self, bit: object) -> bool:
+        return bit in self.bits
+
+    def __str__(self) -> str:
+        parts = [hex_bytes(self.raw)]
+        parts += sorted(self.bits)
+        parts.append("master %s" % ("none" if self.master is None else self.master))
+        parts.append("ident %04X" % self.ident)
+        if self.cfg_fault:
+            parts.append("Cfg fault: slot %d, code %d"
+                         % (self.cfg_fault.slot, self.cfg_fault.code))
+        if self.prm_fault:
+            parts.append("Prm fault: byte %d, expected 0x%02X"
+                         % (self.prm_fault.byte, self.prm_fault.expected))
+        if self.can_state is not None:
+            parts.append("CAN %s, IRQ_LOST %s, MSG_LOST %s"
+                         % (self.can_state, self.irq_lost, self.msg_lost))
+        return "; ".join(parts)
+
+
+# ------------------------------------------------------------------------------------ LEDs
+
+@dataclass(frozen=True)
+class Leds:
+    """The four LEDs of manual table 3.3.1, each as text: "on", "off", "3 flashes" (LED E:
+    3 waiting for Set_Prm, 4 for Chk_Cfg), "morse O" (LED C: W warning, E error passive,
+    O bus off). `codes` holds the status block's numbers (P, D, E, C)."""
+
+    P: str
+    D: str
+    E: str
+    C: str
+    codes: tuple[int, int, int, int]
+
+    @classmethod
+    def from_status(cls, status: Mapping[str, StatusValue], register_map: RegisterMap) -> Leds:
+        def text(code: int) -> str:
+            if code == register_map.led_off:
+                return "off"
+            if code == register_map.led_on:
+                return "on"
+            if code in register_map.morse:
+                return "morse " + register_map.morse[code]
+            return "%d flashes" % code
+
+        p, d, e, c = (register_map.number(status, register_map.led_fields[name])
+                      for name in "PDEC")
+        return cls(text(p), text(d), text(e), text(c), (p, d, e, c))
+
+    def __str__(self) -> str:
+        return "P %s, D %s, E %s, C %s" % (self.P, self.D, self.E, self.C)
+
+
+# -------------------------------------------------------------------------------- counters
+
+@dataclass(frozen=True)
+class Counters:
+    """The gateway's counters from the status block (docs/modbus.md): CAN frames received and
+    sent, frames lost (IRQ_LOST, MSG_LOST), Communication Window FIFO level and high water,
+    Data_Exchanges answered, Set_Prm telegrams received, frames suppressed by a forced bus-off,
+    socketcand reconnections."""
+
+    rx_frames: int
+    tx_frames: int
+    irq_lost: int
+    msg_lost: int
+    fifo_level: int
+    fifo_high_water: int
+    data_exchanges: int
+    parameterizations: int
+    tx_suppressed: int
+    rx_suppressed: int
+    reconnects: int
+
+    @classmethod
+    def from_status(cls, status: Mapping[str, StatusValue]) -> Counters:
+        values = {f.name: RegisterMap.number(status, f.name) for f in fields(cls)}
+        return cls(**values)
+
+    def __str__(self) -> str:
+        return ", ".join("%s %d" % (f.name, getattr(self, f.name)) for f in fields(self))
+
+
+# ------------------------------------------------------------------------------------ slots
+
+@dataclass(frozen=True)
+class Slot:
+    """One slot of the gateway: where its bytes are (`plc` "Q0", `address`, `length`), the
+    bytes now (`data`), and what the gateway made of its Chk_Cfg entry (`can_id`, `extended`,
+    `form`, `kind`, `frames` sent or received; None without the HTTP face)."""
+
+    index: int
+    io: str
+    plc: str
+    address: int
+    length: int
+    data: bytes
+    comment: str
+    can_id: int | None
+    extended: bool
+    form: int | None
+    kind: str | None
+    frames: int | None
+
+    def __bytes__(self) -> bytes:
+        return self.data
+
+    @property
+    def description(self) -> str:
+        """"slot 0: output Q0..4 (5 bytes) to CAN 0x201, form 00, comment 02,01,00"."""
+        text = "slot %d: %s %s%d..%d (%d bytes)" % (self.index, self.io, self.plc[0],
+                                                    self.address,
+                                                    self.address + self.length - 1, self.length)
+        if self.can_id is not None:
+            text += " %s CAN 0x%0*X" % ("to" if self.io == "output" else "from",
+                                        8 if self.extended else 3, self.can_id)
+        if self.form is not None:
+            text += ", form %02X" % self.form
+        if self.comment:
+            text += ", comment " + self.comment
+        return text
+
+    def __str__(self) -> str:
+        return "%s: %s" % (self.description, hex_bytes(self.data))
+
+
+# ------------------------------------------------------------------------------------ image
+
+class Image:
+    """One direction of the master's PLC process image as seen through one gateway's unit ID:
+    `gateway.outputs` (Q bytes, writable) and `gateway.inputs` (I bytes).
+
+    Indexed by PLC byte address like a bytes object: `gw.inputs[0:6]` reads I 0..5,
+    `gw.outputs[0:5] = b"\\x51\\0\\0\\0\\0"` writes Q 0..4. One write of up to 246 bytes is one
+    Modbus request, so the master sends it in one Data_Exchange (docs/modbus.md
+    "Atomicity"); bytes at odd addresses are written as coils, so neighbours are never
+    touched."""
+
+    def __init__(self, gateway: Gateway, output: bool) -> None:
+        self._gateway = gateway
+        self._output = output
+
+    @property
+    def _map(self) -> RegisterMap:
+        return self._gateway.register_map
+
+    def __len__(self) -> int:
+        return self._map.image_bytes
+
+    def _check(self, address: int, length: int) -> None:
+        if address < 0 or length < 0 or address + length > len(self):
+            raise IndexError("%s %d..%d outside the %d-byte image" % (
+                self._name, address, address + length - 1, len(self)))
+
+    @property
+    def _name(self) -> str:
+        return "Q" if self._output else "I"
+
+    def read(self, address: int, length: int) -> bytes:
+        """`length` bytes from PLC address `address`."""
+        self._check(address, length)
+        if length == 0:
+            return b""
+        rng = self._map.outputs if self._output else self._map.inputs
+        first, last = address // 2, (address + length - 1) // 2
+        words = self._gateway.connection.modbus.read_registers(
+            rng.table, rng.first + first, last - first + 1, self._gateway.address)
+        data = b"".join(w.to_bytes(2, "big") for w in words)
+        offset = address - 2 * first
+        return data[offset:offset + length]
+
+    def write(self, address: int, data: bytes | bytearray | Sequence[int]) -> None:
+        """Writes `data` at PLC address `address` (outputs only)."""
+        if not self._output:
+            raise TypeError("the input image is written by the gateways, not by the PLC")
+        data = bytes(data)
+        self._check(address, len(data))
+        if not data:
+            return
+        modbus = self._gateway.connection.modbus
+        unit = self._gateway.address
+        if address % 2 == 0 and len(data) % 2 == 0:
+            rng = self._map.outputs
+            words = [int.from_bytes(data[i:i + 2], "big") for i in range(0, len(data), 2)]
+            modbus.write_registers(rng.first + address // 2, words, unit)
+        else:
+            bits = [bool(b >> i & 1) for b in data for i in range(8)]
+            modbus.write_coils(self._map.output_bits.first + 8 * address, bits, unit)
+
+    def _span(self, key: slice) -> tuple[int, int]:
+        start, stop, step = key.indices(len(self))
+        if step != 1:
+            raise ValueError("image slices take no step")
+        return start, max(0, stop - start)
+
+    @overload
+    def __getitem__(self, key: int) -> int: ...
+
+    @overload
+    def __getitem__(self, key: slice) -> bytes: ...
+
+    def __getitem__(self, key: int | slice) -> int | bytes:
+        if isinstance(key, slice):
+            start, length = self._span(key)
+            value: bytes | int = self.read(start, length)
+            text = "%s[%d:%d]" % (self._gateway.image_name(self._output), start, start + length)
+        else:
+            index = key + len(self) if key < 0 else key
+            value = self.read(index, 1)[0]
+            text = "%s[%d]" % (self._gateway.image_name(self._output), index)
+        return self._gateway.note(text, value)
+
+    def __setitem__(self, key: int | slice, value: bytes | bytearray | Sequence[int] | int
+                    ) -> None:
+        if isinstance(key, slice):
+            start, length = self._span(key)
+            data = bytes([value]) if isinstance(value, int) else bytes(value)
+            if len(data) != length:
+                raise ValueError("%d bytes for a %d-byte slice (the image has a fixed size)"
+                                 % (len(data), length))
+            self.write(start, data)
+        else:
+            if not isinstance(value, int):
+                raise TypeError("one image byte takes an int")
+            self.write(key + len(self) if key < 0 else key, bytes([value]))
+
+    def __bytes__(self) -> bytes:
+        return self.read(0, len(self))
+
+    def __iter__(self) -> Iterator[int]:
+        return iter(bytes(self))
+
+    def __repr__(self) -> str:
+        return "<%s of gateway %d>" % (self._gateway.image_name(self._output),
+                                       self._gateway.address)
+
+
+# ---------------------------------------------------------------------------------- gateway
+
+def _describe_predicate(predicate: Callable[..., object]) -> str:
+    """The lambda's source text ("lambda g: g.state == 'Data_Exch'"), else its repr."""
+    try:
+        source = inspect.getsource(predicate).strip()
+    except (OSError, TypeError):
+        return repr(predicate)
+    if "lambda" not in source:
+        return repr(predicate)
+    source = " ".join(source[source.index("lambda"):].split())
+    # The statement around the lambda may go on: cut at the parenthesis that closes the call.
+    depth = 0
+    for i, c in enumerate(source):
+        depth += c in "([{"
+        depth -= c in ")]}"
+        if depth < 0 or (depth == 0 and c == ","):
+            return source[:i].rstrip()
+    return source.rstrip(",")
+
+
+class Gateway:
+    """One emulated gateway of a running candp2d, addressed by its DP address (which is its
+    Modbus unit ID). Get it with `daemon.gateway(address)`.
+
+    Reads go to the daemon every time (nothing is cached): `state`, `diagnosis`, `leds`,
+    `counters` and `status` read the Modbus status block, `parameters` and `slot(n)` also the
+    HTTP face."""
+
+    def __init__(self, connection: Connection, address: int) -> None:
+        self.connection = connection
+        #: The DP address (the Modbus unit ID of the status block and the fault registers).
+        self.address = address
+        #: What the configuration says about this gateway (None: not in the known map).
+        self.config = connection.register_map.gateway(address)
+        #: The gateway's name in the configuration ("gw3"); "gw<address>" when unknown.
+        self.name = self.config.name if self.config else "gw%d" % address
+        #: The output image (PLC Q bytes), writable.
+        self.outputs = Image(self, output=True)
+        #: The input image (PLC I bytes).
+        self.inputs = Image(self, output=False)
+        self._seen: dict[str, object] | None = None
+
+    @property
+    def register_map(self) -> RegisterMap:
+        return self.connection.register_map
+
+    def __repr__(self) -> str:
+        return "<Gateway %d (%s)>" % (self.address, self.name)
+
+    def image_name(self, output: bool) -> str:
+        return "outputs" if output else "inputs"
+
+    def note(self, what: str, value: T) -> T:
+        """Records a value read while wait_until() evaluates its predicate (for its message)."""
+        if self._seen is not None:
+            self._seen[what] = value
+        return value
+
+    # ---- the status block ----------------------------------------------------------------
+
+    @property
+    def status(self) -> dict[str, StatusValue]:
+        """The whole status block by field name (docs/modbus.md), read in one request."""
+        m = self.register_map
+        words = self.connection.modbus.read_registers(m.status.table, m.status.first,
+                                                      m.status.count, self.address)
+        return m.decode_status(words)
+
+    def _state(self, status: Mapping[str, StatusValue]) -> str:
+        return self._named(status, "dp_state")
+
+    def _named(self, status: Mapping[str, StatusValue], field: str) -> str:
+        return self.register_map.value_name(field, self.register_map.number(status, field))
+
+    @property
+    def state(self) -> str:
+        """The DP slave state: "Wait_Prm", "Wait_Cfg" or "Data_Exch"."""
+        return self.note("state", self._state(self.status))
+
+    @property
+    def master_state(self) -> str:
+        """The master's view of this slave ("Data_Exch", "Retry", ...)."""
+        return self.note("master_state", self._named(self.status, "master_state"))
+
+    @property
+    def bus_state(self) -> str:
+        """The CAN controller state the gateway sees: "ok", "warning", "error-passive",
+        "bus-off" (a forced state included)."""
+        return self.note("bus_state", self._named(self.status, "bus_state"))
+
+    def _diagnosis(self, status: Mapping[str, StatusValue]) -> Diagnosis:
+        raw = status["diag"]
+        assert isinstance(raw, tuple)
+        return Diagnosis.decode(bytes(raw), self.register_map.diagnosis)
+
+    @property
+    def diagnosis(self) -> Diagnosis:
+        """The Slave_Diag bytes the gateway would answer now, decoded."""
+        return self.note("diagnosis", self._diagnosis(self.status))
+
+    @property
+    def leds(self) -> Leds:
+        """LEDs P, D, E, C (manual table 3.3.1)."""
+        return self.note("leds", Leds.from_status(self.status, self.register_map))
+
+    @property
+    def counters(self) -> Counters:
+        """The gateway's counters."""
+        return self.note("counters", Counters.from_status(self.status))
+
+    # ---- the HTTP face ------------------------------------------------------------------
+
+    def _http(self) -> Mapping[str, Any]:
+        status = self.connection.http_status()
+        for g in status.get("gateways", []):
+            if g.get("dp_address") == self.address:
+                gateway: Mapping[str, Any] = g
+                return gateway
+        raise Candp2Error("the HTTP face shows no gateway %d" % self.address)
+
+    @property
+    def parameters(self) -> Mapping[str, Any]:
+        """The Set_Prm user parameters (accepted, else configured) as the HTTP face shows them:
+        "bitrate", "can_diagnosis", "watchdog_ms", "user_prm_hex", ..."""
+        value: Mapping[str, Any] = self._http()["parameters"]
+        return self.note("parameters", value)
+
+    def slots(self) -> list[Slot]:
+        """Every slot (see slot())."""
+        indexes = sorted({s.slot for s in self.config.slots} if self.config else
+                         {int(s["slot"]) for s in self._http_slots()})
+        return [self.slot(i) for i in indexes]
+
+    def _http_slots(self) -> list[Mapping[str, Any]]:
+        if self.connection.http is None:
+            return []
+        slots: list[Mapping[str, Any]] = list(self._http().get("slots", []))
+        return slots
+
+    def slot(self, index: int) -> Slot:
+        """Slot `index` (0 = the first of the configuration): its bytes and description."""
+        known: SlotMap | None = None
+        if self.config:
+            known = next((s for s in self.config.slots if s.slot == index), None)
+        http = next((s for s in self._http_slots() if s.get("slot") == index), None)
+        if known is not None:
+            io, plc, address, length = known.io, known.plc, known.address, known.length
+            comment = known.comment
+        elif http is not None and http.get("plc"):
+            plc_text = str(http["plc"])
+            plc, address, length = plc_text[0], int(plc_text[1:]), int(http["length"])
+            io, comment = ("input" if plc == "I" else "output"), ""
+        else:
+            have = [s.slot for s in self.config.slots] if self.config else []
+            raise KeyError("gateway %d has no slot %d (slots: %s)" % (self.address, index, have))
+        data = (self.inputs if io == "input" else self.outputs).read(address, length)
+        return self.note("slot(%d)" % index, Slot(
+            index=index, io=io, plc="%s%d" % (plc, address), address=address, length=length,
+            data=data, comment=comment,
+            can_id=None if http is None or http.get("id") is None else int(http["id"]),
+            extended=bool(http and http.get("extended")),
+            form=None if http is None else int(http["form"]),
+            kind=None if http is None else str(http["kind"]),
+            frames=None if http is None else int(http["frames"])))
+
+    # ---- faults (docs/faults.md) ---------------------------------------------------------
+
+    def _control(self, command: str) -> None:
+        m = self.register_map
+        self.connection.modbus.write_register(m.control_register, m.commands[command],
+                                              self.address)
+
+    def power_cycle(self) -> None:
+        """The gateway restarts: Wait_Prm, counters 0; the master parameterizes it again after
+        its retry time."""
+        self._control("power_cycle")
+
+    def reparameterize(self) -> None:
+        """The master runs Slave_Diag, Set_Prm, Chk_Cfg again at its next cycle."""
+        self._control("reparameterize")
+
+    def master_stop(self) -> None:
+        """The master stops addressing the gateway (a PLC in STOP); with a watchdog it falls
+        back to Wait_Prm."""
+        self._control("master_stop")
+
+    def master_resume(self) -> None:
+        """The master addresses the gateway again and parameterizes it."""
+        self._control("master_resume")
+
+    def force_can_state(self, state: str | None) -> None:
+        """Forces the CAN controller state the gateway sees: "warning", "error-passive",
+        "bus-off", or None for the real state again. Bus-off sends and receives nothing."""
+        m = self.register_map
+        name = "real" if state is None else state
+        if name not in m.forced_states:
+            raise ValueError("CAN state %r: expected one of %s or None"
+                             % (state, ", ".join(repr(s) for s in m.forced_states
+                                                 if s != "real")))
+        self.connection.modbus.write_register(m.forced_state_register, m.forced_states[name],
+                                              self.address)
+
+    def drop_rx(self, n: int) -> None:
+        """The next `n` frames the gateway would receive are lost (IRQ_LOST); 0 cancels."""
+        self.connection.modbus.write_register(self.register_map.drop_rx_register, n,
+                                              self.address)
+
+    # ---- waiting ------------------------------------------------------------------------
+
+    def wait_until(self, predicate: Callable[[Gateway], T], timeout: float = 5.0) -> T:
+        """Calls `predicate(gateway)` until it returns something true, and returns that.
+
+        After `timeout` seconds it raises WaitTimeout saying what the predicate last read
+        (`state='Wait_Prm'`, `inputs[0:6]=b'...'`) and the gateway's whole state."""
+        deadline = time.monotonic() + timeout
+        while True:
+            self._seen = {}
+            try:
+                value = predicate(self)
+            finally:
+                seen, self._seen = self._seen, None
+            if value:
+                return value
+            if time.monotonic() >= deadline:
+                last = ", ".join("%s=%r" % (k, v) if not isinstance(v, (Diagnosis, Leds, Counters))
+                                 else "%s=%s" % (k, v) for k, v in seen.items())
+                raise WaitTimeout("%s: not true within %.1f s; last saw %s (predicate returned "
+                                  "%r)\n%s" % (_describe_predicate(predicate), timeout,
+                                               last or "nothing", value, self.describe()))
+            time.sleep(POLL_INTERVAL)
+
+    def describe(self) -> str:
+        """The gateway's state in a few lines (one status block read)."""
+        st = self.status
+        diag = self._diagnosis(st)
+        lines = [
+            "gateway %d (%s): %s, master %s, CAN %s" % (
+                self.address, self.name, self._state(st),
+                self._named(st, "master_state"), self._named(st, "bus_state")),
+            "  diagnosis: %s" % diag,
+            "  LEDs: %s" % Leds.from_status(st, self.register_map),
+            "  counters: %s" % Counters.from_status(st),
+        ]
+        return "\n".join(lines)

@@ -1,0 +1,55 @@
+"""The pytest plugin's report on a failing test: the gateway's diagnosis, the bus's last frames
+and the daemon's log tail; a daemon that died fails the teardown."""
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+PYTHON_DIR = Path(__file__).resolve().parent.parent
+
+FAILING = textwrap.dedent('''
+    PLANT = {"buses": {"can0": {"type": "virtual"}},
+             "gateways": [{"address": 5, "bus": "can0", "slots": [
+                 {"io": "output", "address": 0, "length": 2, "comment": "03,09,00"}]}]}
+
+    def test_fails(candp2d):
+        daemon = candp2d(PLANT)
+        gw, can0 = daemon.gateway(5), daemon.bus("can0")
+        gw.wait_until(lambda g: g.state == "Data_Exch")
+        gw.outputs[0:2] = b"\\x12\\x34"
+        can0.expect(0x309, b"\\x12\\x34")
+        assert gw.state == "Wait_Prm"
+
+    def test_dies(candp2d):
+        candp2d(PLANT).kill()
+''')
+
+
+def run_pytest(tmp_path: Path, candp2_binary: str, *args: str) -> str:
+    (tmp_path / "test_report.py").write_text(FAILING)
+    env = dict(os.environ, PYTHONPATH=str(PYTHON_DIR))
+    r = subprocess.run([sys.executable, "-m", "pytest", "-p", "candp2.pytest_plugin",
+                        "-p", "no:cacheprovider", "--candp2d", candp2_binary, *args,
+                        str(tmp_path / "test_report.py")],
+                       capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
+    assert r.returncode == 1, r.stdout + r.stderr
+    return r.stdout
+
+
+def test_failure_report_sections(tmp_path: Path, candp2_binary: str) -> None:
+    out = run_pytest(tmp_path, candp2_binary)
+    assert "1 failed, 1 passed, 1 error" in out
+    assert "candp2d 0 (modbus 127.0.0.1:" in out
+    assert "gateway 5 (gw5): Data_Exch, master Data_Exch" in out
+    assert "diagnosis: 00 04 00 01 04 A4" in out       # the decoded Slave_Diag
+    assert "bus can0: last" in out and "309#1234" in out  # the bus's last frames
+    assert "[candp2d] ready: modbus" in out             # the log's tail
+    # test_dies: the teardown fails with the exit status and the log.
+    assert "candp2d had exited with status -9 before stop()" in out
+
+
+def test_reports_under_xdist(tmp_path: Path, candp2_binary: str) -> None:
+    out = run_pytest(tmp_path, candp2_binary, "-n", "2")
+    assert "candp2d 0 (modbus 127.0.0.1:" in out and "309#1234" in out
