@@ -13,11 +13,17 @@ namespace {
 // length including the header (2..63).
 constexpr std::size_t kMaxDeviceDiag = 62;
 
-dp::SlaveInfo slave_info(std::uint8_t address, const Profile& p) {
+// The log component: the configured name ("io1", "io1.dp"), else "slaveN" / "dpN".
+std::string log_name(const SlaveSetup& s) {
+  return s.name.empty() ? "slave" + std::to_string(s.address) : s.name;
+}
+
+dp::SlaveInfo slave_info(const SlaveSetup& s, const Profile& p) {
   dp::SlaveInfo info;
-  info.address = address;
+  info.address = s.address;
   info.ident_number = p.ident_number;
   info.options = p.options();
+  if (!s.name.empty()) info.log_name = s.name + ".dp";
   return info;
 }
 
@@ -57,8 +63,8 @@ GsdSlave::GsdSlave(SlaveSetup setup, Profile profile, Configuration cfg)
       profile_(std::move(profile)),
       cfg_(std::move(cfg)),
       prm_layout_(gsd_slave::user_prm_layout(*setup_.gsd, cfg_.modules, !setup_.cfg.has_value())),
-      log_(setup_.log, "slave" + std::to_string(setup_.address)),
-      slave_(slave_info(setup_.address, profile_), *this, setup_.log),
+      log_(setup_.log, log_name(setup_)),
+      slave_(slave_info(setup_, profile_), *this, setup_.log),
       field_inputs_(cfg_.decoded.input_len, 0),
       field_outputs_(cfg_.decoded.output_len, 0) {
   log_.info(profile_.name() + ", configuration " + hex_bytes(cfg_.bytes) + " (" +

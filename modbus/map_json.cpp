@@ -111,6 +111,44 @@ json drive_faults_json() {
   };
 }
 
+// A generic slave's fault registers and field side (docs/faults.md "Generic slaves",
+// docs/slaves.md "Modbus").
+json slave_faults_json() {
+  return {
+      {"table", table_name(Table::HoldingRegisters)},
+      {"unit", "the slave's DP address"},
+      {"registers",
+       {{{"name", "on_bus"},
+         {"register", kSlaveFaultBase + kSlaveOnBus},
+         {"meaning", "1 = the slave answers, 0 = it has left the bus (no answer at all)"}},
+        {{"name", "prm_fault"},
+         {"register", kSlaveFaultBase + kSlavePrmFault},
+         {"meaning", "1 = every Set_Prm is refused (Prm_Fault), 0 = accepted again"}},
+        {{"name", "cfg_fault"},
+         {"register", kSlaveFaultBase + kSlaveCfgFault},
+         {"meaning", "1 = every Chk_Cfg is refused (Cfg_Fault), 0 = accepted again"}},
+        {{"name", "alarm_length"},
+         {"register", kSlaveFaultBase + kSlaveAlarmLength},
+         {"meaning",
+          "diagnosis alarm: number of device-related bytes (0 clears); writing it "
+          "applies the bytes in alarm_bytes"}},
+        {{"name", "alarm_bytes"},
+         {"register", kSlaveFaultBase + kSlaveAlarmBytes},
+         {"count", kSlaveAlarmMax / 2},
+         {"meaning", "the alarm's bytes, two per register, high byte first"}}}},
+  };
+}
+
+json field_json() {
+  return {{"unit", "the slave's field_unit"},
+          {"inputs",
+           {{"table", table_name(Table::HoldingRegisters)},
+            {"meaning", "the inputs the slave reports: register r = input bytes 2r, 2r+1"}}},
+          {"outputs",
+           {{"table", table_name(Table::InputRegisters)},
+            {"meaning", "the outputs the slave applies: register r = output bytes 2r, 2r+1"}}}};
+}
+
 json exceptions_json() {
   json out = json::array();
   for (auto e :
@@ -255,6 +293,28 @@ json gateways_json(const config::DaemonConfig& config) {
   return out;
 }
 
+json slaves_json(const config::DaemonConfig& config) {
+  json out = json::array();
+  for (const auto& sl : config.slaves) {
+    const auto params = config::slave_parameters(sl);
+    const auto map = dp::map_image(params);
+    json in = json::array(), outputs = json::array();
+    for (const auto& m : map.in) in.push_back({{"address", m.plc_address}, {"length", m.length}});
+    for (const auto& m : map.out)
+      outputs.push_back({{"address", m.plc_address}, {"length", m.length}});
+    out.push_back({{"name", sl.name},
+                   {"dp_address", sl.address},
+                   {"units", json::array({sl.address})},
+                   {"field_unit", sl.field_unit ? json(*sl.field_unit) : json(nullptr)},
+                   {"input_bytes", map.in_len},
+                   {"output_bytes", map.out_len},
+                   {"inputs", std::move(in)},
+                   {"outputs", std::move(outputs)},
+                   {"remote", config.remote_gateways()}});
+  }
+  return out;
+}
+
 json drives_json(const config::DaemonConfig& config) {
   json out = json::array();
   for (const auto& d : config.drives)
@@ -278,12 +338,15 @@ nlohmann::ordered_json map_json(const config::DaemonConfig& config) {
       {"control", control_json()},
       {"faults", faults_json()},
       {"drive_faults", drive_faults_json()},
+      {"slave_faults", slave_faults_json()},
+      {"field", field_json()},
       {"exceptions", exceptions_json()},
       {"first_gateway_units", kFirstGatewayUnits},
       {"values", values_json()},
       {"leds", leds_json()},
       {"diagnosis", diagnosis_json()},
       {"gateways", gateways_json(config)},
+      {"slaves", slaves_json(config)},
       {"drives", drives_json(config)},
   };
 }

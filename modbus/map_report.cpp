@@ -18,6 +18,8 @@ std::string map_text(const config::DaemonConfig& config) {
     out << "  " << static_cast<int>(g.dp_address()) << (i == 0 ? ", 0, 255" : "") << "  " << g.name
         << "\n";
   }
+  for (const auto& sl : config.slaves)
+    out << "  " << static_cast<int>(sl.address) << "  " << sl.name << " (generic slave)\n";
   out << "  other  exception 0x0B\n\n";
   out << "Process image (PLC bytes; register r = bytes 2r high, 2r+1 low; bit b = byte b/8 bit "
          "b%8):\n";
@@ -51,6 +53,19 @@ std::string map_text(const config::DaemonConfig& config) {
       }
     }
   }
+  for (const auto& sl : config.slaves) {
+    const auto map = dp::map_image(config::slave_parameters(sl));
+    for (const auto& m : map.in)
+      out << "  " << sl.name << "  inputs  I " << m.plc_address << ".."
+          << m.plc_address + m.length - 1 << "\n";
+    for (const auto& m : map.out)
+      out << "  " << sl.name << "  outputs Q " << m.plc_address << ".."
+          << m.plc_address + m.length - 1 << "\n";
+    if (sl.field_unit)
+      out << "  " << sl.name << "  field side on unit " << static_cast<int>(*sl.field_unit)
+          << ": holding registers = its " << map.in_len << " input bytes, input registers = its "
+          << map.out_len << " output bytes (register r = bytes 2r, 2r+1)\n";
+  }
   out << "\nStatus block (input registers, unit ID = DP address):\n";
   for (const auto& f : status_fields()) {
     const unsigned a = kStatusBase + f.offset;
@@ -66,6 +81,14 @@ std::string map_text(const config::DaemonConfig& config) {
   out << "Faults (docs/faults.md): holding register " << kForcedStateRegister
       << " = forced CAN state (0 real, 1 warning, 2 error-passive, 3 bus-off), " << kDropRxRegister
       << " = drop the next N received frames (IRQ_LOST)\n";
+  if (!config.slaves.empty())
+    out << "Generic slaves (docs/faults.md), holding registers of the slave's DP address: "
+        << kSlaveFaultBase + kSlaveOnBus << " on the bus (1) / off (0), "
+        << kSlaveFaultBase + kSlavePrmFault << " Prm fault forced, "
+        << kSlaveFaultBase + kSlaveCfgFault << " Cfg fault forced, "
+        << kSlaveFaultBase + kSlaveAlarmLength << " diagnosis alarm length (0 clears), "
+        << kSlaveFaultBase + kSlaveAlarmBytes << ".." << kSlaveFaultBase + kSlaveFaultRegisters - 1
+        << " its bytes\n";
   out << "Exceptions: 0x01 unsupported function, 0x02 address outside the tables, 0x03 bad "
          "quantity/value, 0x0B unknown unit ID\n";
   return out.str();

@@ -135,11 +135,115 @@ std::optional<std::string> RemoteStationFace::refuses(Control command) const {
          " (profibus role master): not possible over PROFIBUS";
 }
 
+// ------------------------------------------------------------------------------ generic slave
+
+StatusBlock GenericSlaveFace::status(Time now) {
+  auto& dp = unit_.slave().dp();
+  StatusInputs in;
+  in.dp_address = dp.info().address;
+  in.gateway.dp_state = dp.state();
+  in.diag = dp.slave_diag(now);
+  if (const auto view = plant_.master().slave(in.dp_address)) {
+    in.master_state = view->state;
+    in.parameterizations = view->parameterizations;
+    in.addressed = view->addressed;
+    in.gateway.data_exchanges = view->data_exchanges;
+  }
+  if (auto* line = plant_.slave_line())
+    if (auto l = line->status(in.dp_address)) in.line = line_inputs(*l);
+  return encode_status(in);
+}
+
+void GenericSlaveFace::control(Control command, Time now) {
+  switch (command) {
+    case Control::None:
+      return;
+    case Control::PowerCycle:
+      plant_.power_cycle(unit_, now, kOrigin);
+      return;
+    case Control::Reparameterize:
+      plant_.reparameterize(dp_address(), now, kOrigin);
+      return;
+    case Control::MasterStops:
+    case Control::MasterResumes:
+      plant_.set_addressed(dp_address(), command == Control::MasterResumes, now, kOrigin);
+      return;
+  }
+}
+
+std::uint16_t GenericSlaveFace::slave_fault(std::uint16_t offset) const {
+  const auto& s = unit_.slave();
+  switch (offset) {
+    case kSlaveOnBus:
+      return s.online() ? 1 : 0;
+    case kSlavePrmFault:
+      return s.prm_fault_forced() ? 1 : 0;
+    case kSlaveCfgFault:
+      return s.cfg_fault_forced() ? 1 : 0;
+    case kSlaveAlarmLength:
+      return static_cast<std::uint16_t>(s.device_diagnosis() ? s.device_diagnosis()->size() : 0);
+    default: {
+      const std::size_t i = offset - kSlaveAlarmBytes;
+      const auto& d = s.device_diagnosis();
+      if (!d) return alarm_[i];
+      const std::uint8_t hi = 2 * i < d->size() ? (*d)[2 * i] : 0;
+      const std::uint8_t lo = 2 * i + 1 < d->size() ? (*d)[2 * i + 1] : 0;
+      return static_cast<std::uint16_t>(hi << 8 | lo);
+    }
+  }
+}
+
+std::optional<DecodeFailure> GenericSlaveFace::write_slave_faults(
+    std::uint16_t offset, std::span<const std::uint16_t> values, Time now) {
+  // Checked first, applied after: all or nothing.
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const std::size_t o = offset + i;
+    const bool flag = o == kSlaveOnBus || o == kSlavePrmFault || o == kSlaveCfgFault;
+    if (flag && values[i] > 1)
+      return DecodeFailure{Exception::IllegalDataValue,
+                           "slave fault register " + std::to_string(kSlaveFaultBase + o) +
+                               ": 0 or 1, got " + std::to_string(values[i])};
+    if (o == kSlaveAlarmLength && values[i] > kSlaveAlarmMax)
+      return DecodeFailure{Exception::IllegalDataValue, "diagnosis alarm length " +
+                                                            std::to_string(values[i]) + " (0.." +
+                                                            std::to_string(kSlaveAlarmMax) + ")"};
+  }
+  std::optional<std::uint16_t> length;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const std::size_t o = offset + i;
+    if (o >= kSlaveAlarmBytes) alarm_[o - kSlaveAlarmBytes] = values[i];
+    if (o == kSlaveAlarmLength) length = values[i];
+  }
+  auto& s = unit_.slave();
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const std::size_t o = offset + i;
+    const bool on = values[i] == 1;
+    if (o == kSlaveOnBus && on != s.online()) plant_.set_slave_online(unit_, on, now, kOrigin);
+    if (o == kSlavePrmFault && on != s.prm_fault_forced())
+      plant_.force_slave_fault(unit_, true, on, now, kOrigin);
+    if (o == kSlaveCfgFault && on != s.cfg_fault_forced())
+      plant_.force_slave_fault(unit_, false, on, now, kOrigin);
+  }
+  if (length) {
+    std::vector<std::uint8_t> bytes;
+    for (std::size_t k = 0; k < *length; ++k)
+      bytes.push_back(static_cast<std::uint8_t>(k % 2 ? alarm_[k / 2] & 0xFF : alarm_[k / 2] >> 8));
+    plant_.set_slave_alarm(unit_, std::move(bytes), now, kOrigin);
+  }
+  return std::nullopt;
+}
+
 // ------------------------------------------------------------------------------------- all
 
 std::vector<GatewayFace*> PlantFaces::gateway_list() const {
   std::vector<GatewayFace*> out;
   for (const auto& g : gateways) out.push_back(g.get());
+  return out;
+}
+
+std::vector<FieldFace*> PlantFaces::field_list() const {
+  std::vector<FieldFace*> out;
+  for (const auto& f : fields) out.push_back(f.get());
   return out;
 }
 
@@ -154,9 +258,15 @@ PlantFaces make_faces(plant::Plant& plant, BitrateFn bitrate) {
   if (plant.master_line()) {
     for (const auto& gc : plant.config().gateways)
       f.gateways.push_back(std::make_unique<RemoteStationFace>(plant, gc.dp_address(), gc.name));
+    for (const auto& sc : plant.config().slaves)
+      f.gateways.push_back(std::make_unique<RemoteStationFace>(plant, sc.address, sc.name));
   } else {
     for (auto& g : plant.gateways())
       f.gateways.push_back(std::make_unique<PlantGatewayFace>(plant, *g, bitrate));
+    for (auto& s : plant.slaves()) {
+      f.gateways.push_back(std::make_unique<GenericSlaveFace>(plant, *s));
+      if (s->config().field_unit) f.fields.push_back(std::make_unique<SlaveFieldFace>(*s));
+    }
   }
   for (auto& d : plant.drives())
     if (d->config().modbus_unit) f.drives.push_back(std::make_unique<PlantDriveFace>(plant, *d));

@@ -4,6 +4,7 @@
 // (plant/plant.hpp), the same one replay uses.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <functional>
 #include <memory>
@@ -57,6 +58,43 @@ class RemoteStationFace final : public GatewayFace {
   std::string name_;
 };
 
+// A generic DP-V0 slave on its DP-address unit (docs/slaves.md "Modbus"): the status block with
+// what applies (DP state, the first 11 diagnosis bytes, the master's view, the line group; CAN
+// fields 0), control commands 1..4, and the slave fault registers (docs/faults.md).
+class GenericSlaveFace final : public GatewayFace {
+ public:
+  GenericSlaveFace(plant::Plant& plant, plant::SlaveUnit& unit) : plant_(plant), unit_(unit) {}
+  std::uint8_t dp_address() const override { return unit_.config().address; }
+  StatusBlock status(Time now) override;
+  void control(Control command, Time now) override;
+  bool has_slave_faults() const override { return true; }
+  std::uint16_t slave_fault(std::uint16_t offset) const override;
+  std::optional<DecodeFailure> write_slave_faults(std::uint16_t offset,
+                                                  std::span<const std::uint16_t> values,
+                                                  Time now) override;
+
+ private:
+  plant::Plant& plant_;
+  plant::SlaveUnit& unit_;
+  // The alarm bytes as last written (8199..): applied when the length (8198) is written.
+  std::array<std::uint16_t, kSlaveAlarmMax / 2> alarm_{};
+};
+
+// A generic slave's field side on its field_unit.
+class SlaveFieldFace final : public FieldFace {
+ public:
+  explicit SlaveFieldFace(plant::SlaveUnit& unit) : unit_(unit) {}
+  std::uint8_t field_unit() const override { return unit_.config().field_unit.value_or(0); }
+  std::span<const std::uint8_t> inputs() const override { return unit_.slave().field_inputs(); }
+  std::span<const std::uint8_t> outputs() const override { return unit_.slave().field_outputs(); }
+  void write_inputs(std::size_t offset, std::span<const std::uint8_t> bytes) override {
+    unit_.slave().write_inputs(offset, bytes);
+  }
+
+ private:
+  plant::SlaveUnit& unit_;
+};
+
 class PlantDriveFace final : public DriveFace {
  public:
   PlantDriveFace(plant::Plant& plant, plant::DriveUnit& unit) : plant_(plant), unit_(unit) {}
@@ -73,13 +111,16 @@ class PlantDriveFace final : public DriveFace {
   plant::DriveUnit& unit_;
 };
 
-// Every face of a plant: its gateways (or remote stations) in configuration order, then the
-// drives that have a Modbus unit.
+// Every face of a plant: its stations, the drives that have a Modbus unit, the generic slaves'
+// field sides.
+// Stations: the gateways (or remote stations) in configuration order, then the generic slaves.
 struct PlantFaces {
   std::vector<std::unique_ptr<GatewayFace>> gateways;
   std::vector<std::unique_ptr<DriveFace>> drives;
+  std::vector<std::unique_ptr<FieldFace>> fields;
   std::vector<GatewayFace*> gateway_list() const;
   std::vector<DriveFace*> drive_list() const;
+  std::vector<FieldFace*> field_list() const;
 };
 PlantFaces make_faces(plant::Plant& plant, BitrateFn bitrate = {});
 

@@ -1,5 +1,6 @@
 // The plant's control surface (docs/faults.md): every operator action in one place, logged with
 // its origin and shown on the tap as a note, whether it came over Modbus or from a replay step.
+#include "common/hex.hpp"
 #include "plant/plant.hpp"
 
 namespace candp2::plant {
@@ -32,13 +33,23 @@ void Plant::power_cycle(GatewayUnit& g, Time now, std::string_view origin) {
   log_.info(g.name() + ": power cycle requested " + std::string(origin));
   tap_note("gateway " + g.name() + ": power cycle", now_);
   g.gateway_->power_cycle(now_);
+  restarted(g.gateway_->address());
   deliver(now_);
+}
+
+std::string Plant::station_name(std::uint8_t address) {
+  if (const GatewayUnit* g = gateway_at(address)) return g->name();
+  if (const SlaveUnit* s = slave_at(address)) return s->name();
+  for (const auto& g : config_.gateways)
+    if (g.dp_address() == address) return g.name;
+  for (const auto& s : config_.slaves)
+    if (s.address == address) return s.name;
+  return "station " + std::to_string(address);
 }
 
 bool Plant::reparameterize(std::uint8_t address, Time now, std::string_view origin) {
   set_now(now);
-  const GatewayUnit* g = gateway_at(address);
-  const std::string name = g ? g->name() : "station " + std::to_string(address);
+  const std::string name = station_name(address);
   if (slave_line_) {
     // docs/profibus.md role slaves: the external master parameterizes; it cannot be forced.
     log_.warn(name + ": re-parameterization requested " + std::string(origin) +
@@ -54,8 +65,7 @@ bool Plant::reparameterize(std::uint8_t address, Time now, std::string_view orig
 
 void Plant::set_addressed(std::uint8_t address, bool addressed, Time now, std::string_view origin) {
   set_now(now);
-  const GatewayUnit* g = gateway_at(address);
-  const std::string name = g ? g->name() : "station " + std::to_string(address);
+  const std::string name = station_name(address);
   if (addressed)
     log_.info(name + ": the master addresses it again (requested " + std::string(origin) + ")");
   else
@@ -75,6 +85,52 @@ void Plant::set_drive_fault(DriveUnit& d, std::uint16_t index, std::uint16_t val
   d.drive_->set_fault_register(index, value, now_, *d.endpoint_,
                                "requested " + std::string(origin));
   deliver(now_);
+}
+
+void Plant::set_slave_online(SlaveUnit& s, bool online, Time now, std::string_view origin) {
+  set_now(now);
+  const std::string what = online ? "back on the bus" : "leaves the bus (no answer at all)";
+  (online ? log_.info(s.name() + ": " + what + " " + std::string(origin))
+          : log_.warn(s.name() + ": " + what + " " + std::string(origin)));
+  tap_note("slave " + s.name() + ": " + what, now_);
+  s.slave_->set_online(online);
+}
+
+bool Plant::set_slave_alarm(SlaveUnit& s, std::vector<std::uint8_t> bytes, Time now,
+                            std::string_view origin) {
+  set_now(now);
+  if (bytes.empty()) {
+    s.slave_->clear_device_diag();
+    log_.info(s.name() + ": diagnosis alarm cleared " + std::string(origin));
+    tap_note("slave " + s.name() + ": diagnosis alarm cleared", now_);
+    return true;
+  }
+  const std::string text = hex_bytes(bytes);
+  if (!s.slave_->set_device_diag(std::move(bytes))) return false;
+  log_.warn(s.name() + ": diagnosis alarm " + text + " " + std::string(origin));
+  tap_note("slave " + s.name() + ": diagnosis alarm " + text, now_);
+  return true;
+}
+
+void Plant::force_slave_fault(SlaveUnit& s, bool prm, bool on, Time now, std::string_view origin) {
+  set_now(now);
+  const std::string what =
+      std::string(prm ? "Prm" : "Cfg") + " fault " + (on ? "forced" : "no longer forced");
+  (on ? log_.warn(s.name() + ": " + what + " " + std::string(origin))
+      : log_.info(s.name() + ": " + what + " " + std::string(origin)));
+  tap_note("slave " + s.name() + ": " + what, now_);
+  if (prm)
+    s.slave_->force_prm_fault(on, now_);
+  else
+    s.slave_->force_cfg_fault(on, now_);
+}
+
+void Plant::power_cycle(SlaveUnit& s, Time now, std::string_view origin) {
+  set_now(now);
+  log_.info(s.name() + ": power cycle requested " + std::string(origin));
+  tap_note("slave " + s.name() + ": power cycle", now_);
+  s.slave_->dp().reset(now_);
+  restarted(s.config().address);
 }
 
 void Plant::note(std::string_view text, Time now) {

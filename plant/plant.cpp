@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "gsd/gsd.hpp"
 #include "plant/master_line.hpp"
 #include "plant/slave_line.hpp"
+#include "profibus_sim/fdl/dp_wire.hpp"
 
 namespace candp2::plant {
 
@@ -83,10 +85,14 @@ bool Plant::build_parts(std::string* error) {
       // docs/profibus.md role slaves: the gateways answer an external master over FDL; the
       // built-in master does not cycle.
       slave_line_ = std::make_unique<SlaveLine>(*config_.profibus, master_->image(), log_sink_);
+      slave_line_->set_tap(
+          [this](std::span<const std::uint8_t> t, bool ours, Time at) { tap_line(t, ours, at); });
       master_cycles_ = false;
     }
     for (const auto& gc : config_.gateways)
       if (!add_gateway(gc, error)) return false;
+    for (const auto& sc : config_.slaves)
+      if (!add_slave(sc, error)) return false;
   }
   for (const auto& dc : config_.drives)
     if (!add_drive(dc, error)) return false;
@@ -157,7 +163,7 @@ bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
   if (slave_line_)
     slave_line_->add(g->gateway_->dp(), config::slave_parameters(cfg), cfg.name);
   else
-    master_->add_slave(g->gateway_->dp(), config::slave_parameters(cfg));
+    add_in_process(g->gateway_->dp(), config::slave_parameters(cfg), g->gateway_->address());
   log_.info("gateway " + cfg.name + ": DP address " + std::to_string(g->gateway_->address()) +
             ", " + std::to_string(cfg.slots.size()) + " slots, bus " + b.name + " (" +
             std::string(config::to_string(b.type)) + ")");
@@ -194,11 +200,68 @@ bool Plant::add_drive(const config::DriveConfig& cfg, std::string* error) {
   return true;
 }
 
+bool Plant::add_slave(const config::SlaveConfig& cfg, std::string* error) {
+  auto u = std::make_unique<SlaveUnit>();
+  u->cfg_ = &cfg;
+  u->index_ = slaves_.size();
+  std::string e;
+  u->slave_ = gsd_slave::GsdSlave::create(cfg.setup(log_sink_), &e);
+  if (!u->slave_) {
+    *error = "slave \"" + cfg.name + "\" (" + cfg.json_path + "): " + e;
+    return false;
+  }
+  if (slave_line_)
+    slave_line_->add(u->slave_->dp(), config::slave_parameters(cfg), cfg.name);
+  else
+    add_in_process(u->slave_->dp(), config::slave_parameters(cfg), cfg.address);
+  log_.info("slave " + cfg.name + ": DP address " + std::to_string(cfg.address) + ", " +
+            gsd::to_utf8(u->slave_->profile().model) + ", " +
+            std::to_string(u->slave_->input_length()) + " input and " +
+            std::to_string(u->slave_->output_length()) + " output bytes");
+  slaves_.push_back(std::move(u));
+  return true;
+}
+
+void Plant::add_in_process(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t address) {
+  if (!options_.wire_image) {
+    master_->add_slave(slave, std::move(params));
+    return;
+  }
+  auto inner = std::make_unique<dp::InProcessLink>(slave);
+  auto wire = std::make_unique<fdl::WireImageLink>(
+      *inner, [this](std::span<const std::uint8_t> telegram, bool /*from_master*/, Time t) {
+        if (taps_.empty()) return;
+        // docs/decisions.md "pcapng captures": in-process both ends are emulated.
+        const DpRecord r{.time = t,
+                         .line = 0,
+                         .line_name = "in-process",
+                         .telegram = telegram,
+                         .from_emulation = true};
+        for (Tap* tap : taps_) tap->on_dp(r);
+      });
+  master_->add_slave(*wire, std::move(params));
+  wire_links_[address] = wire.get();
+  links_.push_back(std::move(inner));
+  links_.push_back(std::move(wire));
+}
+
+void Plant::restarted(std::uint8_t address) {
+  if (const auto it = wire_links_.find(address); it != wire_links_.end())
+    static_cast<fdl::WireImageLink*>(it->second)->reset();
+}
+
 bool Plant::add_remote_stations(std::string* /*error*/) {
   master_line_ = std::make_unique<MasterLine>(*config_.profibus, config_.master_address, log_sink_);
+  master_line_->set_tap(
+      [this](std::span<const std::uint8_t> t, bool ours, Time at) { tap_line(t, ours, at); });
+  // docs/profibus.md role master: gateways and generic slaves are remote stations alike.
   for (const auto& gc : config_.gateways) {
     master_->add_slave(master_line_->station(gc.dp_address()), config::slave_parameters(gc));
     master_line_->add_remote(gc.dp_address(), gc.name);
+  }
+  for (const auto& sc : config_.slaves) {
+    master_->add_slave(master_line_->station(sc.address), config::slave_parameters(sc));
+    master_line_->add_remote(sc.address, sc.name);
   }
   return true;
 }
@@ -212,6 +275,7 @@ std::optional<Time> Plant::next_deadline() const {
   };
   for (const auto& g : gateways_) earliest(g->gateway_->next_deadline());
   for (const auto& d : drives_) earliest(d->drive_->next_deadline());
+  for (const auto& sl : slaves_) earliest(sl->slave_->next_deadline());
   if (master_line_) earliest(master_line_->next_deadline());
   return next;
 }
@@ -229,6 +293,8 @@ void Plant::run_timers(Time now) {
   for (auto& d : drives_)
     if (const auto t = d->drive_->next_deadline(); t && *t <= now)
       d->drive_->advance(now, *d->endpoint_);
+  for (auto& sl : slaves_)
+    if (const auto t = sl->slave_->next_deadline(); t && *t <= now) sl->slave_->advance(now);
   if (master_line_)
     if (const auto t = master_line_->next_deadline(); t && *t <= now) master_line_->advance(now);
 }
@@ -314,6 +380,16 @@ void Plant::tap_can(const BusUnit& bus, const can::Frame& frame, std::string_vie
   for (Tap* t : taps_) t->on_can(r);
 }
 
+void Plant::tap_line(std::span<const std::uint8_t> telegram, bool from_emulation, Time time) {
+  if (taps_.empty()) return;
+  const DpRecord r{.time = time,
+                   .line = 1,
+                   .line_name = config_.profibus->port,
+                   .telegram = telegram,
+                   .from_emulation = from_emulation};
+  for (Tap* t : taps_) t->on_dp(r);
+}
+
 void Plant::tap_note(std::string text, Time now) {
   if (taps_.empty()) return;
   const NoteRecord r{.time = now, .text = text};
@@ -337,6 +413,18 @@ GatewayUnit* Plant::gateway(std::string_view name) {
 GatewayUnit* Plant::gateway_at(std::uint8_t dp_address) {
   for (auto& g : gateways_)
     if (g->gateway_->address() == dp_address) return g.get();
+  return nullptr;
+}
+
+SlaveUnit* Plant::slave(std::string_view name) {
+  for (auto& sl : slaves_)
+    if (sl->name() == name) return sl.get();
+  return nullptr;
+}
+
+SlaveUnit* Plant::slave_at(std::uint8_t dp_address) {
+  for (auto& sl : slaves_)
+    if (sl->config().address == dp_address) return sl.get();
   return nullptr;
 }
 

@@ -36,6 +36,7 @@
 #include "faults/can_fault.hpp"
 #include "faults/drive_fault.hpp"
 #include "gateway/gateway.hpp"
+#include "gsd_slave/gsd_slave.hpp"
 #include "plant/cycle_stats.hpp"
 #include "plant/tap.hpp"
 #include "profibus_sim/master/dp_master.hpp"
@@ -79,6 +80,10 @@ struct Options {
   // The first master cycle runs at build time (replay: cycles at 0, T, 2T, ...) instead of one
   // period later (candp2d, like its event loop's periodic timer).
   bool first_cycle_at_start = false;
+  // The in-process master's DP services as the FDL telegrams they would be on a wire, on the
+  // tap's on_dp() (docs/capture.md). Off unless a capture wants them: it costs an encoding per
+  // service.
+  bool wire_image = false;
 };
 
 // One CAN bus of the configuration.
@@ -149,6 +154,23 @@ class DriveUnit {
   std::unique_ptr<faults::FaultyDrive> drive_;
 };
 
+// One generic DP-V0 slave from its GSD (docs/slaves.md): in-process under the built-in master or
+// on a profibus line in role slaves.
+class SlaveUnit {
+ public:
+  const config::SlaveConfig& config() const { return *cfg_; }
+  const std::string& name() const { return cfg_->name; }
+  std::size_t index() const { return index_; }
+  gsd_slave::GsdSlave& slave() { return *slave_; }
+  const gsd_slave::GsdSlave& slave() const { return *slave_; }
+
+ private:
+  friend class Plant;
+  const config::SlaveConfig* cfg_ = nullptr;
+  std::size_t index_ = 0;
+  std::unique_ptr<gsd_slave::GsdSlave> slave_;
+};
+
 class Plant {
  public:
   // Assembles the configuration at time `now` (the gateways' power-on). nullptr and *error
@@ -199,6 +221,14 @@ class Plant {
   // A drive's fault register (faults::kDriveMute .. kDriveRestart).
   void set_drive_fault(DriveUnit& d, std::uint16_t index, std::uint16_t value, Time now,
                        std::string_view origin);
+  // A generic slave's faults (docs/slaves.md "Faults"): it leaves the bus (no answer at all) or
+  // comes back; a diagnosis alarm (a device-related Ext_Diag block; empty: cleared); a Prm or Cfg
+  // fault forced (every Set_Prm / Chk_Cfg refused while on); a power cycle (back to Wait_Prm).
+  void set_slave_online(SlaveUnit& s, bool online, Time now, std::string_view origin);
+  bool set_slave_alarm(SlaveUnit& s, std::vector<std::uint8_t> bytes, Time now,
+                       std::string_view origin);
+  void force_slave_fault(SlaveUnit& s, bool prm, bool on, Time now, std::string_view origin);
+  void power_cycle(SlaveUnit& s, Time now, std::string_view origin);
   // A note on the tap without any action (replay's "note" steps, the daemon's start and stop).
   void note(std::string_view text, Time now);
 
@@ -212,6 +242,10 @@ class Plant {
   std::vector<std::unique_ptr<GatewayUnit>>& gateways() { return gateways_; }
   const std::vector<std::unique_ptr<GatewayUnit>>& gateways() const { return gateways_; }
   std::vector<std::unique_ptr<DriveUnit>>& drives() { return drives_; }
+  std::vector<std::unique_ptr<SlaveUnit>>& slaves() { return slaves_; }
+  const std::vector<std::unique_ptr<SlaveUnit>>& slaves() const { return slaves_; }
+  SlaveUnit* slave(std::string_view name);
+  SlaveUnit* slave_at(std::uint8_t dp_address);
   BusUnit* bus(std::string_view name);
   GatewayUnit* gateway(std::string_view name);
   GatewayUnit* gateway_at(std::uint8_t dp_address);
@@ -234,11 +268,18 @@ class Plant {
   bool add_bus(const config::BusConfig& cfg, std::string* error);
   bool add_gateway(const config::GatewayConfig& cfg, std::string* error);
   bool add_drive(const config::DriveConfig& cfg, std::string* error);
+  bool add_slave(const config::SlaveConfig& cfg, std::string* error);
+  // The built-in master reaches an emulated station in-process (through its wire image when
+  // Options::wire_image); `power cycled` stations start again with FDL_Status there.
+  void add_in_process(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t address);
+  void restarted(std::uint8_t address);
   bool add_remote_stations(std::string* error);
   void run_timers(Time now);
   void run_cycle(Time now);
   void tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender, Time time);
   void tap_note(std::string text, Time now);
+  void tap_line(std::span<const std::uint8_t> telegram, bool from_emulation, Time time);
+  std::string station_name(std::uint8_t address);
 
   const config::DaemonConfig& config_;
   Options options_;
@@ -248,10 +289,12 @@ class Plant {
   std::vector<std::unique_ptr<BusUnit>> buses_;
   std::vector<std::unique_ptr<GatewayUnit>> gateways_;
   std::vector<std::unique_ptr<DriveUnit>> drives_;
+  std::vector<std::unique_ptr<SlaveUnit>> slaves_;
   std::unique_ptr<dp::DpMaster> master_;
   std::unique_ptr<SlaveLine> slave_line_;
   std::unique_ptr<MasterLine> master_line_;
   std::vector<std::unique_ptr<dp::SlaveLink>> links_;  // the master's in-process links
+  std::map<std::uint8_t, dp::SlaveLink*> wire_links_;  // fdl::WireImageLink by DP address
   std::vector<Tap*> taps_;
   std::vector<std::function<void(Time)>> cycle_hooks_;
   bool master_cycles_ = true;

@@ -221,6 +221,43 @@ void parse_fault_step(Step& s, const json& v, const std::string& vp) {
   }
 }
 
+// Steps only about a generic slave.
+bool is_slave_step(Action a) {
+  return a == Action::SlaveOnline || a == Action::SlaveAlarm || a == Action::SlavePrmFault ||
+         a == Action::SlaveCfgFault || a == Action::FieldWrite || a == Action::ExpectField;
+}
+
+// Steps about a station that a generic slave can take instead of a gateway ("slave": NAME).
+bool station_step(Action a) {
+  return a == Action::ExpectDpState || a == Action::ExpectDiag || a == Action::PowerCycle ||
+         a == Action::Reparameterize || a == Action::MasterStop || a == Action::MasterResume;
+}
+
+// slave_online / slave_alarm / slave_*_fault / field_write / expect_field.
+void parse_slave_step(Step& s, const json& v, const std::string& vp) {
+  switch (s.action) {
+    case Action::SlaveAlarm: {
+      const std::string text = as_string(v, vp, "hex bytes, \"\" to clear", Empty::Allowed);
+      if (!text.empty()) s.bytes = as_hex(v, vp, "00 01");
+      if (s.bytes.size() > 62) fail(vp, "at most 62 device-related bytes");
+      return;
+    }
+    case Action::FieldWrite:
+    case Action::ExpectField: {
+      const Object w(v, vp, {"offset", "bytes"});
+      s.offset = w.has("offset") ? as_uint(w.at("offset"), w.path("offset"), 0, 243, "(byte)") : 0;
+      if (s.action == Action::FieldWrite)
+        s.bytes = as_hex(w.at("bytes"), w.path("bytes"), "01 02");
+      else
+        s.pattern = as_pattern(w.at("bytes"), w.path("bytes"));
+      return;
+    }
+    default:
+      if (!v.is_boolean()) fail(vp, "expected true or false, got " + kind_of(v));
+      s.on = v.get<bool>();
+  }
+}
+
 bool is_drive_step(Action a) {
   return a == Action::DriveMute || a == Action::DriveErrorBits || a == Action::DriveWarningBits ||
          a == Action::DriveRestart;
@@ -234,7 +271,7 @@ bool is_driver_step(Action a) {
 // Steps about one gateway name it with "gateway" (docs/replay-format.md "Several gateways").
 bool concerns_gateway(Action a) {
   return a != Action::Note && a != Action::Advance && a != Action::Cycles && a != Action::Inject &&
-         !is_drive_step(a) && !is_driver_step(a);
+         !is_drive_step(a) && !is_driver_step(a) && !is_slave_step(a);
 }
 
 std::string quoted_names(const std::vector<std::string>& names) {
@@ -264,6 +301,33 @@ void resolve_gateway(Step& s, const Object& o, const std::string& path, const st
                                 " (its gateways: " + quoted_names(names) + ")");
   s.gateway = static_cast<std::size_t>(it - names.begin());
   s.gateway_name = name;
+}
+
+// "slave": NAME → s.slave; optional for slave-only steps when there is one slave.
+void resolve_slave(Step& s, const Object& o, const std::string& path, const std::string& key,
+                   const Scenario& sc) {
+  const auto& slaves = sc.installation.slaves;
+  std::vector<std::string> names;
+  for (const auto& x : slaves) names.push_back(x.name);
+  const json* j = o.find("slave");
+  if (!j) {
+    if (slaves.size() != 1)
+      fail(path, "\"" + key + "\" concerns one generic slave: give \"slave\"" +
+                     (slaves.empty() ? std::string(" (the installation has none)")
+                                     : ", one of " + quoted_names(names)));
+    s.slave = 0;
+    s.slave_name = slaves[0].name;
+    return;
+  }
+  const std::string name = as_string(*j, o.path("slave"), "a slave name");
+  const auto it = std::find(names.begin(), names.end(), name);
+  if (it == names.end())
+    fail(o.path("slave"), "no slave \"" + name + "\" in " +
+                              (sc.config_file.empty() ? "the scenario" : sc.config_file) +
+                              (names.empty() ? std::string(" (it has none)")
+                                             : " (its slaves: " + quoted_names(names) + ")"));
+  s.slave = static_cast<std::size_t>(it - names.begin());
+  s.slave_name = name;
 }
 
 // inject: "bus": NAME or "gateway": NAME (that gateway's bus); the only bus otherwise.
@@ -347,6 +411,7 @@ Step parse_step(const json& j, const std::string& path, const Scenario& sc) {
   if (s.action == Action::ExpectNoFrame) allowed.push_back("for_ms");
   if (is_drive_step(s.action)) allowed.push_back("drive");
   if (concerns_gateway(s.action)) allowed.push_back("gateway");
+  if (station_step(s.action) || is_slave_step(s.action)) allowed.push_back("slave");
   if (s.action == Action::Inject) allowed.insert(allowed.end(), {"bus", "gateway"});
   const Object o(j, path, allowed);
   if (o.has("note")) s.note = as_string(o.at("note"), o.path("note"), "a text", Empty::Allowed);
@@ -379,7 +444,8 @@ Step parse_step(const json& j, const std::string& path, const Scenario& sc) {
       break;
     case Action::ExpectDiag:
       s.pattern = as_pattern(v, vp);
-      if (s.pattern.size() != dp::DpSlave::kDiagLen)
+      // A generic slave's diagnosis is 6 + n bytes (docs/slaves.md); the gateway's always 11.
+      if (!o.has("slave") && s.pattern.size() != dp::DpSlave::kDiagLen)
         fail(vp, "expected the 11 diagnosis bytes (docs/dp-slave.md \"Diagnosis\"), got " +
                      std::to_string(s.pattern.size()));
       break;
@@ -387,14 +453,21 @@ Step parse_step(const json& j, const std::string& path, const Scenario& sc) {
       s.dp_state = as_dp_state(v, vp);
       break;
     default:
-      if (is_driver_step(s.action)) {
+      if (is_slave_step(s.action)) {
+        parse_slave_step(s, v, vp);
+      } else if (is_driver_step(s.action)) {
         if (!sc.driver) fail(vp, "\"" + key + "\" needs a \"page_driver\" in the scenario");
         parse_driver_step(s, v, vp);
       } else {
         parse_fault_step(s, v, vp);
       }
   }
-  if (concerns_gateway(s.action)) resolve_gateway(s, o, path, key, sc);
+  if (is_slave_step(s.action) || (station_step(s.action) && o.has("slave"))) {
+    if (o.has("gateway")) fail(path, "give \"gateway\" or \"slave\", not both");
+    resolve_slave(s, o, path, key, sc);
+  } else if (concerns_gateway(s.action)) {
+    resolve_gateway(s, o, path, key, sc);
+  }
   if (s.action == Action::Inject) resolve_bus(s, o, path, sc);
   if (is_drive_step(s.action)) resolve_drive(s, o, path, key, vp, sc);
   return s;

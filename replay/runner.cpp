@@ -174,6 +174,14 @@ StepResult Sim::execute(const Step& s, std::size_t index) {
     case Action::ExpectCounters:
       gateway_state(s, r);
       break;
+    case Action::SlaveOnline:
+    case Action::SlaveAlarm:
+    case Action::SlavePrmFault:
+    case Action::SlaveCfgFault:
+    case Action::FieldWrite:
+    case Action::ExpectField:
+      slave_step(s, r);
+      break;
     case Action::Freigabe:
     case Action::DbWrite:
     case Action::ExpectDb:
@@ -190,7 +198,7 @@ StepResult Sim::execute(const Step& s, std::size_t index) {
   const bool polled = s.action == Action::ExpectInput || s.action == Action::ExpectOutput ||
                       s.action == Action::ExpectDiag || s.action == Action::ExpectDb ||
                       s.action == Action::ExpectRx || s.action == Action::ExpectRetValue ||
-                      s.action == Action::ExpectDpState;
+                      s.action == Action::ExpectDpState || s.action == Action::ExpectField;
   if (r.passed && polled) {
     const bool wild =
         std::any_of(s.pattern.care.begin(), s.pattern.care.end(), [](bool c) { return !c; });

@@ -72,6 +72,7 @@ bool Step::expectation() const {
     case Action::ExpectRx:
     case Action::ExpectRetValue:
     case Action::ExpectCounters:
+    case Action::ExpectField:
       return true;
     default:
       return false;
@@ -101,7 +102,8 @@ std::string frames_text(const std::vector<FramePattern>& v) {
 
 std::string Step::describe() const {
   // Steps that name their gateway say so first: "left: expect_frame 201#... within 20 ms".
-  return gateway_name.empty() ? describe_action() : gateway_name + ": " + describe_action();
+  const std::string& who = slave_name.empty() ? gateway_name : slave_name;
+  return who.empty() ? describe_action() : who + ": " + describe_action();
 }
 
 std::string Step::describe_action() const {
@@ -179,6 +181,16 @@ std::string Step::describe_action() const {
     }
     case Action::DriveRestart:
       return s + " " + drive_name;
+    case Action::SlaveOnline:
+    case Action::SlavePrmFault:
+    case Action::SlaveCfgFault:
+      return s + (on ? " true" : " false");
+    case Action::SlaveAlarm:
+      return s + (bytes.empty() ? " cleared" : " " + hex_bytes(bytes));
+    case Action::FieldWrite:
+      return s + " +" + std::to_string(offset) + ": " + hex_bytes(bytes);
+    case Action::ExpectField:
+      return s + " +" + std::to_string(offset) + ": " + pattern.text() + window_text("within");
   }
   return s;
 }

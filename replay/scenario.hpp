@@ -82,6 +82,13 @@ enum class Action : std::uint8_t {
   DriveErrorBits,    // drive_error_bits: ERR_BITMAP1 0x8F bits 0..15 (register 1)
   DriveWarningBits,  // drive_warning_bits: ERR_BITMAP1 0x8F bits 16..31 (register 2)
   DriveRestart,      // drive_restart: power-on state, cyclic requests lost (register 3)
+  // Generic slaves (docs/slaves.md; the slave's fault registers and field side on Modbus).
+  SlaveOnline,    // slave_online: false = it leaves the bus (no answer at all), true = it is back
+  SlaveAlarm,     // slave_alarm: a diagnosis alarm (device-related Ext_Diag bytes; "" clears)
+  SlavePrmFault,  // slave_prm_fault: every Set_Prm refused while true
+  SlaveCfgFault,  // slave_cfg_fault: every Chk_Cfg refused while true
+  FieldWrite,     // field_write: input bytes the slave reports, from an offset
+  ExpectField,    // expect_field: output bytes the slave applies, from an offset
 };
 std::string_view to_string(Action a);
 
@@ -120,6 +127,9 @@ struct Step {
   std::size_t gateway = 0;
   std::string gateway_name;
   std::size_t bus = 0;
+  // A step about a generic slave instead ("slave": NAME; index into installation.slaves).
+  std::optional<std::size_t> slave;
+  std::string slave_name;
 
   bool expectation() const;
   std::string describe() const;  // one line for the report

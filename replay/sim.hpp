@@ -58,6 +58,9 @@ class Sim final : private plant::Tap {
   void gateway_state(const Step& s, StepResult& r);
   void driver(const Step& s, StepResult& r);
   void fault(const Step& s, StepResult& r);
+  void slave_step(const Step& s, StepResult& r);
+  // The station a step is about: its DP slave (a gateway's or a generic slave's).
+  dp::DpSlave& station(const Step& s);
   std::string frames_since_cursor(std::size_t gateway, std::size_t max = 12) const;
   plc::DbChain* chain(Db db);
   std::optional<std::vector<gw::page::IdEntry>> idents(bool tx, std::string* why);

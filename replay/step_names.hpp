@@ -40,6 +40,12 @@ inline constexpr ActionName kActions[] = {
     {Action::DriveErrorBits, "drive_error_bits"},
     {Action::DriveWarningBits, "drive_warning_bits"},
     {Action::DriveRestart, "drive_restart"},
+    {Action::SlaveOnline, "slave_online"},
+    {Action::SlaveAlarm, "slave_alarm"},
+    {Action::SlavePrmFault, "slave_prm_fault"},
+    {Action::SlaveCfgFault, "slave_cfg_fault"},
+    {Action::FieldWrite, "field_write"},
+    {Action::ExpectField, "expect_field"},
 };
 
 // force_can_state values, as holding register 8193 (docs/faults.md).

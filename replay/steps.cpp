@@ -109,14 +109,25 @@ void Sim::image(const Step& s, StepResult& r) {
   if (!r.passed) r.detail = "got " + r.detail;
 }
 
+dp::DpSlave& Sim::station(const Step& s) {
+  if (s.slave) return plant_->slaves().at(*s.slave)->slave().dp();
+  return gateway(s).gateway().dp();
+}
+
 void Sim::gateway_state(const Step& s, StepResult& r) {
-  plant::GatewayUnit& g = gateway(s);
+  dp::DpSlave& st = station(s);
   switch (s.action) {
     case Action::ExpectDiag:
       r.passed = poll(
           s,
           [&](std::string& d) {
-            const auto diag = g.gateway().dp().slave_diag(now_);
+            if (s.slave) {
+              // A generic slave: 6 + n bytes (docs/slaves.md); the pattern says how many.
+              const auto diag = st.diagnosis(now_);
+              d = hex_bytes(diag);
+              return diag.size() == s.pattern.size() && s.pattern.matches(diag);
+            }
+            const auto diag = st.slave_diag(now_);
             d = hex_bytes(diag) + " (" + dp::describe_diag(diag) + ")";
             return s.pattern.matches(diag);
           },
@@ -127,35 +138,37 @@ void Sim::gateway_state(const Step& s, StepResult& r) {
       r.passed = poll(
           s,
           [&](std::string& d) {
-            d = std::string(dp::to_string(g.gateway().dp().state()));
-            return g.gateway().dp().state() == s.dp_state;
+            d = std::string(dp::to_string(st.state()));
+            return st.state() == s.dp_state;
           },
           r.detail);
       if (!r.passed) r.detail = "state is " + r.detail;
       return;
     default:  // expect_counters
-      r.passed = poll(
-          s,
-          [&](std::string& d) {
-            const auto st = g.gateway().status();
-            const auto& fl = g.faults();
-            bool all = true;
-            d.clear();
-            for (const auto& [name, want] : s.counters) {
-              const std::uint32_t got = name == "irq_lost"        ? st.irq_lost
-                                        : name == "msg_lost"      ? st.msg_lost
-                                        : name == "rx_frames"     ? st.rx_frames
-                                        : name == "tx_frames"     ? st.tx_frames
-                                        : name == "tx_suppressed" ? fl.tx_suppressed()
-                                                                  : fl.rx_suppressed();
-              d += (d.empty() ? "" : ", ") + name + " " + std::to_string(got);
-              all = all && got == want;
-            }
-            return all;
-          },
-          r.detail);
-      if (!r.passed) r.detail = "got " + r.detail;
+      break;
   }
+  plant::GatewayUnit& g = gateway(s);
+  r.passed = poll(
+      s,
+      [&](std::string& d) {
+        const auto st = g.gateway().status();
+        const auto& fl = g.faults();
+        bool all = true;
+        d.clear();
+        for (const auto& [name, want] : s.counters) {
+          const std::uint32_t got = name == "irq_lost"        ? st.irq_lost
+                                    : name == "msg_lost"      ? st.msg_lost
+                                    : name == "rx_frames"     ? st.rx_frames
+                                    : name == "tx_frames"     ? st.tx_frames
+                                    : name == "tx_suppressed" ? fl.tx_suppressed()
+                                                              : fl.rx_suppressed();
+          d += (d.empty() ? "" : ", ") + name + " " + std::to_string(got);
+          all = all && got == want;
+        }
+        return all;
+      },
+      r.detail);
+  if (!r.passed) r.detail = "got " + r.detail;
 }
 
 plc::DbChain* Sim::chain(Db db) {
@@ -277,18 +290,60 @@ void Sim::driver(const Step& s, StepResult& r) {
   if (!r.passed) r.detail = "got " + r.detail;
 }
 
+void Sim::slave_step(const Step& s, StepResult& r) {
+  plant::SlaveUnit& u = *plant_->slaves().at(*s.slave);
+  switch (s.action) {
+    case Action::SlaveOnline:
+      plant_->set_slave_online(u, s.on, now_, kOrigin);
+      return;
+    case Action::SlaveAlarm:
+      plant_->set_slave_alarm(u, s.bytes, now_, kOrigin);
+      return;
+    case Action::SlavePrmFault:
+    case Action::SlaveCfgFault:
+      plant_->force_slave_fault(u, s.action == Action::SlavePrmFault, s.on, now_, kOrigin);
+      return;
+    case Action::FieldWrite:
+      if (!u.slave().write_inputs(s.offset, s.bytes)) {
+        r.passed = false;
+        r.detail =
+            "the slave has " + std::to_string(u.slave().field_inputs().size()) + " input bytes";
+      }
+      return;
+    default:  // expect_field
+      r.passed = poll(
+          s,
+          [&](std::string& d) {
+            const auto out = u.slave().field_outputs();
+            if (s.offset + s.pattern.size() > out.size()) {
+              d = hex_bytes(out) + " (" + std::to_string(out.size()) + " output bytes)";
+              return false;
+            }
+            const auto got = out.subspan(s.offset, s.pattern.size());
+            d = hex_bytes(got);
+            return s.pattern.matches(got);
+          },
+          r.detail);
+      if (!r.passed) r.detail = "got " + r.detail;
+  }
+}
+
 void Sim::fault(const Step& s, StepResult&) {
+  plant::SlaveUnit* slave = s.slave ? plant_->slaves().at(*s.slave).get() : nullptr;
+  const std::uint8_t address = slave ? slave->config().address : gateway(s).gateway().address();
   switch (s.action) {
     case Action::PowerCycle:
-      plant_->power_cycle(gateway(s), now_, kOrigin);
+      if (slave)
+        plant_->power_cycle(*slave, now_, kOrigin);
+      else
+        plant_->power_cycle(gateway(s), now_, kOrigin);
       break;
     case Action::Reparameterize:
-      plant_->reparameterize(gateway(s).gateway().address(), now_, kOrigin);
+      plant_->reparameterize(address, now_, kOrigin);
       break;
     case Action::MasterStop:
     case Action::MasterResume:
-      plant_->set_addressed(gateway(s).gateway().address(), s.action == Action::MasterResume, now_,
-                            kOrigin);
+      plant_->set_addressed(address, s.action == Action::MasterResume, now_, kOrigin);
       break;
     case Action::ForceCanState:
       plant_->force_can_state(gateway(s), s.can_state, now_, kOrigin);
