@@ -7,6 +7,7 @@
 #include "can/socketcan.hpp"
 #include "can/socketcand.hpp"
 #include "capture/can_log.hpp"
+#include "capture/pcapng_tap.hpp"
 #include "daemon/bitrate_supervisor.hpp"
 #include "daemon/state_file.hpp"
 #include "drive_sim/file_parameter_store.hpp"
@@ -108,6 +109,7 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
 
   bool watch(int fd, std::function<void()> on_readable, std::string* error);
   bool start_exports(std::string* error);
+  void start_capture();
   bool start_line(std::string* error);
   bool start_modbus(std::string* error);
   bool start_http(std::string* error);
@@ -133,6 +135,7 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   std::vector<http::BusMonitor> monitors_;  // per bus: counts, bus load, trace (HTTP face)
   capture::CanLog can_log_;
   capture::CanLogTap can_log_tap_;
+  std::unique_ptr<capture::PcapngTap> pcapng_;  // capture section (docs/capture.md)
   std::unique_ptr<profibus_line::SlaveLinePort> slave_port_;
   std::unique_ptr<profibus_line::MasterLinePort> master_port_;
   modbus::PlantFaces faces_;
@@ -156,8 +159,8 @@ std::unique_ptr<can::Channel> DaemonImpl::open_channel(const config::BusConfig& 
     // One raw socket per gateway: gateways on one interface see each other's frames, as
     // separate devices on a bus do. A down interface is no start error: bus-off until it is up
     // (docs/transports.md "Down interfaces").
-    auto channel = can::open_socketcan(b.interface, &e,
-                                       {.receive_own = false, .log = log_sink_, .allow_down = true});
+    auto channel = can::open_socketcan(
+        b.interface, &e, {.receive_own = false, .log = log_sink_, .allow_down = true});
     if (!channel) {
       *error = "cannot open SocketCAN interface " + b.interface + ": " + e;
       return nullptr;
@@ -216,11 +219,13 @@ bool DaemonImpl::start(std::string* error) {
   if (config_.state_file) stored_ = load_state(*config_.state_file, log_);
   o.stored = stored_;
   if (config_.can_log && !can_log_.open(*config_.can_log, error)) return false;
+  o.wire_image = config_.capture.has_value();  // the in-process DP side in the capture
   plant_ = plant::Plant::build(config_, std::move(o), loop_.now(), error);
   if (!plant_) return false;
   monitors_.resize(plant_->buses().size());
   plant_->add_tap(this);
   plant_->add_tap(&can_log_tap_);
+  if (config_.capture) start_capture();
   if (!start_exports(error)) return false;
   for (auto& g : plant_->gateways()) {
     const int fd = g->channel().poll_fd();
@@ -250,6 +255,28 @@ bool DaemonImpl::start(std::string* error) {
               std::to_string(config_.cycle_ms) + " ms, " + std::to_string(config_.gateways.size()) +
               " gateway(s)");
   return true;
+}
+
+// docs/capture.md: every CAN frame, DP telegram and operator note into pcapng files, written by
+// the capture's own thread (the event loop only queues). Time: the plant's CLOCK_MONOTONIC plus
+// CLOCK_REALTIME − CLOCK_MONOTONIC taken once, so a wall-clock step never reorders packets.
+void DaemonImpl::start_capture() {
+  const auto& c = *config_.capture;
+  capture::PcapngTapOptions o;
+  o.writer.path = c.pcapng;
+  o.writer.max_bytes = c.max_bytes();
+  o.writer.files = c.files;
+  o.writer.application = "candp2d";
+  o.profibus = c.profibus_linktype == config::CaptureProfibusLinktype::ProfibusDl
+                   ? capture::ProfibusLinktype::ProfibusDl
+                   : capture::ProfibusLinktype::WiresharkUpperPdu;
+  o.wall_offset = EventLoop::wall_now() - EventLoop::monotonic_now();
+  pcapng_ = std::make_unique<capture::PcapngTap>(o, log_sink_);
+  plant_->add_tap(pcapng_.get());
+  log_.info("capture: " + c.pcapng +
+            (c.max_mb ? ", ring of " + (c.files ? std::to_string(c.files) : std::string("all")) +
+                            " files of " + std::to_string(c.max_mb) + " MB"
+                      : std::string()));
 }
 
 bool DaemonImpl::start_exports(std::string* error) {
@@ -479,6 +506,14 @@ void DaemonImpl::shutdown() {
   std::uint64_t n = 0;
   for (const auto& s : plant_->master().slaves()) n += s.data_exchanges;
   log_.info("shut down after " + std::to_string(n) + " Data_Exchange cycles");
+  if (pcapng_) {
+    plant_->remove_tap(pcapng_.get());
+    const auto st = pcapng_->stats();
+    pcapng_.reset();  // writes what is queued and closes the file
+    log_.info("capture: " + std::to_string(st.packets) + " packets written" +
+              (st.dropped ? ", " + std::to_string(st.dropped) + " dropped" : std::string()) +
+              (st.stopped ? " (stopped by a write error)" : ""));
+  }
 }
 
 }  // namespace

@@ -10,15 +10,21 @@ own code writes (docs/capture.md "Tests"). One case per run:
   sniff-file  candp2 sniff --pcapng of tests/sniff/spec10.bin (a real master parameterizing
               slave 3, with line noise; tests/sniff/make_capture.py): Set_Prm ident 04A4 and the user parameters, the Chk_Cfg slots, the FCS error
   sniff-pty   the same telegrams written into candp2 sniff's pty:PATH, captured as they arrive
+  daemon-demo candp2d itself with a "capture" section on config/demo.json, driven over Modbus as
+              the README's walk-through: the same timeline as the demo case, from the daemon
+  daemon-slaves candp2d in profibus role slaves on a pty with a capture; a master writes the
+              spec's telegrams: Set_Prm ident 04A4 and the Chk_Cfg slots decoded, both directions
 
 Every tshark run is bounded (timeout) and checks that the Lua script loaded without an error.
 """
 import argparse
+import json
 import os
 import subprocess
 import sys
 import tempfile
 import time
+import tty
 
 ARGS = None
 
@@ -74,13 +80,19 @@ def first(rows, start, pred):
 def case_demo(tmp):
     cap = os.path.join(tmp, "demo.pcapng")
     run([ARGS.demo_capture, cap])
+    check_demo(cap, notes=True, changed=["000000", "510000", "3da864", "316626"], least=500)
+
+
+def check_demo(cap, notes, changed, least):
+    """The README walk-through in time order; `changed`: the output bytes of the Data_Exchanges
+    whose data changed (dp.changed), `notes`: the capture carries the walk-through's notes."""
     names = ["frame.number", "frame.time_epoch", "dp.service", "dp.response", "dp.outputs",
              "dp.inputs", "can.id", "data.data", "candp2.can.data", "candp2.can.station",
              "candp2.note"]
     rows = fields(cap, names)
     for r in rows:  # a CAN frame's payload: the dissector's view of a slot's frame, else data
         r["payload"] = r["candp2.can.data"] or r["data.data"]
-    if len(rows) < 500:
+    if len(rows) < least:
         fail(f"only {len(rows)} packets")
     times = [float(r["frame.time_epoch"]) for r in rows]
     if times != sorted(times):
@@ -106,7 +118,7 @@ def case_demo(tmp):
                   and r["dp.inputs"].startswith("a8"))
     if shown is None:
         fail("the gateway's inputs never show the drive's reply")
-    if not any("enable axis1" in r["candp2.note"] for r in rows[:dx_req + 1]):
+    if notes and not any("enable axis1" in r["candp2.note"] for r in rows[:dx_req + 1]):
         fail("the step note before the Data_Exchange is missing")
     print(f"demo: Data_Exchange 51 00 00 in frame {rows[dx_req]['frame.number']}, CAN 0x201 in "
           f"{rows[can_201]['frame.number']}, read command in {rows[read_cmd]['frame.number']}, "
@@ -118,13 +130,16 @@ def case_demo(tmp):
             or slots[0]["candp2.slot.kind"] != "tx,tx,rx,rx":
         fail(f"Chk_Cfg slots: {slots[:1]}")
     # dp.changed: only the exchanges whose data changed (the timeline of docs/capture.md).
-    changed = fields(cap, ["dp.outputs"], "dp.changed && dp.response == 0")
-    outs = [r["dp.outputs"][:6] for r in changed]
-    if outs != ["000000", "510000", "3da864", "316626"]:
+    rows_changed = fields(cap, ["dp.outputs"], "dp.changed && dp.response == 0")
+    outs = [r["dp.outputs"][:6] for r in rows_changed]
+    if outs != changed:
         fail(f"changed outputs: {outs}")
-    for f in ["fdl.da == 3 && dp.service == Set_Prm", "fdl.fc.fcb == 1", "candp2.slot.id == 0x201",
-              "can.id == 0x181", "frame.comment contains \"axis1\"", "candp2.prm.bitrate == 2",
-              "candp2.note || can || dp.service != Data_Exchange || dp.changed"]:
+    filters = ["fdl.da == 3 && dp.service == Set_Prm", "fdl.fc.fcb == 1", "candp2.slot.id == 0x201",
+               "can.id == 0x181", "candp2.prm.bitrate == 2",
+               "candp2.note || can || dp.service != Data_Exchange || dp.changed"]
+    if notes:
+        filters.append("frame.comment contains \"axis1\"")
+    for f in filters:
         if count(cap, f) == 0:
             fail(f"display filter {f!r} matches nothing")
 
@@ -256,10 +271,73 @@ def case_sniff_pty(tmp):
         fail(f"time stamps do not follow the arrival: {rel}")
 
 
+def daemon(config, tmp):
+    """candp2d on `config` through the candp2 package (free ports, READY=1)."""
+    import candp2  # python/ (PYTHONPATH), Debian's pymodbus
+    return candp2.Daemon(config, ARGS.candp2d, timeout=30)
+
+
+def case_daemon_demo(tmp):
+    cap = os.path.join(tmp, "daemon.pcapng")
+    with open(os.path.join(ARGS.source_dir, "config", "demo.json")) as f:
+        config = json.load(f)
+    config["capture"] = {"pcapng": cap}
+    with daemon(config, tmp) as d:
+        gw = d.gateway(3)
+        gw.wait_until(lambda g: g.state == "Data_Exch", timeout=10)
+        # The README's writes: holding registers 0..2 = Q 0..5.
+        gw.outputs[0:6] = bytes.fromhex("51 00 00 00 00 00")  # enable axis1
+        gw.wait_until(lambda g: g.counters.tx_frames >= 3, timeout=10)
+        gw.outputs[0:6] = bytes.fromhex("3D A8 64 00 00 00")  # read speed every 100 ms
+        gw.wait_until(lambda g: g.inputs[0] == 0xA8, timeout=10)
+    check_demo(cap, notes=False, changed=["000000", "510000", "3da864"], least=20)
+
+
+def case_daemon_slaves(tmp):
+    cap = os.path.join(tmp, "line.pcapng")
+    link = os.path.join(tmp, "pb")
+    with open(os.path.join(ARGS.source_dir, "config", "example.json")) as f:
+        example = json.load(f)
+    gateway = example["gateways"][0]  # the manual §5.1.4 slots at DP address 3
+    gateway["address"] = 3
+    config = {"profibus": {"port": "pty:" + link, "baud": 19200, "role": "slaves"},
+              "buses": {"can0": {"type": "virtual"}}, "gateways": [gateway],
+              "capture": {"pcapng": cap}}
+    with daemon(config, tmp) as d:
+        fd = os.open(link, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        try:
+            tty.setraw(fd)
+            for telegram in SPEC_TELEGRAMS:
+                raw = bytes.fromhex(telegram)
+                if raw[0] == 0xE5 or (raw[0] == 0x10 and raw[1] == 0x02) or \
+                        (raw[0] == 0x68 and raw[4] & 0x7F == 0x02):
+                    continue  # an answer of the spec's slave: candp2d gives its own
+                os.write(fd, raw)
+                deadline = time.monotonic() + 2
+                answer = b""
+                while time.monotonic() < deadline and not (answer and answer[-1] in (0x16, 0xE5)):
+                    try:
+                        answer += os.read(fd, 256)
+                    except BlockingIOError:
+                        time.sleep(0.005)
+                if not answer:
+                    fail(f"no answer to {telegram}")
+        finally:
+            os.close(fd)
+        del d  # stopped by the with block: the capture is complete
+    check_spec_capture(cap, False)
+    # Both directions: the master's request as received, candp2d's short acknowledge as sent.
+    both = fields(cap, ["fdl.sd", "fdl.sa"], "dp.service == Chk_Cfg")
+    if [(r["fdl.sd"], r["fdl.sa"]) for r in both] != [("0x68", "2"), ("0xe5", "")]:
+        fail(f"Chk_Cfg request and answer: {both}")
+
+
 def main():
     global ARGS
     ap = argparse.ArgumentParser()
-    ap.add_argument("case", choices=["demo", "malformed", "sniff-file", "sniff-pty"])
+    ap.add_argument("case", choices=["demo", "malformed", "sniff-file", "sniff-pty",
+                                     "daemon-demo", "daemon-slaves"])
+    ap.add_argument("--candp2d")
     ap.add_argument("--tshark", default="tshark")
     ap.add_argument("--lua", required=True)
     ap.add_argument("--demo-capture", required=True)
@@ -268,7 +346,8 @@ def main():
     ARGS = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         {"demo": case_demo, "malformed": case_malformed, "sniff-file": case_sniff_file,
-         "sniff-pty": case_sniff_pty}[ARGS.case](tmp)
+         "sniff-pty": case_sniff_pty, "daemon-demo": case_daemon_demo,
+         "daemon-slaves": case_daemon_slaves}[ARGS.case](tmp)
     print(ARGS.case + ": ok")
     return 0
 
