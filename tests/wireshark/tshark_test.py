@@ -284,7 +284,9 @@ def case_daemon_demo(tmp):
     config["capture"] = {"pcapng": cap}
     with daemon(config, tmp) as d:
         gw = d.gateway(3)
-        gw.wait_until(lambda g: g.state == "Data_Exch", timeout=10)
+        # In Data_Exch with the release frames out (a write before the first Data_Exchange would
+        # go out as the release frame itself).
+        gw.wait_until(lambda g: g.state == "Data_Exch" and g.counters.tx_frames >= 2, timeout=10)
         # The README's writes: holding registers 0..2 = Q 0..5.
         gw.outputs[0:6] = bytes.fromhex("51 00 00 00 00 00")  # enable axis1
         gw.wait_until(lambda g: g.counters.tx_frames >= 3, timeout=10)
