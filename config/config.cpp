@@ -15,6 +15,7 @@
 #include "can/channel.hpp"
 #include "common/hex.hpp"
 #include "config/json_reader.hpp"
+#include "config/parse_helpers.hpp"
 #include "gateway/gateway.hpp"
 #include "gateway/slot_config.hpp"
 #include "serial/serial_port.hpp"
@@ -113,285 +114,7 @@ std::optional<Endpoint> parse_endpoint(std::string_view text, std::string* error
 
 namespace {
 
-// ------------------------------------------------------------------------------------ helpers
-
-using namespace json_reader;
-
-template <typename E>
-E get_enum(const Object& o, const std::string& key, E fallback,
-           const std::vector<std::pair<std::string, E>>& names) {
-  const json* j = o.find(key);
-  if (!j) return fallback;
-  std::vector<std::string> quoted;
-  for (const auto& [n, v] : names) quoted.push_back("\"" + n + "\"");
-  if (j->is_string())
-    for (const auto& [n, v] : names)
-      if (j->get_ref<const std::string&>() == n) return v;
-  fail(o.path(key), "expected one of " + join(quoted) + ", got " + kind_of(*j));
-}
-
-Endpoint get_endpoint(const json& j, const std::string& path) {
-  const std::string text = as_string(j, path, "\"HOST:PORT\"");
-  std::string error;
-  auto e = parse_endpoint(text, &error);
-  if (!e) fail(path, error);
-  return *e;
-}
-
-// A name usable as a socketcand bus name and in log lines (socketcand.h MAX_BUSNAME).
-bool valid_name(std::string_view s, std::size_t max) {
-  return !s.empty() && s.size() <= max && std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-           c == '-' || c == '.';
-  });
-}
-
-std::string resolve(const std::string& file, const std::string& p) {
-  namespace fs = std::filesystem;
-  const fs::path path(p);
-  if (path.is_absolute()) return p;
-  const fs::path dir = fs::path(file).parent_path();
-  return dir.empty() ? p : (dir / path).lexically_normal().string();
-}
-
-// ------------------------------------------------------------------------------ parameters
-
-std::uint8_t parse_bitrate(const json& j, const std::string& path) {
-  std::vector<std::string> names;
-  for (std::uint8_t i = 0; i < gw::kBitrates.size(); ++i)
-    names.push_back('"' + std::string(gw::bitrate_name(i)) +
-                    '"');  // chars: GCC 12 -O3 false -Wrestrict
-  const std::string expected = "expected a CAN bit rate of manual table 5.1.1 in bit/s (" +
-                               std::to_string(gw::kBitrates[0]) + ", …, " +
-                               std::to_string(gw::kBitrates.back()) + ") or one of " + join(names);
-  if (j.is_string()) {
-    std::string s = j.get<std::string>();
-    // Accept "125k", "125 kbit/s", "125kbit/s" as the GSD's PrmText writes them.
-    std::erase(s, ' ');
-    if (s.size() > 6 && s.ends_with("kbit/s")) s = s.substr(0, s.size() - 5);
-    for (std::uint8_t i = 0; i < gw::kBitrates.size(); ++i)
-      if (s == gw::bitrate_name(i)) return i;
-    if (!s.starts_with("0x")) fail(path, expected + ", got " + kind_of(j));
-  }
-  const auto v = as_uint(j, path, 0, 1000000, "bit/s");
-  for (std::uint8_t i = 0; i < gw::kBitrates.size(); ++i)
-    if (gw::kBitrates[i] == v) return i;
-  fail(path, expected + ", got " + std::to_string(v));
-}
-
-void parse_parameters(const json& j, const std::string& path, GatewayConfig& g) {
-  const Object o(j, path,
-                 {"can_bitrate", "communication_window", "rtr_frames", "canopen", "start_frame",
-                  "page_mode", "module_id", "wakeup_s", "sync_ms", "can_diagnosis", "rx_counter",
-                  "tx_counter", "watchdog_ms"});
-  gw::UserPrm& p = g.parameters;
-  if (const json* b = o.find("can_bitrate"))
-    p.bitrate_index = parse_bitrate(*b, o.path("can_bitrate"));
-  p.comm_window = get_bool(o, "communication_window", false);
-  // GSD PrmText 3: RTR-Frames "Yes" = bit 4 clear = send RTR frames (emulator-spec §1.1).
-  p.send_rtr = get_bool(o, "rtr_frames", true);
-  const auto role = get_enum<gw::CanopenRole>(o, "canopen", gw::CanopenRole::None,
-                                              {{"none", gw::CanopenRole::None},
-                                               {"master", gw::CanopenRole::Master},
-                                               {"slave", gw::CanopenRole::Slave}});
-  p.canopen_master = role == gw::CanopenRole::Master;
-  p.canopen_slave = role == gw::CanopenRole::Slave;
-  p.start_frame = get_bool(o, "start_frame", false);
-  p.page_mode = get_bool(o, "page_mode", false);
-  // GSD ExtUserPrmData 8: ModuleID 1..127, default 1.
-  p.module_id = get_uint<std::uint8_t>(o, "module_id", 1, 1, 127);
-  // GSD ExtUserPrmData 9/10: defaults 255 / 65535 = keep the stored value (manual tables
-  // 5.1.3, 5.1.4).
-  p.wakeup_s = get_uint<std::uint8_t>(o, "wakeup_s", gw::kWakeupKeep, 0, 255, "s");
-  p.sync_ms = get_uint<std::uint16_t>(o, "sync_ms", gw::kSyncKeep, 0, 65535, "ms");
-  p.can_diagnosis = get_bool(o, "can_diagnosis", false);
-  p.rx_counter = get_bool(o, "rx_counter", false);
-  p.tx_counter = get_bool(o, "tx_counter", false);
-  // 10 ms × WD_Fact_1 × WD_Fact_2 with both factors 1..255 (emulator-spec §1).
-  g.watchdog_ms = get_uint<std::uint16_t>(o, "watchdog_ms", 0, 0, 65000, "ms");
-}
-
-// ---------------------------------------------------------------------------------- slots
-
-SlotEntry parse_slot(const json& j, const std::string& path) {
-  const Object o(j, path, {"io", "address", "length", "consistent", "comment", "cfg_hex"});
-  SlotEntry s;
-  s.json_path = path;
-  if (const json* raw = o.find("cfg_hex")) {
-    for (const char* k : {"io", "length", "consistent", "comment"})
-      if (o.has(k))
-        fail(o.path(k),
-             "cfg_hex gives the whole Chk_Cfg entry; leave out io, length, "
-             "consistent and comment");
-    auto bytes = as_hex(*raw, o.path("cfg_hex"), "43 85 02 89 B8");
-    const auto decoded = dp::decode_chk_cfg(bytes);
-    if (decoded.error || decoded.entries.size() != 1)
-      fail(o.path("cfg_hex"),
-           "expected exactly one Chk_Cfg entry (identifier byte, length byte(s), manufacturer "
-           "bytes), got " +
-               (decoded.error ? decoded.error->message
-                              : std::to_string(decoded.entries.size()) + " entries"));
-    const auto& e = decoded.entries.front();
-    if (e.io == dp::CfgIo::Empty) {
-      if (o.has("address"))
-        fail(o.path("address"), "an empty Chk_Cfg entry has no data and no address");
-      s.length = 0;
-      s.cfg = std::move(bytes);
-      return s;
-    }
-    s.io = e.io == dp::CfgIo::Input ? SlotIo::Input : SlotIo::Output;
-    s.length = static_cast<std::uint8_t>(std::max(e.in_bytes(), e.out_bytes()));
-    s.consistent = e.consistent;
-    s.comment = e.manufacturer;
-    s.cfg = std::move(bytes);
-    s.address = static_cast<std::uint16_t>(
-        as_uint(o.at("address"), o.path("address"), 0, dp::kImageSize - 1, "(PLC byte address)"));
-  } else {
-    if (!o.has("io")) fail(path, "missing key \"io\" (\"input\" or \"output\")");
-    s.io = get_enum<SlotIo>(o, "io", SlotIo::Output,
-                            {{"input", SlotIo::Input}, {"output", SlotIo::Output}});
-    s.address = static_cast<std::uint16_t>(
-        as_uint(o.at("address"), o.path("address"), 0, dp::kImageSize - 1, "(PLC byte address)"));
-    // Special identifier format: length byte bits 5-0 = count-1 (emulator-spec §2).
-    s.length = static_cast<std::uint8_t>(as_uint(o.at("length"), o.path("length"), 1, 64, "bytes"));
-    s.consistent = get_bool(o, "consistent", true);
-    if (const json* c = o.find("comment")) {
-      if (!c->is_string())
-        fail(o.path("comment"),
-             "expected the comment as typed in SIMATIC, a string like \"02,89,B8\", got " +
-                 kind_of(*c));
-      std::string error;
-      auto bytes = gw::parse_comment(c->get_ref<const std::string&>(), &error);
-      if (!bytes) fail(o.path("comment"), "expected hex bytes like \"02,89,B8\": " + error);
-      s.comment = std::move(*bytes);
-    }
-  }
-  const std::size_t end = std::size_t{s.address} + s.length;
-  if (end > dp::kImageSize)
-    fail(o.path("address"), "the slot's bytes " + std::to_string(s.address) + ".." +
-                                std::to_string(end - 1) + " lie outside the " +
-                                std::to_string(dp::kImageSize) + "-byte PLC image");
-  return s;
-}
-
-// What the emulated gateway would answer to this configuration: a dry run on a real Gateway.
-void check_with_gateway(const std::string& file, GatewayConfig& g) {
-  struct Discard : can::FrameSink {
-    void send(const can::Frame&) override {}
-  } discard;
-  gw::Gateway gateway({.address = g.address}, discard, Time{0});
-  auto warn = [&](std::string path, std::string message) {
-    g.warnings.push_back({file, std::move(path), std::move(message)});
-  };
-  if (g.dp_address() != g.address)
-    warn(g.json_path + ".address", "DP address " + std::to_string(g.address) + " is clamped to " +
-                                       std::to_string(g.dp_address()) + " (manual §2.1: 3..124)");
-  const auto prm = set_prm_bytes(g);
-  const std::string prm_path = g.prm_hex ? g.json_path + ".prm_hex" : g.json_path + ".parameters";
-  constexpr std::uint8_t kProbeMaster = 1;
-  if (!gateway.dp().set_prm(kProbeMaster, prm, Time{0})) {
-    if (const auto f = gateway.dp().prm_fault())
-      warn(prm_path, "the gateway will reject this Set_Prm (diagnosis 3D " +
-                         hex_bytes(std::array{f->byte, f->correct}) + ": telegram byte " +
-                         std::to_string(f->byte) + ", a correct value is 0x" +
-                         hex_bytes(std::array{f->correct}) + ")");
-    else
-      warn(prm_path, "the gateway will reject this Set_Prm (Not_Supported: Sync_Req/Freeze_Req)");
-    return;
-  }
-  const auto cfg = chk_cfg_bytes(g);
-  if (!gateway.dp().chk_cfg(kProbeMaster, cfg, Time{0})) {
-    const auto f = gateway.dp().cfg_fault().value_or(dp::CfgFault{});
-    const std::string path =
-        f.slot < g.slots.size() ? g.slots[f.slot].json_path : g.json_path + ".slots";
-    warn(path, "the gateway will reject this configuration (diagnosis 3E " +
-                   hex_bytes(std::array{f.slot, f.code}) + ": slot " + std::to_string(f.slot) +
-                   ", code " + std::to_string(f.code) + " = " +
-                   std::string(gw::cfg_code_text(f.code)) + ")");
-    return;
-  }
-  // Behaviour the manual states, which the validator reports (emulator-spec §2).
-  const auto& slots = gateway.slot_config()->slots;
-  for (std::size_t i = 0; i < slots.size() && i < g.slots.size(); ++i) {
-    const auto& s = slots[i];
-    if (s.kind != gw::SlotKind::Rx) continue;
-    const auto& m = s.comment;
-    const bool bit29 = !m.empty() && (m[0] & 0x20);
-    if ((m.size() == 5 && !bit29) || m.size() == 7)
-      warn(g.slots[i].json_path + ".comment",
-           "cycle bytes on an input slot are ignored (emulator-spec §2)");
-    for (std::size_t k = i + 1; k < slots.size(); ++k)
-      if (slots[k].kind == gw::SlotKind::Rx && slots[k].id == s.id)
-        warn(g.slots[i].json_path,
-             "Rx identifier also used by slot " + std::to_string(k) +
-                 ": the later slot wins, this one never updates (manual §5.2.1)");
-  }
-}
-
-// Slots whose PLC bytes overlap: allowed (emulator-spec §8), reported as warnings.
-void check_overlaps(const std::string& file, const std::vector<GatewayConfig*>& gateways,
-                    std::vector<ConfigError>& warnings) {
-  struct Span {
-    std::size_t begin, end;
-    const SlotEntry* slot;
-  };
-  std::vector<Span> in, out;
-  for (const GatewayConfig* g : gateways) {
-    const auto params = slave_parameters(*g);
-    const auto decoded = dp::decode_chk_cfg(params.cfg);
-    for (std::size_t i = 0; i < decoded.entries.size() && i < g->slots.size(); ++i) {
-      const auto& e = decoded.entries[i];
-      const auto& a = params.addresses[i];
-      for (int dir = 0; dir < 2; ++dir) {
-        const bool input = dir == 0;
-        const std::size_t n = input ? e.in_bytes() : e.out_bytes();
-        const auto addr = input ? a.input : a.output;
-        if (n == 0 || !addr) continue;
-        auto& list = input ? in : out;
-        const Span s{*addr, *addr + n, &g->slots[i]};
-        for (const auto& other : list)
-          if (s.begin < other.end && other.begin < s.end)
-            warnings.push_back(
-                {file, s.slot->json_path,
-                 std::string(input ? "input bytes I " : "output bytes Q ") +
-                     std::to_string(s.begin) + ".." + std::to_string(s.end - 1) + " overlap " +
-                     other.slot->json_path +
-                     (input ? " (the later slot's bytes win in the PLC image, emulator-spec §8)"
-                            : " (both send the same PLC bytes, emulator-spec §8)")});
-        list.push_back(s);
-      }
-    }
-  }
-}
-
-GatewayConfig parse_gateway_or_throw(const json& j, const std::string& file,
-                                     const std::string& path) {
-  const Object o(j, path,
-                 {"name", "address", "bus", "parameters", "prm_hex", "slots", "cia301_bootup",
-                  "stored_wakeup_s", "stored_sync_ms"});
-  GatewayConfig g;
-  g.json_path = path;
-  // DP station addresses 0..126; the gateway clamps to 3..124 (manual §2.1).
-  g.address = static_cast<std::uint8_t>(
-      as_uint(o.at("address"), o.path("address"), 0, 126, "(DP station address)"));
-  g.name = find_string(o, "name", "a gateway name").value_or("gw" + std::to_string(g.dp_address()));
-  if (!valid_name(g.name, 32))
-    fail(o.path("name"),
-         "expected a name of letters, digits, '_', '-', '.' (at most 32), got \"" + g.name + "\"");
-  if (o.has("bus")) g.bus = get_string(o, "bus", "the name of a bus in \"buses\"");
-  if (const json* p = o.find("parameters")) parse_parameters(*p, o.path("parameters"), g);
-  if (const json* h = o.find("prm_hex"))
-    g.prm_hex = as_hex(*h, o.path("prm_hex"), "00 0A 01 00 04 A4 00 00 06 00 01 00 00 FF FF FF");
-  g.cia301_bootup = get_bool(o, "cia301_bootup", false);
-  g.stored_wakeup_s = get_uint<std::uint8_t>(o, "stored_wakeup_s", 0, 0, 254, "s");
-  g.stored_sync_ms = get_uint<std::uint16_t>(o, "stored_sync_ms", 0, 0, 65534, "ms");
-  const json& slots = o.at("slots");
-  if (!slots.is_array()) fail(o.path("slots"), "expected an array of slots, got " + kind_of(slots));
-  for (std::size_t i = 0; i < slots.size(); ++i)
-    g.slots.push_back(parse_slot(slots[i], element(o.path("slots"), i)));
-  check_with_gateway(file, g);
-  return g;
-}
+using namespace detail;
 
 BusConfig parse_bus(const json& j, const std::string& path, const std::string& name) {
   BusConfig b;
@@ -535,15 +258,8 @@ void check_shared_bitrates(const DaemonConfig& c) {
   }
 }
 
-DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
-  DaemonConfig c;
-  c.file = file;
-  const Object top(root, "$",
-                   {"modbus", "http", "master", "buses", "gateways", "slaves", "drives", "log",
-                    "state_file", "profibus", "capture"});
-  if (const json* p = top.find("profibus"))
-    c.profibus = parse_profibus(*p, top.path("profibus"), file);
-  const bool remote = c.remote_gateways();
+// "modbus", "http", "master", "log", "state_file", "capture": the daemon's own settings.
+void parse_settings(const Object& top, const std::string& file, DaemonConfig& c) {
   if (const json* m = top.find("modbus")) {
     const Object o(*m, top.path("modbus"), {"listen", "max_clients", "idle_timeout_s"});
     if (const json* l = o.find("listen")) c.modbus_listen = get_endpoint(*l, o.path("listen"));
@@ -573,8 +289,12 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   if (auto p = find_string(top, "state_file", "a file name")) c.state_file = resolve(file, *p);
   if (const json* cap = top.find("capture"))
     c.capture = parse_capture(*cap, top.path("capture"), file);
+}
 
+// "buses", and no two listeners of the configuration on one port.
+void parse_buses(const Object& top, DaemonConfig& c) {
   // Role master: the gateways are remote stations; buses only serve simulated drives.
+  const bool remote = c.remote_gateways();
   static const json kNoBuses = json::object();
   const json& buses = remote && !top.has("buses") ? kNoBuses : top.at("buses");
   if (!buses.is_object() || (buses.empty() && !remote))
@@ -601,73 +321,64 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
       fail(member(b.json_path, "socketcand"),
            "port " + std::to_string(b.socketcand_listen->port) +
                " is already used by another listener of this configuration");
+}
 
-  const json& gateways = top.at("gateways");
-  if (!gateways.is_array() || gateways.empty())
-    fail(top.path("gateways"), "expected a non-empty array of gateways, got " + kind_of(gateways));
-  for (std::size_t i = 0; i < gateways.size(); ++i) {
-    const std::string path = element(top.path("gateways"), i);
-    GatewayConfig g = parse_gateway_or_throw(gateways[i], file, path);
-    if (remote && !g.bus.empty())
-      fail(path + ".bus",
-           "with $.profibus.role \"master\" the gateways are remote stations on the PROFIBUS "
-           "line, emulated nowhere here: remove \"bus\"");
-    if (remote) {
-      // Fall through to the address checks below.
-    } else if (g.bus.empty()) {
-      fail(path, "missing key \"bus\"");
-    } else if (!c.bus(g.bus)) {
-      std::vector<std::string> names;
-      for (const auto& b : c.buses) names.push_back(b.name);
-      fail(path + ".bus",
-           "unknown bus \"" + g.bus + "\" (defined in $.buses: " + join(names) + ")");
-    }
-    if (const auto* other = c.gateway_by_dp_address(g.dp_address()))
-      fail(path + ".address", "DP address " + std::to_string(g.dp_address()) +
-                                  " is already used by " + other->json_path);
-    if (c.profibus && c.profibus->master_address && g.dp_address() == *c.profibus->master_address)
-      fail(path + ".address", "DP address " + std::to_string(g.dp_address()) +
-                                  " is the external master's address ($.profibus.master_address)");
-    if (g.dp_address() == c.master_address)
-      fail(path + ".address", "DP address " + std::to_string(g.dp_address()) +
-                                  " is the master's address ($.master.address)");
-    for (const auto& other : c.gateways)
-      if (other.name == g.name)
-        fail(path + ".name", "the name \"" + g.name + "\" is already used by " + other.json_path);
-    c.gateways.push_back(std::move(g));
+// One "gateways" entry against the rest: its bus, a DP address and a name of its own.
+void check_gateway(const GatewayConfig& g, const std::string& path, const DaemonConfig& c) {
+  const bool remote = c.remote_gateways();
+  if (remote && !g.bus.empty())
+    fail(path + ".bus",
+         "with $.profibus.role \"master\" the gateways are remote stations on the PROFIBUS "
+         "line, emulated nowhere here: remove \"bus\"");
+  if (remote) {
+    // Fall through to the address checks below.
+  } else if (g.bus.empty()) {
+    fail(path, "missing key \"bus\"");
+  } else if (!c.bus(g.bus)) {
+    std::vector<std::string> names;
+    for (const auto& b : c.buses) names.push_back(b.name);
+    fail(path + ".bus", "unknown bus \"" + g.bus + "\" (defined in $.buses: " + join(names) + ")");
   }
-  if (const json* d = top.find("drives")) {
-    if (!d->is_array()) fail(top.path("drives"), "expected an array of drives, got " + kind_of(*d));
-    for (std::size_t i = 0; i < d->size(); ++i) {
-      const std::string path = element(top.path("drives"), i);
-      DriveConfig drive = parse_drive((*d)[i], path, file);
-      const BusConfig* bus = c.bus(drive.bus);
-      if (!bus) fail(path + ".bus", "unknown bus \"" + drive.bus + "\"");
-      if (bus->type != BusType::Virtual)
-        fail(path + ".bus",
-             "simulated drives run on virtual buses only (use candp2-drive on a "
-             "SocketCAN or socketcand bus)");
-      for (const auto& other : c.drives) {
-        if (other.name == drive.name)
-          fail(path + ".name",
-               "the name \"" + drive.name + "\" is already used by " + other.json_path);
-        if (drive.modbus_unit && other.modbus_unit == drive.modbus_unit)
-          fail(path + ".modbus_unit", "unit ID " + std::to_string(*drive.modbus_unit) +
-                                          " is already used by " + other.json_path);
-      }
-      if (drive.modbus_unit)
-        if (const auto* g = c.gateway_by_dp_address(*drive.modbus_unit))
-          fail(path + ".modbus_unit", "unit ID " + std::to_string(*drive.modbus_unit) +
-                                          " is the DP address of " + g->json_path +
-                                          " (the gateway's Modbus unit ID)");
-      c.drives.push_back(std::move(drive));
-    }
+  if (const auto* other = c.gateway_by_dp_address(g.dp_address()))
+    fail(path + ".address", "DP address " + std::to_string(g.dp_address()) +
+                                " is already used by " + other->json_path);
+  if (c.profibus && c.profibus->master_address && g.dp_address() == *c.profibus->master_address)
+    fail(path + ".address", "DP address " + std::to_string(g.dp_address()) +
+                                " is the external master's address ($.profibus.master_address)");
+  if (g.dp_address() == c.master_address)
+    fail(path + ".address", "DP address " + std::to_string(g.dp_address()) +
+                                " is the master's address ($.master.address)");
+  for (const auto& other : c.gateways)
+    if (other.name == g.name)
+      fail(path + ".name", "the name \"" + g.name + "\" is already used by " + other.json_path);
+}
+
+// One "drives" entry against the rest: a virtual bus, a name and a Modbus unit of its own.
+void check_drive(const DriveConfig& drive, const std::string& path, const DaemonConfig& c) {
+  const BusConfig* bus = c.bus(drive.bus);
+  if (!bus) fail(path + ".bus", "unknown bus \"" + drive.bus + "\"");
+  if (bus->type != BusType::Virtual)
+    fail(path + ".bus",
+         "simulated drives run on virtual buses only (use candp2-drive on a "
+         "SocketCAN or socketcand bus)");
+  for (const auto& other : c.drives) {
+    if (other.name == drive.name)
+      fail(path + ".name", "the name \"" + drive.name + "\" is already used by " + other.json_path);
+    if (drive.modbus_unit && other.modbus_unit == drive.modbus_unit)
+      fail(path + ".modbus_unit", "unit ID " + std::to_string(*drive.modbus_unit) +
+                                      " is already used by " + other.json_path);
   }
+  if (drive.modbus_unit)
+    if (const auto* g = c.gateway_by_dp_address(*drive.modbus_unit))
+      fail(path + ".modbus_unit", "unit ID " + std::to_string(*drive.modbus_unit) +
+                                      " is the DP address of " + g->json_path +
+                                      " (the gateway's Modbus unit ID)");
+}
 
-  parse_slaves(top.find("slaves"), file, c);  // config/slaves_config.hpp
-
+// Warnings about the whole: watchdogs shorter than two cycles, bit rates, overlapping slots.
+void collect_warnings(const std::string& file, DaemonConfig& c) {
   for (auto& g : c.gateways) {
-    // emulator-spec §1: a Data_Exchange gap longer than the watchdog time drops the slave to
+    // docs/dp-slave.md: a Data_Exchange gap longer than the watchdog time drops the slave to
     // Wait_Prm; with a watchdog below two master cycles one late cycle is enough.
     // (Role slaves: an external master's cycle, unknown here.)
     const bool external_master = c.profibus && c.profibus->role == ProfibusRole::Slaves;
@@ -683,6 +394,38 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   std::vector<GatewayConfig*> all;
   for (auto& g : c.gateways) all.push_back(&g);
   check_overlaps(file, all, c.warnings);
+}
+
+DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
+  DaemonConfig c;
+  c.file = file;
+  const Object top(root, "$",
+                   {"modbus", "http", "master", "buses", "gateways", "slaves", "drives", "log",
+                    "state_file", "profibus", "capture"});
+  if (const json* p = top.find("profibus"))
+    c.profibus = parse_profibus(*p, top.path("profibus"), file);
+  parse_settings(top, file, c);
+  parse_buses(top, c);
+  const json& gateways = top.at("gateways");
+  if (!gateways.is_array() || gateways.empty())
+    fail(top.path("gateways"), "expected a non-empty array of gateways, got " + kind_of(gateways));
+  for (std::size_t i = 0; i < gateways.size(); ++i) {
+    const std::string path = element(top.path("gateways"), i);
+    GatewayConfig g = parse_gateway_or_throw(gateways[i], file, path);
+    check_gateway(g, path, c);
+    c.gateways.push_back(std::move(g));
+  }
+  if (const json* d = top.find("drives")) {
+    if (!d->is_array()) fail(top.path("drives"), "expected an array of drives, got " + kind_of(*d));
+    for (std::size_t i = 0; i < d->size(); ++i) {
+      const std::string path = element(top.path("drives"), i);
+      DriveConfig drive = parse_drive((*d)[i], path, file);
+      check_drive(drive, path, c);
+      c.drives.push_back(std::move(drive));
+    }
+  }
+  parse_slaves(top.find("slaves"), file, c);  // config/slaves_config.hpp
+  collect_warnings(file, c);
   return c;
 }
 
@@ -775,15 +518,6 @@ Result<DaemonConfig> load_daemon(const std::string& path) {
   return parse_daemon(text.str(), path);
 }
 
-Result<GatewayConfig> parse_gateway(const json& j, const std::string& file,
-                                    const std::string& path) {
-  try {
-    return parse_gateway_or_throw(j, file, path);
-  } catch (const Failure& f) {
-    return ConfigError{file, f.path, f.message};
-  }
-}
-
 Result<DriveConfig> parse_drive_entry(const json& j, const std::string& file,
                                       const std::string& path) {
   try {
@@ -791,55 +525,6 @@ Result<DriveConfig> parse_drive_entry(const json& j, const std::string& file,
   } catch (const Failure& f) {
     return ConfigError{file, f.path, f.message};
   }
-}
-
-std::optional<std::uint32_t> configured_bitrate(const GatewayConfig& g) {
-  const auto prm = set_prm_bytes(g);
-  if (prm.size() <= gw::kPrmBitrate || prm[gw::kPrmBitrate] > gw::kBitrateMax) return std::nullopt;
-  return gw::kBitrates[prm[gw::kPrmBitrate]];  // emulator-spec §1.1 byte 8
-}
-
-std::vector<std::uint8_t> set_prm_bytes(const GatewayConfig& g) {
-  if (g.prm_hex) return *g.prm_hex;
-  const auto t = gw::make_set_prm(g.parameters, g.watchdog_ms);
-  return {t.begin(), t.end()};
-}
-
-std::vector<std::uint8_t> chk_cfg_bytes(const GatewayConfig& g) {
-  std::vector<std::uint8_t> out;
-  for (const auto& s : g.slots) {
-    if (s.cfg) {
-      out.insert(out.end(), s.cfg->begin(), s.cfg->end());
-      continue;
-    }
-    // Special identifier format with the comment as manufacturer bytes (emulator-spec §2, manual
-    // §7): "Universalmodul" entries as SIMATIC writes them.
-    const dp::CfgEntry e = s.io == SlotIo::Input
-                               ? dp::special_input(s.length, s.consistent, s.comment)
-                               : dp::special_output(s.length, s.consistent, s.comment);
-    const auto bytes = dp::encode_chk_cfg(std::span(&e, 1));
-    out.insert(out.end(), bytes.begin(), bytes.end());
-  }
-  return out;
-}
-
-dp::SlaveParameters slave_parameters(const GatewayConfig& g) {
-  dp::SlaveParameters p;
-  p.prm = set_prm_bytes(g);
-  p.cfg = chk_cfg_bytes(g);
-  p.name = g.name;
-  for (const auto& s : g.slots) {
-    dp::EntryAddress a;
-    dp::CfgIo io = s.io == SlotIo::Input ? dp::CfgIo::Input : dp::CfgIo::Output;
-    if (s.cfg) {
-      const auto d = dp::decode_chk_cfg(*s.cfg);
-      io = d.entries.empty() ? dp::CfgIo::Empty : d.entries.front().io;
-    }
-    if (io == dp::CfgIo::Input || io == dp::CfgIo::InputOutput) a.input = s.address;
-    if (io == dp::CfgIo::Output || io == dp::CfgIo::InputOutput) a.output = s.address;
-    p.addresses.push_back(a);
-  }
-  return p;
 }
 
 }  // namespace candp2::config

@@ -4,11 +4,11 @@
 #include <algorithm>
 #include <map>
 
+#include "bitrate/bitrate_supervisor.hpp"
 #include "can/socketcan.hpp"
 #include "can/socketcand.hpp"
 #include "capture/can_log.hpp"
 #include "capture/pcapng_tap.hpp"
-#include "daemon/bitrate_supervisor.hpp"
 #include "daemon/state_file.hpp"
 #include "drive_sim/file_parameter_store.hpp"
 #include "http/http_server.hpp"
@@ -44,7 +44,7 @@ struct Watched {
 
 // The SocketCAN interface of a gateway: its bit-rate supervisor and the member index there.
 struct LinkMember {
-  BitrateSupervisor* supervisor = nullptr;
+  bitrate::BitrateSupervisor* supervisor = nullptr;
   std::size_t member = 0;
 };
 
@@ -127,8 +127,8 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   Logger log_;
   std::unique_ptr<plant::Plant> plant_;
   StoredMap stored_;  // what the state file holds
-  std::map<std::string, std::unique_ptr<BitrateSupervisor>> supervisors_;  // by interface
-  std::map<std::string, LinkMember> link_of_;                              // by gateway name
+  std::map<std::string, std::unique_ptr<bitrate::BitrateSupervisor>> supervisors_;  // by interface
+  std::map<std::string, LinkMember> link_of_;  // by gateway name
   std::vector<std::unique_ptr<drive::FileParameterStore>> drive_stores_;
   std::vector<std::unique_ptr<Export>> exports_;
   std::vector<Watched> watched_;
@@ -167,8 +167,8 @@ std::unique_ptr<can::Channel> DaemonImpl::open_channel(const config::BusConfig& 
     }
     auto& sup = supervisors_[b.interface];
     if (!sup)
-      sup = std::make_unique<BitrateSupervisor>(b.interface, b.bitrate, b.restart_ms,
-                                                netlink_ops(b.interface), log_sink_);
+      sup = std::make_unique<bitrate::BitrateSupervisor>(
+          b.interface, b.bitrate, b.restart_ms, bitrate::netlink_ops(b.interface), log_sink_);
     link_of_[gc.name] = {sup.get(), sup->add_gateway(gc.name)};
     return channel;
   }

@@ -1,8 +1,8 @@
-#include "daemon/bitrate_supervisor.hpp"
+#include "bitrate/bitrate_supervisor.hpp"
 
 #include "gateway/user_prm.hpp"
 
-namespace candp2::daemon {
+namespace candp2::bitrate {
 
 namespace {
 
@@ -185,4 +185,4 @@ modbus::BitrateStatus BitrateSupervisor::status(std::size_t gateway) const {
   return s;
 }
 
-}  // namespace candp2::daemon
+}  // namespace candp2::bitrate

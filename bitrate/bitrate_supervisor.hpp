@@ -25,7 +25,7 @@
 #include "config/config.hpp"
 #include "modbus/modbus_map.hpp"
 
-namespace candp2::daemon {
+namespace candp2::bitrate {
 
 class LinkOps {
  public:
@@ -83,4 +83,4 @@ class BitrateSupervisor {
   std::optional<Time> next_check_;
 };
 
-}  // namespace candp2::daemon
+}  // namespace candp2::bitrate

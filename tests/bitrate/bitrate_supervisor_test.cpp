@@ -1,14 +1,14 @@
 // The SocketCAN bit rate rules (docs/transports.md "Bit rate"; manual §5.1.2 / emulator-spec §1.1
 // Set_Prm byte 8) against a fake interface, and the pure helpers of can/can_link.hpp. The real
 // netlink path runs in the QEMU guest (tests/qemu/socketcan_sja1000.sh).
-#include "daemon/bitrate_supervisor.hpp"
+#include "bitrate/bitrate_supervisor.hpp"
 
 #include <errno.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 
-namespace candp2::daemon {
+namespace candp2::bitrate {
 namespace {
 
 struct FakeLink final : LinkOps {
@@ -301,4 +301,4 @@ TEST(CanLink, MissingInterfaceHasNoBitTiming) {
 }
 
 }  // namespace
-}  // namespace candp2::daemon
+}  // namespace candp2::bitrate

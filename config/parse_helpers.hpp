@@ -1,0 +1,65 @@
+// Parsing helpers shared by the configuration's files (config.cpp, gateway_config.cpp); not a
+// public interface.
+#pragma once
+
+#include <algorithm>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "config/config.hpp"
+#include "config/json_reader.hpp"
+
+namespace candp2::config::detail {
+
+using nlohmann::json;
+using namespace json_reader;
+
+template <typename E>
+E get_enum(const Object& o, const std::string& key, E fallback,
+           const std::vector<std::pair<std::string, E>>& names) {
+  const json* j = o.find(key);
+  if (!j) return fallback;
+  std::vector<std::string> quoted;
+  for (const auto& [n, v] : names) quoted.push_back("\"" + n + "\"");
+  if (j->is_string())
+    for (const auto& [n, v] : names)
+      if (j->get_ref<const std::string&>() == n) return v;
+  fail(o.path(key), "expected one of " + join(quoted) + ", got " + kind_of(*j));
+}
+
+inline Endpoint get_endpoint(const json& j, const std::string& path) {
+  const std::string text = as_string(j, path, "\"HOST:PORT\"");
+  std::string error;
+  auto e = parse_endpoint(text, &error);
+  if (!e) fail(path, error);
+  return *e;
+}
+
+// A name usable as a socketcand bus name and in log lines (socketcand.h MAX_BUSNAME).
+inline bool valid_name(std::string_view s, std::size_t max) {
+  return !s.empty() && s.size() <= max && std::all_of(s.begin(), s.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '-' || c == '.';
+  });
+}
+
+inline std::string resolve(const std::string& file, const std::string& p) {
+  namespace fs = std::filesystem;
+  const fs::path path(p);
+  if (path.is_absolute()) return p;
+  const fs::path dir = fs::path(file).parent_path();
+  return dir.empty() ? p : (dir / path).lexically_normal().string();
+}
+
+// A gateway entry (config/gateway_config.cpp); throws Failure.
+GatewayConfig parse_gateway_or_throw(const json& j, const std::string& file,
+                                     const std::string& path);
+// Slots whose PLC bytes overlap: allowed, reported as warnings (docs/modbus.md).
+void check_overlaps(const std::string& file, const std::vector<GatewayConfig*>& gateways,
+                    std::vector<ConfigError>& warnings);
+
+}  // namespace candp2::config::detail
