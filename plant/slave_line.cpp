@@ -15,6 +15,16 @@ SlaveLine::SlaveLine(const config::ProfibusConfig& config, dp::ProcessImage& ima
                                        .default_min_tsdr_bits = config.min_tsdr_bits},
              log) {}
 
+void SlaveLine::set_tap(
+    std::function<void(std::span<const std::uint8_t>, bool from_emulation, Time)> tap) {
+  tap_ = std::move(tap);
+  // Every telegram on the line goes to the tap (requests to other stations too: a capture shows
+  // the whole line).
+  front_.set_observer([this](std::span<const std::uint8_t> raw, Time now) {
+    if (tap_) tap_(raw, false, now);
+  });
+}
+
 bool SlaveLine::add(dp::DpSlave& slave, const dp::SlaveParameters& params, std::string name) {
   if (!front_.add(slave)) return false;
   auto st = std::make_unique<Station>();
@@ -33,34 +43,16 @@ SlaveLine::Station* SlaveLine::station(std::uint8_t address) {
 }
 
 void SlaveLine::on_bytes(std::span<const std::uint8_t> bytes, Time now) {
-  parser_.feed(bytes);
-  telegrams(now);
+  handled(front_.on_bytes(bytes, now), now);
 }
 
 void SlaveLine::on_bad_char(std::uint8_t byte, Time now) {
-  parser_.feed_bad_char(byte);
-  telegrams(now);
+  front_.parser().feed_bad_char(byte);
+  handled(front_.on_bytes({}, now), now);
 }
 
 void SlaveLine::on_gap(Time now) {
-  parser_.gap();
-  telegrams(now);
-}
-
-// Every telegram on the line goes to the tap (requests to other stations too: a capture shows the
-// whole line); requests to our stations are answered. The reply to the last request of a chunk
-// wins: a master waits for an answer before it sends again.
-void SlaveLine::telegrams(Time now) {
-  while (auto ev = parser_.next()) {
-    if (ev->error != fdl::Error::None) {
-      if (log_.enabled(LogLevel::Debug))
-        log_.debug("line: " + std::string(fdl::to_string(ev->error)) + " at byte " +
-                   std::to_string(ev->offset) + ": " + hex_bytes(ev->raw));
-      continue;
-    }
-    if (tap_) tap_(ev->raw, false, now);
-    handled(front_.on_telegram(ev->telegram, now), now);
-  }
+  handled(front_.on_gap(now), now);
 }
 
 void SlaveLine::handled(std::optional<fdl::Reply> reply, Time request_end) {
@@ -130,7 +122,7 @@ std::optional<LineStatus> SlaveLine::status(std::uint8_t address) const {
   if (!s) return std::nullopt;
   LineStatus l;
   l.role = 1;
-  const auto& p = parser_.stats();
+  const auto& p = front_.line_stats();
   l.telegrams = static_cast<std::uint32_t>(p.telegrams);
   l.fcs_errors = static_cast<std::uint32_t>(p.fcs_errors);
   l.other_errors = static_cast<std::uint32_t>(p.framing_errors + p.parity_errors);

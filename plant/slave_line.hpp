@@ -3,8 +3,8 @@
 // are the driver's (profibus_line/); bytes and times come in here, replies and their earliest send
 // time go out.
 //
-//   received bytes ─▶ fdl::StreamParser ─▶ every telegram to the tap ─▶ fdl::SlaveFrontEnd
-//                                             └─ reply + not_before ─▶ take_reply() ─▶ the port
+//   received bytes ─▶ fdl::SlaveFrontEnd (every telegram to the tap) ─▶ reply + not_before
+//                    ─▶ take_reply() ─▶ the port
 //
 // After every answered request the station's process data are copied into the master's PLC image
 // at the configured addresses (outputs as received, inputs as sent), so the Modbus face shows what
@@ -48,16 +48,14 @@ class SlaveLine {
 
   // Serves `slave` at its DP address; `params` gives the PLC addresses of its slots.
   bool add(dp::DpSlave& slave, const dp::SlaveParameters& params, std::string name);
-  void set_tap(std::function<void(std::span<const std::uint8_t>, bool from_emulation, Time)> tap) {
-    tap_ = std::move(tap);
-  }
+  void set_tap(std::function<void(std::span<const std::uint8_t>, bool from_emulation, Time)> tap);
 
   // The PHY's input: runs of good characters, a character with a parity error, idle ≥ TSYN.
   void on_bytes(std::span<const std::uint8_t> bytes, Time now);
   void on_bad_char(std::uint8_t byte, Time now);
   void on_gap(Time now);
   // A partial telegram is buffered: the driver signals on_gap() after bit_times(kTsynBits) idle.
-  bool partial() const { return parser_.buffered() > 0; }
+  bool partial() { return front_.parser().buffered() > 0; }
   Duration bit_times(std::uint32_t bits) const { return front_.bit_times(bits); }
 
   // The answer to the last complete request, if any (a newer request supersedes an answer still
@@ -69,7 +67,7 @@ class SlaveLine {
   void check_presence(Time now);
 
   std::optional<LineStatus> status(std::uint8_t address) const;
-  const fdl::ParserStats& line_stats() const { return parser_.stats(); }
+  const fdl::ParserStats& line_stats() const { return front_.line_stats(); }
   const fdl::SlaveFrontEnd& front_end() const { return front_; }
 
  private:
@@ -82,7 +80,6 @@ class SlaveLine {
     Time request_end{0};
     bool present = false;
   };
-  void telegrams(Time now);
   void handled(std::optional<fdl::Reply> reply, Time request_end);
   void mirror(Station& st);
   Station* station(std::uint8_t address);
@@ -91,7 +88,6 @@ class SlaveLine {
   dp::ProcessImage& image_;
   Logger log_;
   fdl::SlaveFrontEnd front_;
-  fdl::StreamParser parser_;
   std::vector<std::unique_ptr<Station>> stations_;
   std::optional<fdl::Reply> reply_;
   std::function<void(std::span<const std::uint8_t>, bool, Time)> tap_;

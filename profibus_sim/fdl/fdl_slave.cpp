@@ -246,6 +246,7 @@ std::optional<Reply> SlaveFrontEnd::drain(Time now) {
                    std::to_string(ev->offset) + ": " + hex_bytes(ev->raw));
       continue;
     }
+    if (observe_) observe_(ev->raw, now);
     if (auto r = on_telegram(ev->telegram, now)) last = std::move(r);
   }
   return last;

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -60,6 +61,9 @@ class SlaveFrontEnd {
   std::optional<Reply> on_bytes(std::span<const std::uint8_t> bytes, Time now);
   std::optional<Reply> on_gap(Time now);
   const ParserStats& line_stats() const { return parser_.stats(); }
+  // Sees every valid telegram on the line (to any station), as its raw bytes (a capture's tap).
+  using ObserveFn = std::function<void(std::span<const std::uint8_t> raw, Time now)>;
+  void set_observer(ObserveFn observe) { observe_ = std::move(observe); }
   StreamParser& parser() { return parser_; }
 
   // Inspection for the daemon's status block.
@@ -96,6 +100,7 @@ class SlaveFrontEnd {
   std::vector<std::unique_ptr<Station>> owned_;
   std::array<Station*, 128> stations_{};
   StreamParser parser_;
+  ObserveFn observe_;
 };
 
 }  // namespace candp2::fdl
