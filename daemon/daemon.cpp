@@ -338,7 +338,7 @@ bool DaemonImpl::start_line(std::string* error) {
 bool DaemonImpl::start_modbus(std::string* error) {
   faces_ = modbus::make_faces(*plant_, [this](std::size_t g) { return bitrate(g); });
   map_ = std::make_unique<modbus::ProcessImageMap>(plant_->master().image(), faces_.gateway_list(),
-                                                   faces_.drive_list());
+                                                   faces_.drive_list(), faces_.field_list());
   map_->set_outputs_read_only(plant_->slave_line() != nullptr);
   std::string e;
   modbus_ = modbus::ModbusServer::listen({.host = config_.modbus_listen.host,

@@ -149,6 +149,18 @@ json field_json() {
             {"meaning", "the outputs the slave applies: register r = output bytes 2r, 2r+1"}}}};
 }
 
+// A station's whole Slave_Diag answer after the status block (docs/modbus.md "Whole diagnosis").
+json diagnosis_bytes_json() {
+  return {{"table", table_name(Table::InputRegisters)},
+          {"unit", "the station's DP address"},
+          {"length_register", kDiagnosisBase},
+          {"first", kDiagnosisBase + 1},
+          {"count", kDiagnosisRegisters - 1},
+          {"meaning",
+           "the whole Slave_Diag answer: its length n in length_register, then byte 2i (high) "
+           "and 2i+1 (low) in register first + i"}};
+}
+
 json exceptions_json() {
   json out = json::array();
   for (auto e :
@@ -211,6 +223,7 @@ json diagnosis_json() {
   bit(1, dp::kDiag2FreezeMode, "Freeze_Mode");
   bit(1, dp::kDiag2SyncMode, "Sync_Mode");
   bit(1, dp::kDiag2Deactivated, "Deactivated");
+  bit(2, dp::kDiag3ExtDiagOverflow, "Ext_Diag_Overflow");
   json can_states = json::array();
   for (auto s : {can::BusState::Ok, can::BusState::Warning, can::BusState::ErrorPassive,
                  can::BusState::BusOff})
@@ -345,6 +358,7 @@ nlohmann::ordered_json map_json(const config::DaemonConfig& config) {
       {"values", values_json()},
       {"leds", leds_json()},
       {"diagnosis", diagnosis_json()},
+      {"diagnosis_bytes", diagnosis_bytes_json()},
       {"gateways", gateways_json(config)},
       {"slaves", slaves_json(config)},
       {"drives", drives_json(config)},

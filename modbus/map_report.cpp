@@ -75,6 +75,9 @@ std::string map_text(const config::DaemonConfig& config) {
       std::snprintf(line, sizeof line, "  %u..%u  ", a, a + f.registers - 1);
     out << line << f.name << ": " << f.meaning << "\n";
   }
+  out << "  " << kDiagnosisBase << ".." << kDiagnosisBase + kDiagnosisRegisters - 1
+      << "  the whole Slave_Diag answer: " << kDiagnosisBase << " its length, then 2 bytes a "
+      << "register, high first (docs/modbus.md \"Whole diagnosis\")\n";
   out << "\nControl (holding register " << kControlRegister
       << ", unit ID = DP address): write 1 = power cycle, 2 = re-parameterize, 3 = the master "
          "stops addressing the gateway, 4 = it resumes; reads the last command\n";

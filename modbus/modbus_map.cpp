@@ -6,6 +6,14 @@ namespace candp2::modbus {
 
 // -------------------------------------------------------------------------------------- map
 
+std::vector<std::uint8_t> GatewayFace::diagnosis(Time now) {
+  const StatusBlock block = status(now);
+  std::vector<std::uint8_t> out;
+  for (std::size_t i = 0; i < dp::DpSlave::kDiagLen; ++i)
+    out.push_back(static_cast<std::uint8_t>(block[status::kDiag + i]));
+  return out;
+}
+
 ProcessImageMap::ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways,
                                  std::vector<DriveFace*> drives, std::vector<FieldFace*> fields)
     : image_(image),
@@ -62,6 +70,21 @@ std::optional<DecodeFailure> ProcessImageMap::read_registers(Table t, GatewayFac
   if (t == Table::InputRegisters && within(address, count, kStatusBase, status::kCount)) {
     const StatusBlock block = g.status(now);
     std::copy_n(block.begin() + (address - kStatusBase), count, out.registers.begin());
+    return std::nullopt;
+  }
+  if (t == Table::InputRegisters && within(address, count, kDiagnosisBase, kDiagnosisRegisters)) {
+    // docs/modbus.md "Whole diagnosis": the length, then two bytes a register (high first).
+    const auto d = g.diagnosis(now);
+    for (std::uint32_t i = 0; i < count; ++i) {
+      const std::uint32_t a = address + i - kDiagnosisBase;
+      if (a == 0) {
+        out.registers[i] = static_cast<std::uint16_t>(d.size());
+        continue;
+      }
+      const std::size_t b = 2 * (a - 1);
+      const std::uint8_t high = b < d.size() ? d[b] : 0, low = b + 1 < d.size() ? d[b + 1] : 0;
+      out.registers[i] = static_cast<std::uint16_t>(high << 8 | low);
+    }
     return std::nullopt;
   }
   if (t == Table::HoldingRegisters && within(address, count, kControlRegister, kControlRegisters)) {

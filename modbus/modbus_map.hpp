@@ -35,6 +35,9 @@ class GatewayFace {
   // control register keeps its value). profibus role master: a power cycle cannot reach a remote
   // device (emulator-spec §10, docs/modbus.md).
   virtual std::optional<std::string> refuses(Control /*command*/) const { return std::nullopt; }
+  // The whole Slave_Diag answer (input registers kDiagnosisBase..); by default the status block's
+  // 11 diagnosis bytes.
+  virtual std::vector<std::uint8_t> diagnosis(Time now);
   // A generic slave's fault registers (holding registers kSlaveFaultBase.., docs/faults.md
   // "Generic slaves"); gateways have none (those addresses are outside their map).
   virtual bool has_slave_faults() const { return false; }

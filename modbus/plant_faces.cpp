@@ -51,6 +51,10 @@ StatusBlock PlantGatewayFace::status(Time now) {
   return encode_status(in);
 }
 
+std::vector<std::uint8_t> PlantGatewayFace::diagnosis(Time now) {
+  return unit_.gateway().dp().diagnosis(now);
+}
+
 void PlantGatewayFace::control(Control command, Time now) {
   const std::uint8_t address = unit_.gateway().address();
   switch (command) {
@@ -125,6 +129,11 @@ void RemoteStationFace::control(Control command, Time now) {
   }
 }
 
+std::vector<std::uint8_t> RemoteStationFace::diagnosis(Time) {
+  const auto v = plant_.master().slave(address_);
+  return v ? v->diag_bytes : std::vector<std::uint8_t>{};
+}
+
 std::optional<std::string> RemoteStationFace::refuses(Control command) const {
   if (command != Control::PowerCycle) return std::nullopt;
   Logger(plant_.log_sink(), "daemon")
@@ -152,6 +161,10 @@ StatusBlock GenericSlaveFace::status(Time now) {
   if (auto* line = plant_.slave_line())
     if (auto l = line->status(in.dp_address)) in.line = line_inputs(*l);
   return encode_status(in);
+}
+
+std::vector<std::uint8_t> GenericSlaveFace::diagnosis(Time now) {
+  return unit_.slave().dp().diagnosis(now);
 }
 
 void GenericSlaveFace::control(Control command, Time now) {

@@ -32,6 +32,7 @@ class PlantGatewayFace final : public GatewayFace {
   std::uint16_t forced_bus_state() const override { return unit_.faults().forced_code(); }
   void drop_received(std::uint16_t n, Time now) override;
   std::uint16_t drop_remaining() const override;
+  std::vector<std::uint8_t> diagnosis(Time now) override;
 
  private:
   plant::Plant& plant_;
@@ -51,6 +52,8 @@ class RemoteStationFace final : public GatewayFace {
   void control(Control command, Time now) override;
   // 1 = power cycle cannot reach a remote device: refused (exception 0x04) and logged.
   std::optional<std::string> refuses(Control command) const override;
+  // The last diagnosis the master read, as received (none before the first).
+  std::vector<std::uint8_t> diagnosis(Time now) override;
 
  private:
   plant::Plant& plant_;
@@ -67,6 +70,8 @@ class GenericSlaveFace final : public GatewayFace {
   std::uint8_t dp_address() const override { return unit_.config().address; }
   StatusBlock status(Time now) override;
   void control(Control command, Time now) override;
+  // 6 standard bytes and the Ext_Diag_Data (docs/slaves.md "Diagnosis").
+  std::vector<std::uint8_t> diagnosis(Time now) override;
   bool has_slave_faults() const override { return true; }
   std::uint16_t slave_fault(std::uint16_t offset) const override;
   std::optional<DecodeFailure> write_slave_faults(std::uint16_t offset,

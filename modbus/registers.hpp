@@ -91,6 +91,14 @@ inline constexpr std::uint16_t kReconnects = 64;  // 64-65 socketcand client rec
 inline constexpr std::uint16_t kCount = 66;
 }  // namespace status
 
+// A station's whole Slave_Diag answer (docs/modbus.md "Whole diagnosis"), input registers of its
+// unit after the status block: 8258 = its length n (0: none yet), 8259.. = the bytes, 2i (high)
+// and 2i+1 (low) in register 8259 + i, up to the 244 bytes IEC 61158-6-3 allows. The status
+// block's `diag` field holds only the first 11 (the CAN-DP/2's whole diagnosis); a generic slave's
+// Ext_Diag_Data may run longer.
+inline constexpr std::uint16_t kDiagnosisBase = kStatusBase + status::kCount;  // 8258
+inline constexpr std::uint16_t kDiagnosisRegisters = 1 + dp::kDiagMaxLen / 2;  // 8258..8380
+
 // LED codes in the status block (manual §3.3, table 3.3.1).
 namespace led {
 inline constexpr std::uint16_t kOff = 0;

@@ -1,4 +1,4 @@
-"""Which candp2d (and candp2) to run.
+"""Which candp2d (and candp2) to run, and where its example configurations are.
 
 The order is the pytest plugin's (`candp2_binary`): a path given explicitly, else `candp2d` on
 PATH (the Debian package puts it in /usr/bin), else the build tree of the source checkout this
@@ -60,3 +60,36 @@ def find_tool(candp2d: str | None = None, explicit: str | os.PathLike[str] | Non
         if beside.is_file() and os.access(beside, os.X_OK):
             return str(beside)
     return _find("candp2", explicit)
+
+
+#: Where an installation keeps the example configurations and scenarios, under its prefix
+#: (CMakeLists.txt install rules; the Debian package: /usr/share/candp2/examples).
+EXAMPLES_DIR = Path("share", "candp2", "examples")
+
+
+def find_example(name: str, candp2d: str | os.PathLike[str] | None = None) -> Path:
+    """An example configuration or scenario of candp2 ("plc-line.json",
+    "scenarios/demo.json"): the source checkout's config/NAME when this package was imported
+    from one, else PREFIX/share/candp2/examples/NAME beside the candp2d that runs (`candp2d`,
+    else the one find_binary() finds: /usr/bin/candp2d gives /usr/share/candp2/examples).
+
+    The examples' relative file names (a slave's GSD) are relative to them and installed with
+    them, so the file runs as it is: `Daemon(find_example("plc-line.json"))`. Raises
+    Candp2Error naming every place it looked."""
+    tried: list[str] = []
+    root = _checkout()
+    if root is not None:
+        candidate = root / "config" / name
+        if candidate.is_file():
+            return candidate
+        tried.append(str(candidate))
+    try:
+        binary = Path(find_binary(candp2d)).resolve()
+    except Candp2Error as e:
+        tried.append("beside candp2d (%s)" % e)
+    else:
+        candidate = binary.parent.parent / EXAMPLES_DIR / name
+        if candidate.is_file():
+            return candidate
+        tried.append(str(candidate))
+    raise Candp2Error("no example %s (tried %s)" % (name, ", ".join(tried)))

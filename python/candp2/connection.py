@@ -17,6 +17,7 @@ from .drive import Drive
 from .errors import Candp2Error, ModbusError
 from .gateway import Gateway
 from .registers import RegisterMap
+from .slave import Slave
 
 #: How many frames of each bus's trace a report shows.
 REPORT_FRAMES = 20
@@ -84,6 +85,21 @@ class Connection:
         return [Gateway(self, int(g["dp_address"]))
                 for g in self.http_status().get("gateways", [])]
 
+    def slave(self, address: int | str) -> Slave:
+        """The generic slave (docs/slaves.md) with this DP address (= Modbus unit ID), or by
+        its configured name."""
+        if isinstance(address, str):
+            for s in self.register_map.slaves:
+                if s.name == address:
+                    return Slave(self, s.dp_address)
+            raise KeyError("no slave named %r (slaves: %s)" % (
+                address, ", ".join(s.name for s in self.register_map.slaves) or "unknown"))
+        return Slave(self, address)
+
+    def slaves(self) -> list[Slave]:
+        """Every configured generic slave (none when the configuration is unknown)."""
+        return [Slave(self, s.dp_address) for s in self.register_map.slaves]
+
     def bus(self, name: str, timeout: float = 5.0) -> Bus:
         """A python-can bus on the socketcand export of bus `name` (closed with the
         connection)."""
@@ -106,14 +122,20 @@ class Connection:
     # ---- reports ------------------------------------------------------------------------
 
     def report(self) -> str:
-        """What a failing test wants to see: every gateway's state and decoded diagnosis and
-        the last frames of every bus (from the HTTP face's trace)."""
+        """What a failing test wants to see: every gateway's and generic slave's state and
+        decoded diagnosis (a slave's faults and field side too) and the last frames of every
+        bus (from the HTTP face's trace)."""
         parts: list[str] = []
         try:
             for g in self.gateways():
                 parts.append(g.describe())
         except (Candp2Error, OSError) as e:
             parts.append("gateways: unavailable (%s)" % e)
+        for s in self.slaves():
+            try:
+                parts.append(s.describe())
+            except (Candp2Error, OSError) as e:
+                parts.append("slave %d (%s): unavailable (%s)" % (s.address, s.name, e))
         if self.http is not None:
             try:
                 for b in self.http_status().get("buses", []):

@@ -48,8 +48,9 @@ def _absolute(path: str, base: Path) -> str:
 
 def rewrite_config(config: Mapping[str, Any], base: Path) -> tuple[dict[str, Any], dict[str, str]]:
     """The configuration a Daemon runs (see the module docstring) and the socketcand channel of
-    every virtual bus. Relative file names are made absolute against `base` (the configuration
-    file's directory, docs/configuration.md), since the copy lives elsewhere."""
+    every virtual bus. Relative file names (the CAN log, state files, a pty link, the slaves' GSD
+    files) are made absolute against `base` (the configuration file's directory,
+    docs/configuration.md), since the copy lives elsewhere."""
     c: dict[str, Any] = copy.deepcopy(dict(config))
     c.setdefault("modbus", {})["listen"] = LOOPBACK_ANY
     c.setdefault("http", {})["listen"] = LOOPBACK_ANY
@@ -66,6 +67,9 @@ def rewrite_config(config: Mapping[str, Any], base: Path) -> tuple[dict[str, Any
     profibus = c.get("profibus")
     if isinstance(profibus, dict) and str(profibus.get("port", "")).startswith("pty:"):
         profibus["port"] = "pty:" + _absolute(profibus["port"][4:], base)
+    for slave in c.get("slaves", []):
+        if isinstance(slave, dict) and isinstance(slave.get("gsd"), str):
+            slave["gsd"] = _absolute(slave["gsd"], base)
     drives = [d for d in c.get("drives", []) if isinstance(d, dict)]
     taken = {d.get("modbus_unit") for d in drives}
     free = (u for u in DRIVE_UNITS if u not in taken)

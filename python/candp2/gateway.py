@@ -4,27 +4,18 @@ parameters (the HTTP face), and the faults a test can inject (docs/faults.md).""
 
 from __future__ import annotations
 
-import inspect
-import time
 from dataclasses import dataclass, fields
-from typing import (TYPE_CHECKING, Any, Callable, Iterator, Mapping, Sequence, TypeVar,
-                    overload)
+from typing import TYPE_CHECKING, Any, Mapping, overload
 
-from .errors import Candp2Error, WaitTimeout
+from .errors import Candp2Error
 from .registers import DiagnosisLayout, RegisterMap, SlotMap, StatusValue
+from .station import POLL_INTERVAL, Image, Station, hex_bytes
 
 if TYPE_CHECKING:
     from .connection import Connection
 
-T = TypeVar("T")
-
-#: How often wait_until() asks again.
-POLL_INTERVAL = 0.02
-
-
-def hex_bytes(data: bytes) -> str:
-    """b"\\x01\\xab" → "01 AB"."""
-    return " ".join("%02X" % b for b in data)
+__all__ = ["CfgFault", "Counters", "Diagnosis", "Gateway", "Image", "Leds", "POLL_INTERVAL",
+           "PrmFault", "Slot", "hex_bytes"]
 
 
 # ------------------------------------------------------------------------------- diagnosis
@@ -226,201 +217,31 @@ class Slot:
         return "%s: %s" % (self.description, hex_bytes(self.data))
 
 
-# ------------------------------------------------------------------------------------ image
-
-class Image:
-    """One direction of the master's PLC process image as seen through one gateway's unit ID:
-    `gateway.outputs` (Q bytes, writable) and `gateway.inputs` (I bytes).
-
-    Indexed by PLC byte address like a bytes object: `gw.inputs[0:6]` reads I 0..5,
-    `gw.outputs[0:5] = b"\\x51\\0\\0\\0\\0"` writes Q 0..4. One write of up to 246 bytes is one
-    Modbus request, so the master sends it in one Data_Exchange (docs/modbus.md
-    "Atomicity"); bytes at odd addresses are written as coils, so neighbours are never
-    touched."""
-
-    def __init__(self, gateway: Gateway, output: bool) -> None:
-        self._gateway = gateway
-        self._output = output
-
-    @property
-    def _map(self) -> RegisterMap:
-        return self._gateway.register_map
-
-    def __len__(self) -> int:
-        return self._map.image_bytes
-
-    def _check(self, address: int, length: int) -> None:
-        if address < 0 or length < 0 or address + length > len(self):
-            raise IndexError("%s %d..%d outside the %d-byte image" % (
-                self._name, address, address + length - 1, len(self)))
-
-    @property
-    def _name(self) -> str:
-        return "Q" if self._output else "I"
-
-    def read(self, address: int, length: int) -> bytes:
-        """`length` bytes from PLC address `address`."""
-        self._check(address, length)
-        if length == 0:
-            return b""
-        rng = self._map.outputs if self._output else self._map.inputs
-        first, last = address // 2, (address + length - 1) // 2
-        words = self._gateway.connection.modbus.read_registers(
-            rng.table, rng.first + first, last - first + 1, self._gateway.address)
-        data = b"".join(w.to_bytes(2, "big") for w in words)
-        offset = address - 2 * first
-        return data[offset:offset + length]
-
-    def write(self, address: int, data: bytes | bytearray | Sequence[int]) -> None:
-        """Writes `data` at PLC address `address` (outputs only)."""
-        if not self._output:
-            raise TypeError("the input image is written by the gateways, not by the PLC")
-        data = bytes(data)
-        self._check(address, len(data))
-        if not data:
-            return
-        modbus = self._gateway.connection.modbus
-        unit = self._gateway.address
-        if address % 2 == 0 and len(data) % 2 == 0:
-            rng = self._map.outputs
-            words = [int.from_bytes(data[i:i + 2], "big") for i in range(0, len(data), 2)]
-            modbus.write_registers(rng.first + address // 2, words, unit)
-        else:
-            bits = [bool(b >> i & 1) for b in data for i in range(8)]
-            modbus.write_coils(self._map.output_bits.first + 8 * address, bits, unit)
-
-    def _span(self, key: slice) -> tuple[int, int]:
-        start, stop, step = key.indices(len(self))
-        if step != 1:
-            raise ValueError("image slices take no step")
-        return start, max(0, stop - start)
-
-    @overload
-    def __getitem__(self, key: int) -> int: ...
-
-    @overload
-    def __getitem__(self, key: slice) -> bytes: ...
-
-    def __getitem__(self, key: int | slice) -> int | bytes:
-        if isinstance(key, slice):
-            start, length = self._span(key)
-            value: bytes | int = self.read(start, length)
-            text = "%s[%d:%d]" % (self._gateway.image_name(self._output), start, start + length)
-        else:
-            index = key + len(self) if key < 0 else key
-            value = self.read(index, 1)[0]
-            text = "%s[%d]" % (self._gateway.image_name(self._output), index)
-        return self._gateway.note(text, value)
-
-    def __setitem__(self, key: int | slice, value: bytes | bytearray | Sequence[int] | int
-                    ) -> None:
-        if isinstance(key, slice):
-            start, length = self._span(key)
-            data = bytes([value]) if isinstance(value, int) else bytes(value)
-            if len(data) != length:
-                raise ValueError("%d bytes for a %d-byte slice (the image has a fixed size)"
-                                 % (len(data), length))
-            self.write(start, data)
-        else:
-            if not isinstance(value, int):
-                raise TypeError("one image byte takes an int")
-            self.write(key + len(self) if key < 0 else key, bytes([value]))
-
-    def __bytes__(self) -> bytes:
-        return self.read(0, len(self))
-
-    def __iter__(self) -> Iterator[int]:
-        return iter(bytes(self))
-
-    def __repr__(self) -> str:
-        return "<%s of gateway %d>" % (self._gateway.image_name(self._output),
-                                       self._gateway.address)
-
-
 # ---------------------------------------------------------------------------------- gateway
 
-def _describe_predicate(predicate: Callable[..., object]) -> str:
-    """The lambda's source text ("lambda g: g.state == 'Data_Exch'"), else its repr."""
-    try:
-        source = inspect.getsource(predicate).strip()
-    except (OSError, TypeError):
-        return repr(predicate)
-    if "lambda" not in source:
-        return repr(predicate)
-    source = " ".join(source[source.index("lambda"):].split())
-    # The statement around the lambda may go on: cut at the parenthesis that closes the call.
-    depth = 0
-    for i, c in enumerate(source):
-        depth += c in "([{"
-        depth -= c in ")]}"
-        if depth < 0 or (depth == 0 and c == ","):
-            return source[:i].rstrip()
-    return source.rstrip(",")
-
-
-class Gateway:
+class Gateway(Station):
     """One emulated gateway of a running candp2d, addressed by its DP address (which is its
     Modbus unit ID). Get it with `daemon.gateway(address)`.
 
     Reads go to the daemon every time (nothing is cached): `state`, `diagnosis`, `leds`,
     `counters` and `status` read the Modbus status block, `parameters` and `slot(n)` also the
-    HTTP face."""
+    HTTP face. The control register (power_cycle(), reparameterize(), master_stop(),
+    master_resume()) and wait_until() are those of every Station."""
+
+    kind = "gateway"
+    _SHOWN_AS_TEXT = (Diagnosis, Leds, Counters)
 
     def __init__(self, connection: Connection, address: int) -> None:
-        self.connection = connection
-        #: The DP address (the Modbus unit ID of the status block and the fault registers).
-        self.address = address
+        super().__init__(connection, address)
         #: What the configuration says about this gateway (None: not in the known map).
         self.config = connection.register_map.gateway(address)
         #: The gateway's name in the configuration ("gw3"); "gw<address>" when unknown.
         self.name = self.config.name if self.config else "gw%d" % address
-        #: The output image (PLC Q bytes), writable.
-        self.outputs = Image(self, output=True)
-        #: The input image (PLC I bytes).
-        self.inputs = Image(self, output=False)
-        self._seen: dict[str, object] | None = None
-
-    @property
-    def register_map(self) -> RegisterMap:
-        return self.connection.register_map
-
-    def __repr__(self) -> str:
-        return "<Gateway %d (%s)>" % (self.address, self.name)
-
-    def image_name(self, output: bool) -> str:
-        return "outputs" if output else "inputs"
-
-    def note(self, what: str, value: T) -> T:
-        """Records a value read while wait_until() evaluates its predicate (for its message)."""
-        if self._seen is not None:
-            self._seen[what] = value
-        return value
 
     # ---- the status block ----------------------------------------------------------------
 
-    @property
-    def status(self) -> dict[str, StatusValue]:
-        """The whole status block by field name (docs/modbus.md), read in one request."""
-        m = self.register_map
-        words = self.connection.modbus.read_registers(m.status.table, m.status.first,
-                                                      m.status.count, self.address)
-        return m.decode_status(words)
-
     def _state(self, status: Mapping[str, StatusValue]) -> str:
         return self._named(status, "dp_state")
-
-    def _named(self, status: Mapping[str, StatusValue], field: str) -> str:
-        return self.register_map.value_name(field, self.register_map.number(status, field))
-
-    @property
-    def state(self) -> str:
-        """The DP slave state: "Wait_Prm", "Wait_Cfg" or "Data_Exch"."""
-        return self.note("state", self._state(self.status))
-
-    @property
-    def master_state(self) -> str:
-        """The master's view of this slave ("Data_Exch", "Retry", ...)."""
-        return self.note("master_state", self._named(self.status, "master_state"))
 
     @property
     def bus_state(self) -> str:
@@ -503,30 +324,7 @@ class Gateway:
             kind=None if http is None else str(http["kind"]),
             frames=None if http is None else int(http["frames"])))
 
-    # ---- faults (docs/faults.md) ---------------------------------------------------------
-
-    def _control(self, command: str) -> None:
-        m = self.register_map
-        self.connection.modbus.write_register(m.control_register, m.commands[command],
-                                              self.address)
-
-    def power_cycle(self) -> None:
-        """The gateway restarts: Wait_Prm, counters 0; the master parameterizes it again after
-        its retry time."""
-        self._control("power_cycle")
-
-    def reparameterize(self) -> None:
-        """The master runs Slave_Diag, Set_Prm, Chk_Cfg again at its next cycle."""
-        self._control("reparameterize")
-
-    def master_stop(self) -> None:
-        """The master stops addressing the gateway (a PLC in STOP); with a watchdog it falls
-        back to Wait_Prm."""
-        self._control("master_stop")
-
-    def master_resume(self) -> None:
-        """The master addresses the gateway again and parameterizes it."""
-        self._control("master_resume")
+    # ---- faults of the CAN side (docs/faults.md) -----------------------------------------
 
     def force_can_state(self, state: str | None) -> None:
         """Forces the CAN controller state the gateway sees: "warning", "error-passive",
@@ -544,30 +342,6 @@ class Gateway:
         """The next `n` frames the gateway would receive are lost (IRQ_LOST); 0 cancels."""
         self.connection.modbus.write_register(self.register_map.drop_rx_register, n,
                                               self.address)
-
-    # ---- waiting ------------------------------------------------------------------------
-
-    def wait_until(self, predicate: Callable[[Gateway], T], timeout: float = 5.0) -> T:
-        """Calls `predicate(gateway)` until it returns something true, and returns that.
-
-        After `timeout` seconds it raises WaitTimeout saying what the predicate last read
-        (`state='Wait_Prm'`, `inputs[0:6]=b'...'`) and the gateway's whole state."""
-        deadline = time.monotonic() + timeout
-        while True:
-            self._seen = {}
-            try:
-                value = predicate(self)
-            finally:
-                seen, self._seen = self._seen, None
-            if value:
-                return value
-            if time.monotonic() >= deadline:
-                last = ", ".join("%s=%r" % (k, v) if not isinstance(v, (Diagnosis, Leds, Counters))
-                                 else "%s=%s" % (k, v) for k, v in seen.items())
-                raise WaitTimeout("%s: not true within %.1f s; last saw %s (predicate returned "
-                                  "%r)\n%s" % (_describe_predicate(predicate), timeout,
-                                               last or "nothing", value, self.describe()))
-            time.sleep(POLL_INTERVAL)
 
     def describe(self) -> str:
         """The gateway's state in a few lines (one status block read)."""

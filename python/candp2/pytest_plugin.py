@@ -7,7 +7,8 @@ Fixtures:
                  ports, so tests run in parallel under pytest-xdist) and stops it at teardown
 
 When a test fails, its report carries a section per running daemon: every gateway's state and
-decoded diagnosis, the last CAN frames of each bus and the daemon's log tail.
+decoded diagnosis, every generic slave's state, decoded diagnosis, faults and field side, the
+last CAN frames of each bus and the daemon's log tail.
 """
 
 from __future__ import annotations

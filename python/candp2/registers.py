@@ -77,6 +77,33 @@ class GatewayMap:
 
 
 @dataclass(frozen=True)
+class ImageRange:
+    """Bytes of the PLC image: `address` .. `address + length - 1`."""
+
+    address: int
+    length: int
+
+
+@dataclass(frozen=True)
+class SlaveMap:
+    """A configured generic slave (docs/slaves.md): its names and unit IDs, its field side's
+    unit (None: none configured), how many input and output bytes it has, where they are in the
+    master's PLC image (`inputs`, `outputs`: one ImageRange per module; empty when not
+    mapped), and whether it is a remote station (profibus role master: no fault registers, no
+    field side)."""
+
+    name: str
+    dp_address: int
+    units: tuple[int, ...]
+    field_unit: int | None
+    input_bytes: int
+    output_bytes: int
+    inputs: tuple[ImageRange, ...]
+    outputs: tuple[ImageRange, ...]
+    remote: bool
+
+
+@dataclass(frozen=True)
 class DriveMap:
     """A configured simulated drive; `unit` is its Modbus unit ID (None: no fault registers)."""
 
@@ -124,7 +151,12 @@ class RegisterMap:
     `drive_registers` (by name: "mute", "error_bits", "warning_bits", "restart"),
     `exceptions` (names by code), `first_gateway_units`, `values` (names of enumerated status
     values by field), `led_fields`, `led_off`, `led_on`, `morse` (letter by code),
-    `diagnosis` (DiagnosisLayout), `gateways`, `drives`, and `document` (the parsed JSON).
+    `diagnosis` (DiagnosisLayout), `diagnosis_length_register` and `diagnosis_bytes` (Range)
+    of the whole Slave_Diag answer, `slave_faults` (a generic slave's fault registers by name:
+    "on_bus", "prm_fault", "cfg_fault", "alarm_length", "alarm_bytes"), `slave_fault_table`,
+    `alarm_bytes` (Range of the alarm's byte registers), `field_inputs` and `field_outputs` (the
+    tables of a slave's field side), `gateways`, `slaves`, `drives`, and `document` (the parsed
+    JSON).
     """
 
     def __init__(self, document: Mapping[str, Any]) -> None:
@@ -167,7 +199,20 @@ class RegisterMap:
         self.led_on = int(leds["on"])
         self.morse: dict[int, str] = {int(code): letter for letter, code in leds["morse"].items()}
         self.diagnosis = self._diagnosis(document["diagnosis"])
+        whole = document["diagnosis_bytes"]
+        self.diagnosis_length_register = int(whole["length_register"])
+        self.diagnosis_bytes = self._range(whole)
+        faults = document["slave_faults"]
+        self.slave_fault_table = str(faults["table"])
+        self.slave_faults: dict[str, int] = {
+            r["name"]: int(r["register"]) for r in faults["registers"]}
+        alarm = next(r for r in faults["registers"] if r["name"] == "alarm_bytes")
+        self.alarm_bytes = Range(self.slave_fault_table, int(alarm["register"]),
+                                 int(alarm["count"]))
+        self.field_inputs = str(document["field"]["inputs"]["table"])
+        self.field_outputs = str(document["field"]["outputs"]["table"])
         self.gateways = tuple(self._gateway(g) for g in document["gateways"])
+        self.slaves = tuple(self._slave(s) for s in document["slaves"])
         self.drives = tuple(DriveMap(d["name"], d["bus"], int(d["rx_id"]), int(d["tx_id"]),
                                      None if d["unit"] is None else int(d["unit"]))
                             for d in document["drives"])
@@ -186,6 +231,16 @@ class RegisterMap:
                       for s in g["slots"])
         return GatewayMap(g["name"], int(g["dp_address"]), _ints(g["units"]), g["bus"],
                           bool(g["remote"]), slots)
+
+    @staticmethod
+    def _slave(s: Mapping[str, Any]) -> SlaveMap:
+        def ranges(j: Any) -> tuple[ImageRange, ...]:
+            return tuple(ImageRange(int(r["address"]), int(r["length"])) for r in j)
+
+        return SlaveMap(s["name"], int(s["dp_address"]), _ints(s["units"]),
+                        None if s["field_unit"] is None else int(s["field_unit"]),
+                        int(s["input_bytes"]), int(s["output_bytes"]), ranges(s["inputs"]),
+                        ranges(s["outputs"]), bool(s["remote"]))
 
     @staticmethod
     def _diagnosis(d: Mapping[str, Any]) -> DiagnosisLayout:
@@ -232,10 +287,11 @@ class RegisterMap:
                               % (binary, e)) from e
 
     def without_configuration(self) -> RegisterMap:
-        """The generic tables only (no gateways, no drives): for a daemon whose configuration is
-        not known (`candp2.connect()`)."""
+        """The generic tables only (no gateways, slaves or drives): for a daemon whose
+        configuration is not known (`candp2.connect()`)."""
         document = dict(self.document)
         document["gateways"] = []
+        document["slaves"] = []
         document["drives"] = []
         return RegisterMap(document)
 
@@ -246,6 +302,13 @@ class RegisterMap:
         for g in self.gateways:
             if g.dp_address == address:
                 return g
+        return None
+
+    def slave(self, address: int) -> SlaveMap | None:
+        """The configured generic slave with this DP address, or None."""
+        for s in self.slaves:
+            if s.dp_address == address:
+                return s
         return None
 
     def drive(self, name: str) -> DriveMap | None:
@@ -288,8 +351,9 @@ class RegisterMap:
         """The register numbers as POSIX shell assignments, for scripts that cannot read JSON
         (the QEMU guest scripts): STATUS_<FIELD> (first register of each status field),
         STATUS_FIRST, STATUS_COUNT, CONTROL_REGISTER, FAULT_FORCED_CAN_STATE, FAULT_DROP_RX,
-        DRIVE_<REGISTER>, and per configured slot GW<address>_SLOT<n>_FIRST / _LAST (its
-        registers)."""
+        DRIVE_<REGISTER>, DIAGNOSIS_LENGTH and DIAGNOSIS_FIRST (the whole diagnosis),
+        SLAVE_<REGISTER> (a generic slave's fault registers), and per configured slot
+        GW<address>_SLOT<n>_FIRST / _LAST (its registers)."""
         lines = ["# candp2d --print-modbus-map --json as shell assignments (docs/python.md)",
                  "STATUS_FIRST=%d" % self.status.first, "STATUS_COUNT=%d" % self.status.count]
         lines += ["STATUS_%s=%d" % (f.name.upper(), f.register) for f in self.fields.values()]
@@ -297,6 +361,9 @@ class RegisterMap:
                   "FAULT_FORCED_CAN_STATE=%d" % self.forced_state_register,
                   "FAULT_DROP_RX=%d" % self.drop_rx_register]
         lines += ["DRIVE_%s=%d" % (name.upper(), r) for name, r in self.drive_registers.items()]
+        lines += ["DIAGNOSIS_LENGTH=%d" % self.diagnosis_length_register,
+                  "DIAGNOSIS_FIRST=%d" % self.diagnosis_bytes.first]
+        lines += ["SLAVE_%s=%d" % (name.upper(), r) for name, r in self.slave_faults.items()]
         for g in self.gateways:
             for slot in g.slots:
                 name = "GW%d_SLOT%d" % (g.dp_address, slot.slot)

@@ -130,3 +130,23 @@ def test_status_lines_are_read_after_ready(candp2d: Factory) -> None:
     gw.wait_until(lambda g: g.state == "Data_Exch")
     gw.wait_until(lambda g: daemon.status_line == "1 gateway, 1 in Data_Exch, 1 Modbus client")
     assert "sd_notify" not in daemon.log
+
+
+def test_find_example_in_the_checkout_and_beside_an_installed_candp2d(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    root = Path(candp2.__file__).resolve().parent.parent.parent
+    assert candp2.find_example("plc-line.json") == root / "config" / "plc-line.json"
+    assert candp2.find_example("scenarios/plc-line.json").is_file()
+    # Installed (the package not in a checkout): PREFIX/share/candp2/examples beside
+    # PREFIX/bin/candp2d.
+    monkeypatch.setattr("candp2.binary._checkout", lambda: None)
+    (tmp_path / "bin").mkdir()
+    binary = tmp_path / "bin" / "candp2d"
+    binary.write_text("#!/bin/sh\n")
+    binary.chmod(0o755)
+    examples = tmp_path / "share" / "candp2" / "examples"
+    examples.mkdir(parents=True)
+    (examples / "plc-line.json").write_text("{}")
+    assert candp2.find_example("plc-line.json", binary) == examples / "plc-line.json"
+    with pytest.raises(candp2.Candp2Error, match="no example nothing.json \\(tried .*examples"):
+        candp2.find_example("nothing.json", binary)

@@ -11,7 +11,7 @@ import pytest
 
 from candp2 import Candp2Error, ConfigError, RegisterMap
 
-from plants import MANUAL_514
+from plants import MANUAL_514, PLC_LINE
 
 PACKAGE = Path(__file__).resolve().parent.parent / "candp2"
 
@@ -40,6 +40,23 @@ def test_map_of_a_configuration(candp2_binary: str, tmp_path: Path) -> None:
     assert set(m.commands) >= {"power_cycle", "reparameterize", "master_stop", "master_resume"}
 
 
+def test_map_of_generic_slaves(candp2_binary: str, tmp_path: Path) -> None:
+    m = RegisterMap.from_binary(candp2_binary, write(tmp_path, PLC_LINE))
+    io1, io2 = m.slaves
+    assert (io1.name, io1.dp_address, io1.units, io1.field_unit) == ("io1", 8, (8,), 108)
+    assert (io2.input_bytes, io2.output_bytes, io2.remote) == (2, 2, False)
+    assert m.slave(9) == io2 and m.slave(3) is None
+    assert set(m.slave_faults) == {"on_bus", "prm_fault", "cfg_fault", "alarm_length",
+                                   "alarm_bytes"}
+    assert 2 * m.alarm_bytes.count == 62  # device-related bytes of a diagnosis alarm
+    # The whole diagnosis: its length, then up to 244 bytes (IEC 61158-6-3), in one read.
+    assert m.diagnosis_bytes.first == m.diagnosis_length_register + 1
+    assert 2 * m.diagnosis_bytes.count == 244
+    assert m.diagnosis_bytes.count + 1 <= m.limits["read_registers"]
+    assert (m.field_inputs, m.field_outputs) == ("holding_registers", "input_registers")
+    assert m.without_configuration().slaves == ()
+
+
 def test_decode_status_combines_words(candp2_binary: str) -> None:
     m = RegisterMap.from_binary(candp2_binary)
     words = list(range(m.status.count))
@@ -58,7 +75,10 @@ def test_no_register_number_in_the_package(candp2_binary: str) -> None:
     m = RegisterMap.from_binary(candp2_binary)
     numbers = {r for f in m.fields.values() for r in range(f.register, f.register + f.registers)}
     numbers |= {m.control_register, m.forced_state_register, m.drop_rx_register,
-                m.status.first + m.status.count}
+                m.status.first + m.status.count, m.diagnosis_length_register,
+                m.diagnosis_bytes.first, m.diagnosis_bytes.first + m.diagnosis_bytes.count - 1}
+    numbers |= set(m.slave_faults.values())
+    numbers |= {m.alarm_bytes.first + m.alarm_bytes.count - 1}
     found = []
     for source in PACKAGE.glob("*.py"):
         for node in ast.walk(ast.parse(source.read_text())):
@@ -102,6 +122,8 @@ def test_shell_assignments(candp2_binary: str, tmp_path: Path) -> None:
     assert values["STATUS_DIAG"] == str(m.fields["diag"].register)
     assert values["FAULT_DROP_RX"] == str(m.drop_rx_register)
     assert values["GW5_SLOT1_FIRST"] == str(172 // 2) and values["GW5_SLOT1_LAST"] == str(177 // 2)
+    assert values["SLAVE_ON_BUS"] == str(m.slave_faults["on_bus"])
+    assert values["DIAGNOSIS_LENGTH"] == str(m.diagnosis_length_register)
     # sh reads it.
     r = subprocess.run(["sh", "-c", ". %s && echo $((STATUS_DIAG + 8))" % out],
                        capture_output=True, text=True)

@@ -7,6 +7,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+from plants import EXAMPLE_GSD
+
 PYTHON_DIR = Path(__file__).resolve().parent.parent
 
 FAILING = textwrap.dedent('''
@@ -27,8 +29,24 @@ FAILING = textwrap.dedent('''
 ''')
 
 
-def run_pytest(tmp_path: Path, candp2_binary: str, *args: str) -> str:
-    (tmp_path / "test_report.py").write_text(FAILING)
+SLAVES = textwrap.dedent('''
+    PLANT = {"buses": {"can0": {"type": "virtual"}},
+             "gateways": [{"address": 5, "bus": "can0", "slots": [
+                 {"io": "output", "address": 0, "length": 2, "comment": "03,09,00"}]}],
+             "slaves": [{"name": "io1", "address": 8, "gsd": %r, "modules": ["8 DI", "8 DO"],
+                         "field_unit": 108}]}
+
+    def test_fails(candp2d):
+        io1 = candp2d(PLANT).slave("io1")
+        io1.wait_until(lambda s: s.state == "Data_Exch")
+        io1.alarm(b"\\x42\\x43")
+        io1.field_inputs[0] = 0x5A
+        assert io1.state == "Wait_Prm"
+''' % EXAMPLE_GSD)
+
+
+def run_pytest(tmp_path: Path, candp2_binary: str, *args: str, test: str = FAILING) -> str:
+    (tmp_path / "test_report.py").write_text(test)
     env = dict(os.environ, PYTHONPATH=str(PYTHON_DIR))
     r = subprocess.run([sys.executable, "-m", "pytest", "-p", "candp2.pytest_plugin",
                         "-p", "no:cacheprovider", "--candp2d", candp2_binary, *args,
@@ -48,6 +66,17 @@ def test_failure_report_sections(tmp_path: Path, candp2_binary: str) -> None:
     assert "[candp2d] ready: modbus" in out             # the log's tail
     # test_dies: the teardown fails with the exit status and the log.
     assert "candp2d had exited with status -9 before stop()" in out
+
+
+def test_failure_report_shows_the_slaves(tmp_path: Path, candp2_binary: str) -> None:
+    out = run_pytest(tmp_path, candp2_binary, test=SLAVES)
+    assert "1 failed" in out
+    assert "slave 8 (io1): Data_Exch, master " in out
+    # The whole diagnosis decoded: Ext_Diag and the alarm's device-related block.
+    assert "diagnosis: 08 04 00 01 0C 2D 03 42 43; Ext_Diag; master 1; ident 0C2D; " \
+        "device-related 42 43" in out
+    assert "faults: on the bus, alarm 42 43" in out
+    assert "field side (unit 108): inputs 5A, outputs 00" in out
 
 
 def test_reports_under_xdist(tmp_path: Path, candp2_binary: str) -> None:

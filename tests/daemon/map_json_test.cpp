@@ -143,5 +143,45 @@ TEST(MapJson, DiagnosisLayoutAndValueNames) {
   EXPECT_EQ(nlohmann::ordered_json::parse(map_json_text(manual_514())), j);
 }
 
+TEST(MapJson, GenericSlavesTheirFaultsFieldSideAndWholeDiagnosis) {
+  // config/plc-line.json's io1: 8 DI, 8 DO, 2 AI from the example GSD (docs/slaves.md).
+  const auto r = config::parse_daemon(R"({
+    "buses": {"can0": {"type": "virtual"}},
+    "gateways": [{"name": "gw3", "address": 3, "bus": "can0", "slots": [
+        {"io": "output", "address": 0, "length": 2, "comment": "02,01,00"}]}],
+    "slaves": [{"name": "io1", "address": 8, "gsd": ")" CANDP2_SOURCE_DIR
+                                      R"(/gsd/examples/CDP20C2D.GSD",
+                "modules": ["8 DI", "8 DO", "2 AI"], "field_unit": 108,
+                "input_address": 100, "output_address": 100}]
+  })",
+                                      "test.json");
+  ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(r));
+  const auto j = map_json(std::get<config::DaemonConfig>(r));
+  ASSERT_EQ(j["slaves"].size(), 1u);
+  const auto& s = j["slaves"][0];
+  EXPECT_EQ(s["name"], "io1");
+  EXPECT_EQ(s["dp_address"], 8);
+  EXPECT_EQ(s["field_unit"], 108);
+  EXPECT_EQ(s["input_bytes"], 5);  // 8 DI + 2 AI
+  EXPECT_EQ(s["output_bytes"], 1);
+  EXPECT_EQ(s["inputs"][1]["address"], 101);
+  EXPECT_EQ(s["inputs"][1]["length"], 4);
+  const auto& f = j["slave_faults"]["registers"];
+  ASSERT_EQ(f.size(), 5u);
+  EXPECT_EQ(f[0]["name"], "on_bus");
+  EXPECT_EQ(f[0]["register"], kSlaveFaultBase + kSlaveOnBus);
+  EXPECT_EQ(f[3]["name"], "alarm_length");
+  EXPECT_EQ(f[3]["register"], kSlaveFaultBase + kSlaveAlarmLength);
+  EXPECT_EQ(f[4]["register"], kSlaveFaultBase + kSlaveAlarmBytes);
+  EXPECT_EQ(f[4]["count"], kSlaveAlarmMax / 2);
+  EXPECT_EQ(j["field"]["inputs"]["table"], "holding_registers");
+  EXPECT_EQ(j["field"]["outputs"]["table"], "input_registers");
+  const auto& d = j["diagnosis_bytes"];
+  EXPECT_EQ(d["table"], "input_registers");
+  EXPECT_EQ(d["length_register"], kDiagnosisBase);
+  EXPECT_EQ(d["first"], kDiagnosisBase + 1);
+  EXPECT_EQ(d["count"].get<unsigned>() * 2, dp::kDiagMaxLen);
+}
+
 }  // namespace
 }  // namespace candp2::modbus

@@ -284,9 +284,12 @@ TEST_F(MapFixture, AddressBoundaries) {
   EXPECT_EQ(run(5, write_regs(4095, {1, 2})), Exception::IllegalDataAddress);
   EXPECT_EQ(image.outputs[8190], 0) << "a refused write must not write anything";
   EXPECT_EQ(run(5, {0x06, hi(4096), lo(4096), 0, 1}), Exception::IllegalDataAddress);
-  // Status block 8192 .. 8192+count-1 in input registers only.
+  // Status block 8192 .. 8192+count-1 in input registers only, the whole diagnosis right after
+  // it (WholeDiagnosisAfterTheStatusBlock), then nothing.
   EXPECT_EQ(run(5, pdu(0x04, 8192 + status::kCount - 1, 1)), std::nullopt);
-  EXPECT_EQ(run(5, pdu(0x04, 8192 + status::kCount, 1)), Exception::IllegalDataAddress);
+  EXPECT_EQ(run(5, pdu(0x04, 8192 + status::kCount - 1, 2)), Exception::IllegalDataAddress);
+  EXPECT_EQ(run(5, pdu(0x04, 8192 + status::kCount + kDiagnosisRegisters, 1)),
+            Exception::IllegalDataAddress);
   EXPECT_EQ(run(5, pdu(0x04, 8190, 4)), Exception::IllegalDataAddress);
   // Holding registers 8192..8194: control, forced CAN state, drop count (docs/faults.md).
   EXPECT_EQ(run(5, pdu(0x03, 8192, 3)), std::nullopt);
@@ -384,6 +387,53 @@ TEST_F(MapFixture, FaultRegisters) {
   EXPECT_EQ(run(5, write_regs(8192, {2, 9, 1})), Exception::IllegalDataValue);
   EXPECT_TRUE(gw5.commands.empty());
   EXPECT_EQ(gw5.drop, 7);
+}
+
+TEST_F(MapFixture, WholeDiagnosisAfterTheStatusBlock) {
+  // docs/modbus.md "Whole diagnosis": 8258 = length, 8259.. = two bytes a register, high first.
+  // By default a station's diagnosis is the status block's 11 diagnosis bytes.
+  ASSERT_EQ(run(5, pdu(0x04, kDiagnosisBase, 7)), std::nullopt);
+  EXPECT_EQ(out.registers[0], dp::DpSlave::kDiagLen);
+  auto byte = [&](unsigned i) { return (gw5.block[status::kDiag + i]) & 0xFF; };
+  EXPECT_EQ(out.registers[1], byte(0) << 8 | byte(1));
+  EXPECT_EQ(out.registers[5], byte(8) << 8 | byte(9));
+  EXPECT_EQ(out.registers[6], byte(10) << 8);  // byte 11 does not exist: 0
+  // The whole range, one request; past it and in the holding registers: outside the map.
+  EXPECT_EQ(kDiagnosisBase, kStatusBase + status::kCount);
+  EXPECT_EQ(run(5, pdu(0x04, kDiagnosisBase, kDiagnosisRegisters)), std::nullopt);
+  EXPECT_EQ(out.registers[kDiagnosisRegisters - 1], 0);
+  EXPECT_EQ(run(5, pdu(0x04, kDiagnosisBase + kDiagnosisRegisters - 1, 1)), std::nullopt);
+  EXPECT_EQ(run(5, pdu(0x04, kDiagnosisBase + kDiagnosisRegisters, 1)),
+            Exception::IllegalDataAddress);
+  EXPECT_EQ(run(5, pdu(0x04, kDiagnosisBase - 1, 2)), Exception::IllegalDataAddress);
+  EXPECT_EQ(run(5, pdu(0x03, kDiagnosisBase, 1)), Exception::IllegalDataAddress);
+}
+
+struct LongDiagGateway : FakeGateway {
+  using FakeGateway::FakeGateway;
+  std::vector<std::uint8_t> diagnosis(Time) override { return diag; }
+  std::vector<std::uint8_t> diag;
+};
+
+TEST(WholeDiagnosis, LongerThanTheStatusBlockAndOddLength) {
+  // A generic slave's 6 standard bytes and a 9-byte device-related block (docs/slaves.md).
+  dp::ProcessImage image;
+  LongDiagGateway slave(8);
+  slave.diag = {0x08, 0x0C, 0x00, 0x01, 0x0C, 0x2D, 0x0A, 1, 2, 3, 4, 5, 6, 7, 8, 9};
+  slave.diag.push_back(0xAB);  // 17 bytes: the last register's low byte is 0
+  ProcessImageMap map{image, {&slave}};
+  const auto a = adu(8, pdu(0x04, kDiagnosisBase, 10));
+  ReadResult out;
+  ASSERT_EQ(map.handle(std::get<Request>(decode_request(a)), out, Time{0}), std::nullopt);
+  EXPECT_EQ(out.registers[0], 17);
+  EXPECT_EQ(out.registers[1], 0x080C);
+  EXPECT_EQ(out.registers[4], 0x0A01);
+  EXPECT_EQ(out.registers[8], 0x0809);
+  EXPECT_EQ(out.registers[9], 0xAB00);
+  slave.diag.clear();  // none yet (a remote station the master has not read)
+  ASSERT_EQ(map.handle(std::get<Request>(decode_request(a)), out, Time{0}), std::nullopt);
+  EXPECT_EQ(out.registers[0], 0);
+  EXPECT_EQ(out.registers[1], 0);
 }
 
 TEST_F(MapFixture, MaskWriteRegister) {

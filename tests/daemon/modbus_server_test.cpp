@@ -94,7 +94,7 @@ TEST_F(ServerFixture, ExceptionsOnTheWireAndTheServerServesOn) {
   ModbusClient c(port, 5);
   // emulator-spec §8: outside the tables → 0x02; unknown unit → 0x0B.
   EXPECT_EQ(std::get<int>(c.read_holding(4096, 1)), EMBXILADD);
-  EXPECT_EQ(std::get<int>(c.read_input(8192 + status::kCount, 1)), EMBXILADD);
+  EXPECT_EQ(std::get<int>(c.read_input(kDiagnosisBase + kDiagnosisRegisters, 1)), EMBXILADD);
   EXPECT_EQ(c.write_one(8192, 9), EMBXILVAL);
   c.unit(9);
   EXPECT_EQ(std::get<int>(c.read_holding(0, 1)), EMBXGTAR);

@@ -160,8 +160,9 @@ class TestDaemonE2E:
         rr = pymodbus.read_holding_registers(m.outputs.first + m.outputs.count, 1, slave=UNIT)
         assert rr.isError()
         assert rr.exception_code == 0x02
-        rr = pymodbus.read_input_registers(m.status.first + m.status.count, 1, slave=UNIT)
-        assert rr.exception_code == 0x02  # past the status block
+        rr = pymodbus.read_input_registers(m.diagnosis_bytes.first + m.diagnosis_bytes.count, 1,
+                                           slave=UNIT)
+        assert rr.exception_code == 0x02  # past the status block and the whole diagnosis
         rr = pymodbus.read_holding_registers(0, 1, slave=9)
         assert rr.isError()
         assert rr.exception_code == 0x0B

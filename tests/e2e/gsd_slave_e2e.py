@@ -1,45 +1,43 @@
-#!/usr/bin/python3
-"""An independent DP master drives generic slaves over a pseudo-terminal (docs/slaves.md).
+"""An independent DP master drives generic slaves served by candp2d over a pseudo-terminal
+(docs/slaves.md "An independent master over a pty"; pytest on the candp2 package, ctest
+e2e_gsd_slave_pty).
 
-The slaves: tests/gsd_slave/pty_slaves.cpp (gsd_slave_pty) serves the `slaves` of a daemon
-configuration on `pty:<tmp>/pb` with the FDL slave front end — a SIEMENS DP/DP Coupler
-(SIEM8070.GSD, modular, Sync/Freeze) at 9 and a SIEMENS SIMOCODE-DP (SIEM8031.GSE, bit areas, no
-Sync/Freeze) at 8, from ../shared/gsd-corpus.
+candp2d runs `profibus.role: "slaves"` on `pty:<tmp>/pb` with, on that one line, a CAN-DP/2
+gateway at 3 (the manual §5.1.4 slots, on a virtual CAN bus) and two generic slaves from real GSD
+files of ../shared/gsd-corpus: a SIEMENS DP/DP Coupler (SIEM8070.GSD, modular, Sync/Freeze) at 9
+and a SIEMENS SIMOCODE-DP (SIEM8031.GSE, bit areas, no Sync/Freeze) at 8, each with its field side
+on a Modbus unit of its own.
 
 The master is this file and independent of our C++: it reads the same GSD files with its own small
 reader (Ident_Number, modules, User_Prm_Data, Ext_User_Prm_Data_Const/Ref, ExtUserPrmData
 defaults), builds Set_Prm and Chk_Cfg from its own module list, and talks FDL through the minimal
-master of profibus_e2e.py. Shown: Data_Exchange with the coupler (its outputs appear on the field
-side, inputs written there come back), a Cfg fault (another module list), a Prm fault (a value
-out of range), Sync refused by the SIMOCODE-DP and honoured by the coupler (Global_Control), the
-slave leaving the bus and coming back, a diagnosis alarm announced with DH.
+master of profibus_e2e.py. The test plays the field through the candp2 package (Modbus: the
+slaves' field sides and fault registers). Shown: Data_Exchange with the coupler (its outputs
+appear on the field side, inputs written there come back), a Cfg fault (another module list), a
+Prm fault (a value out of range), Sync refused by the SIMOCODE-DP and honoured by the coupler
+(Global_Control), the slave leaving the bus and coming back, a diagnosis alarm announced with DH,
+and the gateway exchanging data on the same line beside the slaves.
 
-Run by ctest (label e2e) with Debian's /usr/bin/python3 (profibus_e2e.py imports python3-can and
-python3-pymodbus):
-    /usr/bin/python3 tests/e2e/gsd_slave_e2e.py --harness build/tests/gsd_slave_pty
-Every wait is bounded; the harness is always stopped.
+Every wait is bounded; every daemon is stopped (the candp2d fixture).
 """
 
-import argparse
-import json
 import os
 import re
-import select
-import shutil
-import subprocess
-import sys
-import tempfile
 import time
-import unittest
 
-from profibus_e2e import FdlMaster, sd2, SC, SD2, SD3  # tests/e2e (the script's folder)
+import can  # python3-can
+import pytest
 
-HARNESS = None
-CORPUS = os.path.normpath(os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared",
-                                       "gsd-corpus"))
+from profibus_e2e import CFG_514, PRM_300MS, SC, SD2, SD3, FdlMaster, sd2, slots_514
+
+SHARED = os.environ.get("CANDP2_SHARED_DIR") or os.path.join(
+    os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "shared")
+CORPUS = os.path.normpath(os.path.join(SHARED, "gsd-corpus"))
 WAIT = 10.0
-SAP_DIAG, SAP_PRM, SAP_CFG, SAP_GC, SAP_MASTER = 60, 61, 62, 58, 62
+SAP_DIAG, SAP_GC, SAP_MASTER = 60, 58, 62
 FC_DL, FC_DH = 0x08, 0x0A
+GATEWAY, COUPLER, SIMOCODE = 3, 9, 8
+COUPLER_MODULES = ["4 Bytes Output consistent", "2 Bytes Input", "1 Byte Output"]
 
 
 # ------------------------------------------------------------------ a small GSD reader of our own
@@ -142,60 +140,7 @@ class Gsd:
         return b"".join(self.modules[n] for n in names)
 
 
-# ------------------------------------------------------------------ the harness
-
-class Slaves:
-    def __init__(self, tmp, config):
-        self.path = os.path.join(tmp, "slaves.json")
-        with open(self.path, "w") as f:
-            json.dump(config, f)
-        self.err = open(os.path.join(tmp, "harness.log"), "w")
-        self.proc = subprocess.Popen([HARNESS, self.path], stdin=subprocess.PIPE,
-                                     stdout=subprocess.PIPE, stderr=self.err, text=True, bufsize=1)
-        self.lines = []
-        # Read from the descriptor directly: select() and a buffered reader do not mix.
-        self.partial = b""
-
-    def read_until(self, predicate, timeout=WAIT, since=0):
-        """The first line from index `since` on that matches, reading more as they come."""
-        end = time.monotonic() + timeout
-        while time.monotonic() < end:
-            for line in self.lines[since:]:
-                if predicate(line):
-                    return line
-            fd = self.proc.stdout.fileno()
-            r, _, _ = select.select([fd], [], [], max(0.0, end - time.monotonic()))
-            if r:
-                chunk = os.read(fd, 4096)
-                if not chunk:
-                    break
-                self.partial += chunk
-                *done, self.partial = self.partial.split(b"\n")
-                self.lines += [d.decode().strip() for d in done]
-        raise AssertionError("harness: no matching line in %s" % self.lines)
-
-    def command(self, text):
-        """Sends a command and waits for its "ok" (tests/gsd_slave/pty_slaves.cpp)."""
-        self.proc.stdin.write(text + "\n")
-        self.proc.stdin.flush()
-        self.read_until(lambda line: line == "ok " + text or line.startswith("error "))
-        if ("ok " + text) not in self.lines:
-            raise AssertionError("harness refused %r: %s" % (text, self.lines))
-        self.lines.remove("ok " + text)  # a command may be sent again
-
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.stdin.write("quit\n")
-            self.proc.stdin.flush()
-            try:
-                self.proc.wait(timeout=WAIT)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self.proc.stdin.close()
-        self.proc.stdout.close()
-        self.err.close()
-
+# ------------------------------------------------------------------ the line
 
 def response_fc(r):
     if r[0] == SD2:
@@ -205,38 +150,30 @@ def response_fc(r):
     return r[3] & 0x0F  # SD1
 
 
-class GenericSlavesOverPty(unittest.TestCase):
-    COUPLER, SIMOCODE = 9, 8
-    COUPLER_MODULES = ["4 Bytes Output consistent", "2 Bytes Input", "1 Byte Output"]
+def line_config(link):
+    return {
+        "profibus": {"port": "pty:" + link, "baud": 19200, "role": "slaves"},
+        "buses": {"can0": {"type": "virtual"}},
+        "gateways": [{"name": "gw3", "address": GATEWAY, "bus": "can0", "slots": slots_514()}],
+        "slaves": [
+            {"name": "coupler", "address": COUPLER, "gsd": os.path.join(CORPUS, "SIEM8070.GSD"),
+             "modules": COUPLER_MODULES, "field_unit": 100 + COUPLER},
+            {"name": "simocode", "address": SIMOCODE,
+             "gsd": os.path.join(CORPUS, "SIEM8031.GSE"), "modules": ["Basic Type 2"],
+             "field_unit": 100 + SIMOCODE},
+        ],
+        "log": {"level": "debug"},
+    }
 
-    @classmethod
-    def setUpClass(cls):
-        cls.coupler = Gsd(os.path.join(CORPUS, "SIEM8070.GSD"))
-        cls.simocode = Gsd(os.path.join(CORPUS, "SIEM8031.GSE"))
 
-    def setUp(self):
-        self.tmp = tempfile.mkdtemp(prefix="candp2-gsd-slave-")
-        self.link = os.path.join(self.tmp, "pb")
-        config = {
-            "profibus": {"port": "pty:" + self.link, "baud": 19200, "role": "slaves"},
-            "buses": {"can0": {"type": "virtual"}},
-            "gateways": [{"address": 3, "bus": "can0",
-                          "slots": [{"io": "output", "address": 0, "length": 1}]}],
-            "slaves": [
-                {"address": self.COUPLER, "gsd": os.path.join(CORPUS, "SIEM8070.GSD"),
-                 "modules": self.COUPLER_MODULES},
-                {"address": self.SIMOCODE, "gsd": os.path.join(CORPUS, "SIEM8031.GSE"),
-                 "modules": ["Basic Type 2"]},
-            ],
-        }
-        self.slaves = Slaves(self.tmp, config)
-        self.slaves.read_until(lambda line: line.startswith("ready "))
-        self.master = FdlMaster(self.link)
+class Line:
+    """candp2d on the slave side of the pty, the test's FDL master on the other."""
 
-    def tearDown(self):
-        self.master.close()
-        self.slaves.stop()
-        shutil.rmtree(self.tmp, ignore_errors=True)
+    def __init__(self, daemon, link):
+        self.daemon = daemon
+        self.master = FdlMaster(link)
+        self.coupler = daemon.slave("coupler")
+        self.simocode = daemon.slave("simocode")
 
     def diag(self, station):
         """Slave_Diag: SD2, or SD3 when the SAPs and data are exactly 8 bytes (a 6-byte
@@ -244,21 +181,29 @@ class GenericSlavesOverPty(unittest.TestCase):
         r = self.master.srd(station, b"", dsap=SAP_DIAG)
         assert r, "no answer to Slave_Diag"
         if r[0] == SD3:
-            self.assertEqual((r[1] & 0x80, r[2] & 0x80, r[4], r[5]), (0x80, 0x80, 62, SAP_DIAG))
+            assert (r[1] & 0x80, r[2] & 0x80, r[4], r[5]) == (0x80, 0x80, 62, SAP_DIAG)
             return r[6:12]
-        self.assertEqual(r[0], SD2, r.hex(" "))
+        assert r[0] == SD2, r.hex(" ")
         return r[9:-2]  # after 68 LE LEr 68 DA SA FC DSAP SSAP
 
     def parameterize(self, station, prm, cfg):
         assert self.master.fdl_status(station) is not None, "no FDL_Status answer"
         self.diag(station)
-        self.assertEqual(self.master.set_prm(station, prm), bytes([SC]))
-        self.assertEqual(self.master.chk_cfg(station, cfg), bytes([SC]))
+        assert self.master.set_prm(station, prm) == bytes([SC])
+        assert self.master.chk_cfg(station, cfg) == bytes([SC])
         return self.diag(station)
 
     def exchange(self, station, outputs):
         r, inputs = self.master.data_exchange(station, outputs)
         return response_fc(r), inputs
+
+    def exchange_until(self, station, outputs, predicate):
+        """Data_Exchange until `predicate(fc, inputs)` holds (bounded); the last (fc, inputs)."""
+        end = time.monotonic() + WAIT
+        fc, inputs = self.exchange(station, outputs)
+        while not predicate(fc, inputs) and time.monotonic() < end:
+            fc, inputs = self.exchange(station, outputs)
+        return fc, inputs
 
     def global_control(self, station, control):
         # SDN high (FC 0x46), DSAP 58: no answer (IEC 61158-6-3 Global_Control).
@@ -266,89 +211,131 @@ class GenericSlavesOverPty(unittest.TestCase):
         os.write(self.master.fd, sd2(station, self.master.address, 0x46, bytes([control, 0]),
                                      SAP_GC, SAP_MASTER))
 
-    def test_data_exchange_with_its_own_module_list(self):
-        c = self.coupler
-        diag = self.parameterize(self.COUPLER, c.set_prm(), c.chk_cfg(self.COUPLER_MODULES))
-        self.assertEqual(diag.hex(" "), "00 0c 00 02 80 70")  # WD_On, master 2, ident 8070
-        fc, inputs = self.exchange(self.COUPLER, bytes([0x11, 0x22, 0x33, 0x44, 0x55]))
-        self.assertEqual(inputs, bytes(2))
-        self.slaves.read_until(lambda line: line == "outputs 9 11 22 33 44 55")
-        self.slaves.command("inputs 9 A5 5A")
-        end = time.monotonic() + WAIT
-        while inputs != bytes([0xA5, 0x5A]) and time.monotonic() < end:
-            fc, inputs = self.exchange(self.COUPLER, bytes([0x11, 0x22, 0x33, 0x44, 0x55]))
-        self.assertEqual(inputs, bytes([0xA5, 0x5A]))
-        self.assertEqual(fc, FC_DL)
 
-    def test_other_module_list_is_cfg_fault(self):
-        c = self.coupler
-        diag = self.parameterize(self.COUPLER, c.set_prm(),
-                                 c.chk_cfg(["4 Bytes Output consistent", "2 Bytes Input"]))
-        self.assertEqual(diag[0], 0x06)  # Station_Not_Ready + Cfg_Fault
-
-    def test_value_out_of_range_is_prm_fault(self):
-        s = self.simocode
-        # "Class" (ExtUserPrmData 21, Unsigned8 5-30) at user byte 15.
-        diag = self.parameterize(self.SIMOCODE, s.set_prm(values={15: 40}),
-                                 s.chk_cfg(["Basic Type 2"]))
-        self.assertEqual(diag[0], 0x42)  # Station_Not_Ready + Prm_Fault
-        diag = self.parameterize(self.SIMOCODE, s.set_prm(values={15: 20}),
-                                 s.chk_cfg(["Basic Type 2"]))
-        self.assertEqual(diag.hex(" "), "00 0c 00 02 80 31")
-
-    def test_sync_refused_by_one_honoured_by_the_other(self):
-        s, c = self.simocode, self.coupler
-        diag = self.parameterize(self.SIMOCODE, s.set_prm(sync=True), s.chk_cfg(["Basic Type 2"]))
-        self.assertEqual(diag[0], 0x12)  # Station_Not_Ready + Not_Supported
-        diag = self.parameterize(self.COUPLER, c.set_prm(sync=True),
-                                 c.chk_cfg(self.COUPLER_MODULES))
-        self.assertEqual(diag[0], 0x00)
-        self.exchange(self.COUPLER, bytes([1, 1, 1, 1, 1]))
-        self.slaves.read_until(lambda line: line == "outputs 9 01 01 01 01 01")
-        self.global_control(self.COUPLER, 0x20)  # Sync
-        self.assertTrue(self.diag(self.COUPLER)[1] & 0x20)  # Sync_Mode
-        self.exchange(self.COUPLER, bytes([2, 2, 2, 2, 2]))
-        self.exchange(self.COUPLER, bytes([2, 2, 2, 2, 2]))
-        # The harness reports outputs before it answers; "ping" collects everything up to now.
-        self.slaves.command("ping")
-        self.assertNotIn("outputs 9 02 02 02 02 02", self.slaves.lines)  # held until the next Sync
-        self.global_control(self.COUPLER, 0x20)
-        self.slaves.read_until(lambda line: line == "outputs 9 02 02 02 02 02")
-
-    def test_leaves_the_bus_and_comes_back(self):
-        c = self.coupler
-        self.parameterize(self.COUPLER, c.set_prm(watchdog_ms=200), c.chk_cfg(self.COUPLER_MODULES))
-        mark = len(self.slaves.lines)
-        self.slaves.command("offline 9")
-        self.assertIsNone(self.master.srd(self.COUPLER, b"", dsap=SAP_DIAG))
-        # Its watchdog (200 ms) expired meanwhile.
-        self.slaves.read_until(lambda line: line == "state 9 Wait_Prm", since=mark)
-        self.slaves.command("online 9")
-        diag = self.parameterize(self.COUPLER, c.set_prm(), c.chk_cfg(self.COUPLER_MODULES))
-        self.assertEqual(diag[0], 0x00)
-
-    def test_diagnosis_alarm_is_announced_with_dh(self):
-        c = self.coupler
-        self.parameterize(self.COUPLER, c.set_prm(), c.chk_cfg(self.COUPLER_MODULES))
-        fc, _ = self.exchange(self.COUPLER, bytes(5))
-        self.assertEqual(fc, FC_DL)
-        self.slaves.command("diag 9 42 43")
-        end = time.monotonic() + WAIT
-        while fc != FC_DH and time.monotonic() < end:
-            fc, _ = self.exchange(self.COUPLER, bytes(5))
-        self.assertEqual(fc, FC_DH)
-        diag = self.diag(self.COUPLER)
-        self.assertEqual(diag.hex(" "), "08 0c 00 02 80 70 03 42 43")  # Ext_Diag, device block
+@pytest.fixture(scope="module")
+def gsd():
+    return {"coupler": Gsd(os.path.join(CORPUS, "SIEM8070.GSD")),
+            "simocode": Gsd(os.path.join(CORPUS, "SIEM8031.GSE"))}
 
 
-def main():
-    global HARNESS
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--harness", required=True)
-    args, rest = parser.parse_known_args()
-    HARNESS = os.path.abspath(args.harness)
-    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)
+@pytest.fixture
+def line(candp2d, tmp_path):
+    link = str(tmp_path / "pb")
+    daemon = candp2d(line_config(link))
+    assert os.path.islink(link), "no pty link at " + link
+    line = Line(daemon, link)
+    yield line
+    line.master.close()
 
 
-if __name__ == "__main__":
-    main()
+# ------------------------------------------------------------------ the tests
+
+def test_data_exchange_with_its_own_module_list(line, gsd):
+    c = gsd["coupler"]
+    diag = line.parameterize(COUPLER, c.set_prm(), c.chk_cfg(COUPLER_MODULES))
+    assert diag.hex(" ") == "00 0c 00 02 80 70"  # WD_On, master 2, ident 8070
+    fc, inputs = line.exchange(COUPLER, bytes([0x11, 0x22, 0x33, 0x44, 0x55]))
+    assert inputs == bytes(2)
+    line.coupler.wait_until(lambda s: s.field_outputs[0:5] == bytes.fromhex("11 22 33 44 55"),
+                            timeout=WAIT)
+    line.coupler.field_inputs[0:2] = b"\xA5\x5A"
+    fc, inputs = line.exchange_until(COUPLER, bytes([0x11, 0x22, 0x33, 0x44, 0x55]),
+                                     lambda fc, i: i == b"\xA5\x5A")
+    assert inputs == b"\xA5\x5A"
+    assert fc == FC_DL
+    # candp2d's view of the line: role slaves, requests to the coupler, a master talks to it.
+    st = line.coupler.status
+    assert (st["line_role"], st["station_present"]) == (1, 1)
+    assert st["station_requests"] >= 6
+    assert line.coupler.state == "Data_Exch" and line.coupler.diagnosis.master == 2
+
+
+def test_other_module_list_is_cfg_fault(line, gsd):
+    c = gsd["coupler"]
+    diag = line.parameterize(COUPLER, c.set_prm(),
+                             c.chk_cfg(["4 Bytes Output consistent", "2 Bytes Input"]))
+    assert diag[0] == 0x06  # Station_Not_Ready + Cfg_Fault
+    assert "Chk_Cfg entry 2" in line.daemon.log  # the slave's log names the difference
+
+
+def test_value_out_of_range_is_prm_fault(line, gsd):
+    s = gsd["simocode"]
+    # "Class" (ExtUserPrmData 21, Unsigned8 5-30) at user byte 15.
+    diag = line.parameterize(SIMOCODE, s.set_prm(values={15: 40}), s.chk_cfg(["Basic Type 2"]))
+    assert diag[0] == 0x42  # Station_Not_Ready + Prm_Fault
+    diag = line.parameterize(SIMOCODE, s.set_prm(values={15: 20}), s.chk_cfg(["Basic Type 2"]))
+    assert diag.hex(" ") == "00 0c 00 02 80 31"
+
+
+def test_sync_refused_by_one_honoured_by_the_other(line, gsd):
+    s, c = gsd["simocode"], gsd["coupler"]
+    diag = line.parameterize(SIMOCODE, s.set_prm(sync=True), s.chk_cfg(["Basic Type 2"]))
+    assert diag[0] == 0x12  # Station_Not_Ready + Not_Supported
+    diag = line.parameterize(COUPLER, c.set_prm(sync=True), c.chk_cfg(COUPLER_MODULES))
+    assert diag[0] == 0x00
+    line.exchange(COUPLER, bytes([1, 1, 1, 1, 1]))
+    line.coupler.wait_until(lambda s: s.field_outputs[0:5] == bytes([1] * 5), timeout=WAIT)
+    line.global_control(COUPLER, 0x20)  # Sync
+    assert line.diag(COUPLER)[1] & 0x20  # Sync_Mode
+    line.exchange(COUPLER, bytes([2, 2, 2, 2, 2]))
+    line.exchange(COUPLER, bytes([2, 2, 2, 2, 2]))
+    # candp2d answered both, so it has handled them: the field still shows the synced outputs,
+    # held until the next Sync.
+    assert line.coupler.field_outputs[0:5] == bytes([1] * 5)
+    assert "Sync_Mode" in line.coupler.diagnosis
+    line.global_control(COUPLER, 0x20)
+    line.coupler.wait_until(lambda s: s.field_outputs[0:5] == bytes([2] * 5), timeout=WAIT)
+
+
+def test_leaves_the_bus_and_comes_back(line, gsd):
+    c = gsd["coupler"]
+    line.parameterize(COUPLER, c.set_prm(watchdog_ms=200), c.chk_cfg(COUPLER_MODULES))
+    line.coupler.leave_bus()
+    assert line.master.srd(COUPLER, b"", dsap=SAP_DIAG) is None
+    # Its watchdog (200 ms) expired meanwhile.
+    line.coupler.wait_until(lambda s: s.state == "Wait_Prm", timeout=WAIT)
+    line.coupler.return_to_bus()
+    diag = line.parameterize(COUPLER, c.set_prm(), c.chk_cfg(COUPLER_MODULES))
+    assert diag[0] == 0x00
+
+
+def test_diagnosis_alarm_is_announced_with_dh(line, gsd):
+    c = gsd["coupler"]
+    line.parameterize(COUPLER, c.set_prm(), c.chk_cfg(COUPLER_MODULES))
+    fc, _ = line.exchange(COUPLER, bytes(5))
+    assert fc == FC_DL
+    line.coupler.alarm(b"\x42\x43")
+    fc, _ = line.exchange_until(COUPLER, bytes(5), lambda fc, i: fc == FC_DH)
+    assert fc == FC_DH
+    diag = line.diag(COUPLER)
+    assert diag.hex(" ") == "08 0c 00 02 80 70 03 42 43"  # Ext_Diag, device block
+    assert line.coupler.diagnosis.raw == bytes(diag)  # what candp2d's Modbus face shows
+
+
+def test_the_gateway_on_the_same_line(line, gsd):
+    """The CAN-DP/2 among the generic slaves: one master, one line, both exchange data, and the
+    gateway goes on when a slave leaves the bus."""
+    c = gsd["coupler"]
+    can0 = line.daemon.bus("can0")
+    diag = line.parameterize(GATEWAY, PRM_300MS, CFG_514)
+    assert not diag[0] & 0x06, diag.hex(" ")
+    line.parameterize(COUPLER, c.set_prm(), c.chk_cfg(COUPLER_MODULES))
+    line.exchange(GATEWAY, bytes.fromhex("01 02 03 04 05 06"))
+    can0.expect(0x309, bytes.fromhex("02 01 06 05 04 03"), timeout=WAIT)  # form B8 swaps
+    line.exchange(COUPLER, bytes.fromhex("AA BB CC DD EE"))
+    line.coupler.wait_until(lambda s: s.field_outputs[0:5] == bytes.fromhex("AA BB CC DD EE"),
+                            timeout=WAIT)
+    gw = line.daemon.gateway("gw3")
+    assert gw.state == "Data_Exch" and line.coupler.state == "Data_Exch"
+    # The coupler leaves the bus; the gateway goes on: CAN -> its inputs over FDL.
+    line.coupler.leave_bus()
+    for _ in range(3):  # the master goes on polling it: no answer within its slot time
+        request = sd2(COUPLER, line.master.address, 0x7D, bytes.fromhex("AA BB CC DD EE"))
+        assert line.master.transact(request, timeout=0.05) is None
+    can0.send(can.Message(arbitration_id=0x289, data=bytes.fromhex("A1 A2 A3 A4 A5 A6"),
+                          is_extended_id=False))
+    _, inputs = line.exchange_until(GATEWAY, bytes.fromhex("01 02 03 04 05 06"),
+                                    lambda fc, i: i == bytes.fromhex("A2 A1 A6 A5 A4 A3"))
+    assert inputs == bytes.fromhex("A2 A1 A6 A5 A4 A3")
+    assert gw.state == "Data_Exch"
+    assert re.search(r"coupler: leaves the bus", line.daemon.log)

@@ -1,0 +1,289 @@
+"""What a gateway and a generic slave share as the PLC and a test engineer see them: a DP
+address (its Modbus unit ID), the master's process image through that unit, the status block,
+the control register and waiting for a condition (docs/modbus.md, docs/faults.md).
+
+`candp2.Gateway` (gateway.py) and `candp2.Slave` (slave.py) are Stations."""
+
+from __future__ import annotations
+
+import inspect
+import time
+from typing import (TYPE_CHECKING, Callable, Iterator, Mapping, Self, Sequence, TypeVar,
+                    overload)
+
+from .registers import RegisterMap, StatusValue
+
+if TYPE_CHECKING:
+    from .connection import Connection
+
+T = TypeVar("T")
+
+#: How often wait_until() asks again.
+POLL_INTERVAL = 0.02
+
+
+def hex_bytes(data: bytes) -> str:
+    """b"\\x01\\xab" → "01 AB"."""
+    return " ".join("%02X" % b for b in data)
+
+
+def describe_predicate(predicate: Callable[..., object]) -> str:
+    """The lambda's source text ("lambda g: g.state == 'Data_Exch'"), else its repr."""
+    try:
+        source = inspect.getsource(predicate).strip()
+    except (OSError, TypeError):
+        return repr(predicate)
+    if "lambda" not in source:
+        return repr(predicate)
+    source = " ".join(source[source.index("lambda"):].split())
+    # The statement around the lambda may go on: cut at the parenthesis that closes the call.
+    depth = 0
+    for i, c in enumerate(source):
+        depth += c in "([{"
+        depth -= c in ")]}"
+        if depth < 0 or (depth == 0 and c == ","):
+            return source[:i].rstrip()
+    return source.rstrip(",")
+
+
+# ------------------------------------------------------------------------------- byte views
+
+class ByteView:
+    """A fixed-size run of bytes read and written through Modbus, indexed like a bytes object:
+    `view[0:6]`, `view[3]`, `view[0:2] = b"..."`, `bytes(view)`, `len(view)`. Subclasses
+    provide read(), write(), __len__() and the name a wait_until() message shows."""
+
+    def __len__(self) -> int:
+        raise NotImplementedError
+
+    def read(self, address: int, length: int) -> bytes:
+        raise NotImplementedError
+
+    def write(self, address: int, data: bytes | bytearray | Sequence[int]) -> None:
+        raise NotImplementedError
+
+    def _note(self, what: str, value: T) -> T:
+        """Records a value read (for wait_until()'s message); `what` is "[0:6]" or "[3]"."""
+        return value
+
+    def _check(self, address: int, length: int) -> None:
+        if address < 0 or length < 0 or address + length > len(self):
+            raise IndexError("%r: bytes %d..%d outside its %d bytes" % (
+                self, address, address + length - 1, len(self)))
+
+    def _span(self, key: slice) -> tuple[int, int]:
+        start, stop, step = key.indices(len(self))
+        if step != 1:
+            raise ValueError("byte slices take no step")
+        return start, max(0, stop - start)
+
+    @overload
+    def __getitem__(self, key: int) -> int: ...
+
+    @overload
+    def __getitem__(self, key: slice) -> bytes: ...
+
+    def __getitem__(self, key: int | slice) -> int | bytes:
+        if isinstance(key, slice):
+            start, length = self._span(key)
+            return self._note("[%d:%d]" % (start, start + length), self.read(start, length))
+        index = key + len(self) if key < 0 else key
+        return self._note("[%d]" % index, self.read(index, 1)[0])
+
+    def __setitem__(self, key: int | slice, value: bytes | bytearray | Sequence[int] | int
+                    ) -> None:
+        if isinstance(key, slice):
+            start, length = self._span(key)
+            data = bytes([value]) if isinstance(value, int) else bytes(value)
+            if len(data) != length:
+                raise ValueError("%d bytes for a %d-byte slice (%r has a fixed size)"
+                                 % (len(data), length, self))
+            self.write(start, data)
+        else:
+            if not isinstance(value, int):
+                raise TypeError("one byte takes an int")
+            self.write(key + len(self) if key < 0 else key, bytes([value]))
+
+    def __bytes__(self) -> bytes:
+        return self.read(0, len(self))
+
+    def __iter__(self) -> Iterator[int]:
+        return iter(bytes(self))
+
+
+class Image(ByteView):
+    """One direction of the master's PLC process image as seen through one station's unit ID:
+    `station.outputs` (Q bytes, writable) and `station.inputs` (I bytes).
+
+    Indexed by PLC byte address like a bytes object: `gw.inputs[0:6]` reads I 0..5,
+    `gw.outputs[0:5] = b"\\x51\\0\\0\\0\\0"` writes Q 0..4. One write of up to 246 bytes is one
+    Modbus request, so the master sends it in one Data_Exchange (docs/modbus.md
+    "Atomicity"); bytes at odd addresses are written as coils, so neighbours are never
+    touched."""
+
+    def __init__(self, station: Station, output: bool) -> None:
+        self._station = station
+        self._output = output
+
+    @property
+    def _map(self) -> RegisterMap:
+        return self._station.register_map
+
+    def __len__(self) -> int:
+        return self._map.image_bytes
+
+    def _note(self, what: str, value: T) -> T:
+        return self._station.note(self._station.image_name(self._output) + what, value)
+
+    def read(self, address: int, length: int) -> bytes:
+        """`length` bytes from PLC address `address`."""
+        self._check(address, length)
+        if length == 0:
+            return b""
+        rng = self._map.outputs if self._output else self._map.inputs
+        first, last = address // 2, (address + length - 1) // 2
+        words = self._station.connection.modbus.read_registers(
+            rng.table, rng.first + first, last - first + 1, self._station.address)
+        data = b"".join(w.to_bytes(2, "big") for w in words)
+        offset = address - 2 * first
+        return data[offset:offset + length]
+
+    def write(self, address: int, data: bytes | bytearray | Sequence[int]) -> None:
+        """Writes `data` at PLC address `address` (outputs only)."""
+        if not self._output:
+            raise TypeError("the input image is written by the stations, not by the PLC")
+        data = bytes(data)
+        self._check(address, len(data))
+        if not data:
+            return
+        modbus = self._station.connection.modbus
+        unit = self._station.address
+        if address % 2 == 0 and len(data) % 2 == 0:
+            rng = self._map.outputs
+            words = [int.from_bytes(data[i:i + 2], "big") for i in range(0, len(data), 2)]
+            modbus.write_registers(rng.first + address // 2, words, unit)
+        else:
+            bits = [bool(b >> i & 1) for b in data for i in range(8)]
+            modbus.write_coils(self._map.output_bits.first + 8 * address, bits, unit)
+
+    def __repr__(self) -> str:
+        return "<%s of %s %d>" % (self._station.image_name(self._output), self._station.kind,
+                                  self._station.address)
+
+
+# ---------------------------------------------------------------------------------- station
+
+class Station:
+    """A DP station of a running candp2d, addressed by its DP address (its Modbus unit ID).
+
+    Reads go to the daemon every time (nothing is cached)."""
+
+    #: "gateway" or "slave": in messages and reprs.
+    kind = "station"
+    #: Types whose str() (not repr()) a wait_until() message shows.
+    _SHOWN_AS_TEXT: tuple[type, ...] = ()
+
+    def __init__(self, connection: Connection, address: int) -> None:
+        self.connection = connection
+        #: The DP address (the Modbus unit ID of the status block and the fault registers).
+        self.address = address
+        #: The name in the configuration.
+        self.name = "%s%d" % (self.kind, address)
+        #: The master's output image (PLC Q bytes), writable.
+        self.outputs = Image(self, output=True)
+        #: The master's input image (PLC I bytes).
+        self.inputs = Image(self, output=False)
+        self._seen: dict[str, object] | None = None
+
+    @property
+    def register_map(self) -> RegisterMap:
+        return self.connection.register_map
+
+    def __repr__(self) -> str:
+        return "<%s %d (%s)>" % (self.kind.capitalize(), self.address, self.name)
+
+    def image_name(self, output: bool) -> str:
+        return "outputs" if output else "inputs"
+
+    def note(self, what: str, value: T) -> T:
+        """Records a value read while wait_until() evaluates its predicate (for its message)."""
+        if self._seen is not None:
+            self._seen[what] = value
+        return value
+
+    # ---- the status block ----------------------------------------------------------------
+
+    @property
+    def status(self) -> dict[str, StatusValue]:
+        """The whole status block by field name (docs/modbus.md), read in one request."""
+        m = self.register_map
+        words = self.connection.modbus.read_registers(m.status.table, m.status.first,
+                                                      m.status.count, self.address)
+        return m.decode_status(words)
+
+    def _named(self, status: Mapping[str, StatusValue], field: str) -> str:
+        return self.register_map.value_name(field, self.register_map.number(status, field))
+
+    @property
+    def state(self) -> str:
+        """The DP slave state: "Wait_Prm", "Wait_Cfg" or "Data_Exch"."""
+        return self.note("state", self._named(self.status, "dp_state"))
+
+    @property
+    def master_state(self) -> str:
+        """The master's view of this station ("Data_Exch", "Retry", ...)."""
+        return self.note("master_state", self._named(self.status, "master_state"))
+
+    # ---- the control register (docs/faults.md) -------------------------------------------
+
+    def _control(self, command: str) -> None:
+        m = self.register_map
+        self.connection.modbus.write_register(m.control_register, m.commands[command],
+                                              self.address)
+
+    def power_cycle(self) -> None:
+        """The station restarts: Wait_Prm with nothing accepted (a gateway's counters 0); the
+        master parameterizes it again after its retry time."""
+        self._control("power_cycle")
+
+    def reparameterize(self) -> None:
+        """The master runs Slave_Diag, Set_Prm, Chk_Cfg again at its next cycle."""
+        self._control("reparameterize")
+
+    def master_stop(self) -> None:
+        """The master stops addressing the station (a PLC in STOP); with a watchdog it falls
+        back to Wait_Prm."""
+        self._control("master_stop")
+
+    def master_resume(self) -> None:
+        """The master addresses the station again and parameterizes it."""
+        self._control("master_resume")
+
+    # ---- waiting ------------------------------------------------------------------------
+
+    def wait_until(self, predicate: Callable[[Self], T], timeout: float = 5.0) -> T:
+        """Calls `predicate(station)` until it returns something true, and returns that.
+
+        After `timeout` seconds it raises WaitTimeout saying what the predicate last read
+        (`state='Wait_Prm'`, `inputs[0:6]=b'...'`) and the station's whole state."""
+        from .errors import WaitTimeout
+        deadline = time.monotonic() + timeout
+        while True:
+            self._seen = {}
+            try:
+                value = predicate(self)
+            finally:
+                seen, self._seen = self._seen, None
+            if value:
+                return value
+            if time.monotonic() >= deadline:
+                last = ", ".join("%s=%s" % (k, v) if isinstance(v, self._SHOWN_AS_TEXT)
+                                 else "%s=%r" % (k, v) for k, v in seen.items())
+                raise WaitTimeout("%s: not true within %.1f s; last saw %s (predicate returned "
+                                  "%r)\n%s" % (describe_predicate(predicate), timeout,
+                                               last or "nothing", value, self.describe()))
+            time.sleep(POLL_INTERVAL)
+
+    def describe(self) -> str:
+        """The station's state in a few lines."""
+        return "%s %d (%s): %s" % (self.kind, self.address, self.name, self.state)
