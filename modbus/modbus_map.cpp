@@ -292,6 +292,10 @@ std::optional<DecodeFailure> ProcessImageMap::write_control(GatewayFace& g, std:
     if (a == kControlRegister)
       if (auto why = g.refuses(static_cast<Control>(v)))
         return DecodeFailure{Exception::ServerDeviceFailure, std::move(*why)};
+    if (a == kDropRxRegister && !g.has_can_controller())
+      return DecodeFailure{Exception::IllegalDataValue,
+                           "unit " + std::to_string(g.dp_address()) +
+                               " has no CAN controller here to drop frames from"};
     if (a == kForcedStateRegister && v > 3)
       return DecodeFailure{Exception::IllegalDataValue,
                            "forced CAN state " + std::to_string(v) +

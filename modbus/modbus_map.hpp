@@ -29,6 +29,8 @@ class GatewayFace {
   virtual bool force_bus_state(std::uint16_t /*code*/, Time /*now*/) { return false; }
   virtual std::uint16_t forced_bus_state() const { return 0; }
   // Holding register 8194: drop the next n received frames; reads give the remaining count.
+  // Stations without a CAN controller here (remote stations, generic slaves) refuse it.
+  virtual bool has_can_controller() const { return false; }
   virtual void drop_received(std::uint16_t /*n*/, Time /*now*/) {}
   virtual std::uint16_t drop_remaining() const { return 0; }
   // A command this gateway cannot carry out: the reason (the write gets exception 0x04 and the

@@ -149,6 +149,7 @@ std::optional<std::string> RemoteStationFace::refuses(Control command) const {
 StatusBlock GenericSlaveFace::status(Time now) {
   auto& dp = unit_.slave().dp();
   StatusInputs in;
+  in.leds = false;  // docs/slaves.md "Modbus": a generic slave has no CAN-DP/2 front plate
   in.dp_address = dp.info().address;
   in.gateway.dp_state = dp.state();
   in.diag = dp.slave_diag(now);

@@ -30,6 +30,7 @@ class PlantGatewayFace final : public GatewayFace {
   void control(Control command, Time now) override;
   bool force_bus_state(std::uint16_t code, Time now) override;
   std::uint16_t forced_bus_state() const override { return unit_.faults().forced_code(); }
+  bool has_can_controller() const override { return true; }
   void drop_received(std::uint16_t n, Time now) override;
   std::uint16_t drop_remaining() const override;
   std::vector<std::uint8_t> diagnosis(Time now) override;

@@ -136,11 +136,13 @@ StatusBlock encode_status(const StatusInputs& in) {
   put32(kBitrateConfigured, in.bitrate.configured);
   put32(kBitrateInterface, in.bitrate.interface);
   b[kBitrateMismatch] = in.bitrate.mismatch ? 1 : 0;
-  const auto leds = led::codes(g);
-  b[kLedD] = leds.d;
-  b[kLedE] = leds.e;
-  b[kLedP] = leds.p;
-  b[kLedC] = leds.c;
+  if (in.leds) {
+    const auto leds = led::codes(g);
+    b[kLedD] = leds.d;
+    b[kLedE] = leds.e;
+    b[kLedP] = leds.p;
+    b[kLedC] = leds.c;
+  }
   if (in.line) {
     const auto& l = *in.line;
     b[kLineRole] = l.role;

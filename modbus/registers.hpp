@@ -149,6 +149,9 @@ struct BitrateStatus {
 
 struct StatusInputs {
   gw::GatewayStatus gateway;
+  // The CAN-DP/2's front LEDs (manual table 3.3.1); a generic slave has none: the LED registers
+  // read 0.
+  bool leds = true;
   BitrateStatus bitrate;
   dp::DpSlave::Diag diag{};
   std::optional<dp::MasterSlaveState> master_state;

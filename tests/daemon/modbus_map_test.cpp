@@ -208,6 +208,7 @@ struct FakeGateway : GatewayFace {
     return true;
   }
   std::uint16_t forced_bus_state() const override { return forced; }
+  bool has_can_controller() const override { return can; }
   void drop_received(std::uint16_t n, Time) override { drop = n; }
   std::uint16_t drop_remaining() const override { return drop; }
   std::optional<std::string> refuses(Control c) const override {
@@ -219,6 +220,7 @@ struct FakeGateway : GatewayFace {
   std::vector<Control> commands;
   std::uint16_t forced = 0, drop = 0;
   std::optional<Control> refused;
+  bool can = true;
 };
 
 struct MapFixture : ::testing::Test {
@@ -387,6 +389,10 @@ TEST_F(MapFixture, FaultRegisters) {
   EXPECT_EQ(run(5, write_regs(8192, {2, 9, 1})), Exception::IllegalDataValue);
   EXPECT_TRUE(gw5.commands.empty());
   EXPECT_EQ(gw5.drop, 7);
+  // A station without a CAN controller here (a remote station, a generic slave) refuses 8194.
+  gw6.can = false;
+  EXPECT_EQ(run(6, {0x06, hi(8194), lo(8194), 0, 5}), Exception::IllegalDataValue);
+  EXPECT_EQ(gw6.drop, 0);
 }
 
 TEST_F(MapFixture, WholeDiagnosisAfterTheStatusBlock) {
