@@ -4,6 +4,8 @@
 #include <map>
 #include <string>
 
+#include "common/hex.hpp"
+
 namespace candp2::gw {
 
 std::string_view cfg_code_text(std::uint8_t code) {
@@ -234,38 +236,9 @@ std::variant<SlotConfig, dp::CfgFault> decode_slots(std::span<const std::uint8_t
 }
 
 std::optional<std::vector<std::uint8_t>> parse_comment(std::string_view text, std::string* error) {
-  std::vector<std::uint8_t> out;
-  std::size_t i = 0;
-  auto hex = [](char c) -> int {
-    if (c >= '0' && c <= '9') return c - '0';
-    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-    return -1;
-  };
-  while (i < text.size()) {
-    if (text[i] == ',' || text[i] == ' ' || text[i] == '\t') {
-      ++i;
-      continue;
-    }
-    std::size_t j = i;
-    while (j < text.size() && text[j] != ',' && text[j] != ' ' && text[j] != '\t') ++j;
-    for (std::size_t k = i; k < j; ++k) {
-      if (hex(text[k]) < 0) {
-        if (error)
-          *error = "position " + std::to_string(k) + ": '" + std::string(1, text[k]) +
-                   "' is not a hex digit";
-        return std::nullopt;
-      }
-    }
-    if (j - i != 2) {
-      if (error)
-        *error = "position " + std::to_string(i) + ": '" + std::string(text.substr(i, j - i)) +
-                 "' is not one byte (write two hex digits per byte, e.g. 02,89,B8)";
-      return std::nullopt;
-    }
-    out.push_back(static_cast<std::uint8_t>((hex(text[i]) << 4) | hex(text[i + 1])));
-    i = j;
-  }
+  auto read = parse_hex_bytes(text, HexForm::Separated, error, /*allow_empty=*/true);
+  if (!read) return std::nullopt;
+  std::vector<std::uint8_t> out = std::move(read->bytes);
   // manual §5.1.4: the comment field holds at most 15 bytes (14 in Page-Mode dialogs).
   if (out.size() > 15) {
     if (error) *error = "more than 15 comment bytes";
