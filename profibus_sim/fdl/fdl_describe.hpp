@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 
+#include "profibus_sim/dp/dp_service.hpp"
 #include "profibus_sim/fdl/fdl.hpp"
 
 namespace candp2::fdl {
@@ -30,6 +31,9 @@ enum class Service : std::uint8_t {
   Token,
   Ack,  // short acknowledge without a known request
 };
+// The DP service a telegram kind is (nullopt for FDL_Status, tokens, acknowledges, other SAPs).
+std::optional<dp::Service> dp_service(Service s);
+// A DP service by its dp::to_string name; "FDL_Status", "SAP", "Token", "Ack", "?" otherwise.
 std::string_view to_string(Service s);
 
 // Request function / response status name of an FC byte ("SRD_high", "DL", ...).
