@@ -70,7 +70,7 @@ struct Totals {
   std::size_t in = 0, out = 0;
 };
 
-// emulator-spec §2 code 7: > 48 slots, > 244 input or output bytes, > 300 in total.
+// docs/slots.md "Chk_Cfg slots" code 7: > 48 slots, > 244 input or output bytes, > 300 in total.
 bool over_limits(std::size_t slot_count, const Totals& t) {
   return slot_count > kMaxSlots || t.in > kMaxInputLen || t.out > kMaxOutputLen ||
          t.in + t.out > kMaxDataLen;
@@ -81,7 +81,8 @@ std::uint32_t be32(const std::vector<std::uint8_t>& m, std::size_t at) {
          (std::uint32_t{m[at + 2]} << 8) | m[at + 3];
 }
 
-// Normal-mode slot, checks in the order of emulator-spec §2 (codes 1..6; 7 by the caller).
+// Normal-mode slot, checks in the order of docs/slots.md "Chk_Cfg slots" (codes 1..6; 7 by the
+// caller).
 std::variant<Slot, std::uint8_t> normal_slot(const CfgEntry& e, const UserPrm& prm) {
   Slot s;
   if (!e.special || (e.io != CfgIo::Input && e.io != CfgIo::Output)) return kCfgWrongIoType;
@@ -137,7 +138,8 @@ std::variant<Slot, std::uint8_t> normal_slot(const CfgEntry& e, const UserPrm& p
   } else {
     s.id = can::Ident{id, extended};
   }
-  if (input) s.cycle_ms = 0;  // emulator-spec §2: cycle bytes on an input slot are ignored
+  // Cycle bytes on an input slot are ignored (docs/slots.md "Comment bytes").
+  if (input) s.cycle_ms = 0;
   return s;
 }
 
@@ -151,7 +153,7 @@ std::variant<SlotConfig, dp::CfgFault> decode_slots(std::span<const std::uint8_t
   Totals totals;
   std::map<can::Ident, SlotKind> used;  // identifier -> Rx or Tx, for the clash rule
   std::size_t cw_in_count = 0, cw_out_count = 0;
-  // Page-Mode bookkeeping (emulator-spec §6.1).
+  // Page-Mode bookkeeping (docs/page-mode.md "Segments").
   std::optional<std::size_t> short_in, short_out;  // a segment below 32 bytes: must be the last
   bool cw_seen = false;
 
@@ -189,7 +191,8 @@ std::variant<SlotConfig, dp::CfgFault> decode_slots(std::span<const std::uint8_t
     if (over_limits(i + 1, totals)) return fault(i, kCfgLimitsExceeded);
     if (s.kind == SlotKind::CwIn || s.kind == SlotKind::CwOut) {
       cw_seen = true;
-      // emulator-spec §2 code 8: the Prm CW flag, one CW per direction, whole-length consistency.
+      // docs/slots.md "Chk_Cfg slots" code 8: the Prm CW flag, one CW per direction, whole-length
+      // consistency.
       if (!prm.comm_window) return fault(i, kCfgCommWindow);
       auto& count = s.kind == SlotKind::CwIn ? cw_in_count : cw_out_count;
       if (++count > 1 || !s.consistent) return fault(i, kCfgCommWindow);
@@ -217,8 +220,8 @@ std::variant<SlotConfig, dp::CfgFault> decode_slots(std::span<const std::uint8_t
     // manual table 6.4.1 rule 1: at least 32 input bytes.
     if (in_total < kSegmentLen) return fault(last_in.value_or(0), kCfgPageLayout);
     if (!any_out) return fault(0, kCfgNoOutput);
-    // emulator-spec §6.1: the first output segment carries the page number and header bytes 2-7
-    // (sequence number), so it needs at least 8 bytes.
+    // docs/page-mode.md "Segments": the first output segment carries the page number and header
+    // bytes 2-7 (sequence number), so it needs at least 8 bytes.
     constexpr std::size_t kPageHeaderLen = 8;
     const auto first_out = std::find_if(out.slots.begin(), out.slots.end(), [](const Slot& s) {
       return s.kind == SlotKind::SegmentOut;

@@ -283,7 +283,7 @@ bool ParseResult::ok() const {
 
 namespace {
 
-// A file that is not a GSD gets one line instead of one error per line (issue 12).
+// A file that is not a GSD gets one line instead of one error per line.
 std::optional<std::string> not_a_gsd(std::string_view text) {
   const std::string_view head = text.substr(0, 4096);
   std::size_t control = 0;

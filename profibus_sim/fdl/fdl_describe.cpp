@@ -1,5 +1,5 @@
-// Readable FDL/DP telegram lines (emulator-spec §10, DP-V0 payloads per EN 50170 vol. 2 and
-// emulator-spec §3 for the diagnosis header).
+// Readable FDL/DP telegram lines (docs/profibus.md, DP-V0 payloads per EN 50170 vol. 2 and
+// docs/dp-slave.md "Diagnosis" for the diagnosis header).
 #include "profibus_sim/fdl/fdl_describe.hpp"
 
 #include <array>

@@ -1,4 +1,4 @@
-// One readable line per FDL telegram (emulator-spec §10), for logs and `candp2 sniff`: addresses,
+// One readable line per FDL telegram (docs/profibus.md), for logs and `candp2 sniff`: addresses,
 // SAPs, frame control, the DP service derived from the SAPs and the direction, and the payload of
 // generic DP-V0 services decoded (Set_Prm standard fields, Chk_Cfg entries, Slave_Diag status bits,
 // Global_Control, Data_Exchange bytes). A response names its service only through the request

@@ -292,7 +292,7 @@ void DpMaster::exchange_answered(Entry& e, const Response& r, Time now) {
                    "Data_Exchange with " + std::to_string(r.data.size()) +
                        " input bytes (configured " + std::to_string(e.map.in_len) + ")");
   ++e.data_exchanges;
-  // Inputs in slot order: for overlapping addresses the later slot's bytes win (emulator-spec §8).
+  // Inputs in slot order: for overlapping addresses the later slot's bytes win (docs/modbus.md).
   for (const auto& m : e.map.in)
     std::memcpy(image_.inputs.data() + m.plc_address, r.data.data() + m.dp_offset, m.length);
   if (r.diag_pending) e.diag_due = true;  // DH: read the new diagnosis in the next cycle
