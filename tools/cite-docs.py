@@ -22,10 +22,11 @@ script lists what it left, for a person to decide. A paragraph whose line grew p
 (100 characters) is filled again; GSD lines (80) are only reported. Running it a second time
 changes nothing.
 
-    tools/cite-docs.py [--check] [--exclude PATH]... [PATH...]
+    tools/cite-docs.py [--check | --headings] [--exclude PATH]... [PATH...]
 
 PATH (default: the whole repository) selects tracked files (git ls-files); --exclude skips a file
-or a directory. --check changes nothing and exits 1 when something would change.
+or a directory. --check changes nothing and exits 1 when something would change. --headings
+changes nothing and lists the citations `docs/PAGE.md "Heading"` whose heading does not exist.
 """
 
 from __future__ import annotations
@@ -514,6 +515,7 @@ def process(path: str, check: bool, report: Report) -> None:
     limit = GSD_LIMIT if kind == "gsd" else LIMIT
     history = False
     new_lines: list[str] = []
+    new_spans: list[list[Span]] = []
     changed: list[bool] = []
     for no, (line, sp) in enumerate(zip(lines, spans), start=1):
         if kind == "md" and line.startswith("#"):
@@ -523,13 +525,20 @@ def process(path: str, check: bool, report: Report) -> None:
             new = new[:a] + rewrite(new[a:b], here, kind == "json", not history) + new[b:]
         if new != line:
             new = rule_line(new, line, limit)
-        # A citation removed at the start of a line leaves its punctuation: to the line before.
-        punct = re.match(r"([ \t]*)([.,;:])(?=\s|$)", new) if new != line else None
-        if punct and new_lines and not re.match(r"[ \t]*[.,;:]", line):
-            new_lines[-1] += punct.group(2)
+        # A citation removed at the start of a line leaves its punctuation: to the line before;
+        # a comment line left with nothing else goes.
+        lead = re.match(r"[ \t]*(?://|#|;|--)?[ \t]*", new) if new != line else None
+        punct = re.match(r"([.,;:)]+)(?=\s|$)", new[lead.end():]) if lead else None
+        if lead and punct and new_lines and new_lines[-1].strip() and \
+                not re.match(r"[ \t]*(?://|#|;|--)?[ \t]*[.,;:)]", line):
+            new_lines[-1] += punct.group(1)
             changed[-1] = True
-            new = punct.group(1) + new[punct.end():].lstrip()
+            rest = new[lead.end() + punct.end():].strip()
+            if not rest:
+                continue
+            new = new[:lead.end()] + rest
         new_lines.append(new)
+        new_spans.append(sp)
         changed.append(new != line)
         prose = [new[a:b] for a, b in spans_of(kind, new, [new])[0]] if kind != "python" else \
             [new]
@@ -537,7 +546,7 @@ def process(path: str, check: bool, report: Report) -> None:
             report.left.append(f"{path}:{no}: {new.strip()[:110]}")
         if kind == "gsd" and len(new) > limit >= len(line):
             report.left.append(f"{path}:{no}: longer than {limit} characters now")
-    result = "\n".join(reflow(new_lines, changed, spans, kind, limit))
+    result = "\n".join(reflow(new_lines, changed, new_spans, kind, limit))
     if result != original:
         report.changed.append(path)
         if not check:
@@ -569,6 +578,32 @@ def tracked(paths: list[str], excludes: list[str]) -> list[str]:
     return [f for f in files if f and not any(f == e or f.startswith(e + "/") for e in ex)]
 
 
+def missing_headings(files: list[str]) -> list[str]:
+    """Citations `docs/PAGE.md "Heading"` whose page or heading does not exist (a heading may be
+    cited by its beginning; backticks in headings are ignored)."""
+    heads: dict[str, list[str]] = {}
+    for f in files:
+        if f.startswith("docs/") and f.endswith(".md"):
+            text = Path(f).read_text(encoding="utf-8")
+            heads[f] = [ln.lstrip("#").strip().replace("`", "") for ln in text.split("\n")
+                        if ln.startswith("#")]
+    found = []
+    for f in files:
+        if f == SELF or kind_of(f) is None:
+            continue
+        try:
+            text = Path(f).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            continue
+        for m in re.finditer(r'docs/([\w.-]+\.md) \\?"([^"\\]+)\\?"', text):
+            page, head = "docs/" + m.group(1), " ".join(m.group(2).split())
+            head = re.sub(r"\s*(//|#|;)\s*", " ", head) if "\n" in m.group(2) else head
+            if not any(h.startswith(head) for h in heads.get(page, [])):
+                line = text.count("\n", 0, m.start()) + 1
+                found.append(f'{f}:{line}: {page} "{head}"')
+    return found
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("paths", nargs="*", default=["."], help="files or directories (tracked files)")
@@ -576,6 +611,8 @@ def main() -> int:
                     help="a file or directory to leave alone (repeatable)")
     ap.add_argument("--check", action="store_true",
                     help="change nothing; exit 1 if something would change")
+    ap.add_argument("--headings", action="store_true",
+                    help="only list docs/ citations whose page or heading does not exist")
     args = ap.parse_args()
     root = Path(subprocess.run(["git", "rev-parse", "--show-toplevel"], check=True,
                                capture_output=True, text=True).stdout.strip())
@@ -586,6 +623,11 @@ def main() -> int:
     paths = [rel(p) for p in args.paths]
     excludes = [rel(p) for p in args.exclude]
     os.chdir(root)
+    if args.headings:
+        missing = missing_headings(tracked(paths, excludes))
+        for line in missing:
+            print(line)
+        return 1 if missing else 0
     report = Report()
     for f in tracked(paths, excludes):
         process(f, args.check, report)

@@ -42,7 +42,7 @@ void DpSlave::reject_prm(PrmFault fault, std::string_view why) {
             hex_bytes(std::array{fault.byte, fault.correct}) + ")");
 }
 
-// Standard profile (IEC 61158-6-3 Set_Prm Station_Status bits 7, 6; docs/slaves.md "Lock"):
+// Standard profile (IEC 61158-6-3 Set_Prm Station_Status bits 7, 6; docs/slaves.md "Set_Prm"):
 // 1 0 locks the slave to this master and parameterizes it; 0 1 and 1 1 unlock it; 0 0 only
 // changes min_TSDR (the FDL front end takes it) and, from the master holding the lock, the user
 // parameters. A slave locked to one master ignores Set_Prm from any other.

@@ -25,7 +25,8 @@ inline constexpr std::uint8_t kED = 0x16;   // end delimiter
 
 // LE of SD2 = number of bytes DA, SA, FC, DSAP/SSAP and DU (docs/profibus.md). IEC 61158-4-3
 // sends 4..249 (at least one data-unit byte; SD1 is the telegram without data); on receive 3..249
-// is accepted like pyprofibus fdl.py and profirust telegram.rs do (docs/decisions.md "FDL LE").
+// is accepted like pyprofibus fdl.py and profirust telegram.rs do
+// (docs/decisions.md "FDL on the wire").
 inline constexpr std::size_t kLeMin = 4;
 inline constexpr std::size_t kLeMinRx = 3;
 inline constexpr std::size_t kLeMax = 249;

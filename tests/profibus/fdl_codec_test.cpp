@@ -174,7 +174,7 @@ TEST(FdlCodec, DecodeErrorsAreTyped) {
 
 TEST(FdlCodec, Sd2WithLe3IsAcceptedOnReceive) {
   // pyprofibus fdl.py and profirust telegram.rs both accept LE >= 3 (an SD2 without data); the
-  // codec is liberal in what it receives and never sends it (docs/decisions.md "FDL LE").
+  // codec is liberal in what it receives and never sends it (docs/decisions.md "FDL on the wire").
   const auto r = decode(B("68 03 03 68 02 03 08 0D 16"));
   ASSERT_EQ(r.error, Error::None);
   EXPECT_TRUE(r.telegram->du.empty());

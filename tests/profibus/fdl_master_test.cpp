@@ -1,6 +1,6 @@
-// The FDL master station (docs/profibus.md): exact bytes against the capture in docs/profibus.md "A
-// real master's first telegrams", FCB per station, slot time, retries, corrupted and foreign
-// answers.
+// The FDL master station (docs/profibus.md): exact bytes against the capture in
+// docs/profibus.md "A real master's first telegrams", FCB per station, slot time, retries,
+// corrupted and foreign answers.
 #include "profibus_sim/fdl/fdl_master.hpp"
 
 #include <gtest/gtest.h>
