@@ -26,8 +26,8 @@ enum class ControllerState : std::uint8_t {
   Sleeping,
 };
 std::string_view to_string(ControllerState s);
-// What a controller state means for diagnosis byte 8 (emulator-spec §3); Stopped and Sleeping (the
-// interface is down) count as bus-off: the gateway cannot send.
+// What a controller state means for diagnosis byte 8 (docs/dp-slave.md "Diagnosis"); Stopped and
+// Sleeping (the interface is down) count as bus-off: the gateway cannot send.
 BusState to_bus_state(ControllerState s);
 
 struct BitTiming {

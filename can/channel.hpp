@@ -31,7 +31,8 @@ class Channel : public FrameSink {
   // Non-blocking: the next received frame, if any.
   virtual std::optional<Frame> receive() = 0;
   virtual BusState bus_state() const = 0;
-  // Frames lost before this reader saw them (receive queue overflow: IRQ_LOST, emulator-spec §3).
+  // Frames lost before this reader saw them (receive queue overflow: IRQ_LOST,
+  // docs/dp-slave.md "Diagnosis").
   virtual std::uint32_t rx_lost() const = 0;
   virtual std::uint32_t tx_dropped() const = 0;
   // A descriptor that becomes readable when receive() may return a frame; -1 when the channel is

@@ -10,13 +10,6 @@ namespace candp2::can {
 
 namespace {
 
-int hex_value(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
 ParseResult fail(std::size_t column, std::string message) {
   ParseResult r;
   r.error = {column, std::move(message)};
@@ -60,7 +53,7 @@ ParseResult parse_candump(std::string_view text) {
                        std::to_string(id_text.size()));
   std::uint32_t id = 0;
   for (std::size_t i = 0; i < id_text.size(); ++i) {
-    const int v = hex_value(id_text[i]);
+    const int v = hex_digit(id_text[i]);
     if (v < 0) return fail(i, std::string("not a hex digit: '") + id_text[i] + "'");
     id = (id << 4) | static_cast<std::uint32_t>(v);
   }
@@ -73,7 +66,7 @@ ParseResult parse_candump(std::string_view text) {
     ++pos;
     std::uint8_t dlc = 0;
     if (pos < text.size()) {
-      const int v = hex_value(text[pos]);
+      const int v = hex_digit(text[pos]);
       if (v < 0 || v > kMaxDlc) return fail(pos, "remote frame length must be a digit 0..8");
       dlc = static_cast<std::uint8_t>(v);
       ++pos;
@@ -93,8 +86,8 @@ ParseResult parse_candump(std::string_view text) {
     }
     if (n == kMaxDlc) return fail(pos, "more than 8 data bytes");
     if (pos + 1 >= text.size()) return fail(pos, "odd number of hex digits in data");
-    const int hi = hex_value(text[pos]);
-    const int lo = hex_value(text[pos + 1]);
+    const int hi = hex_digit(text[pos]);
+    const int lo = hex_digit(text[pos + 1]);
     if (hi < 0) return fail(pos, std::string("not a hex digit: '") + text[pos] + "'");
     if (lo < 0) return fail(pos + 1, std::string("not a hex digit: '") + text[pos + 1] + "'");
     bytes[n++] = static_cast<std::uint8_t>((hi << 4) | lo);

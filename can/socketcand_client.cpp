@@ -146,7 +146,7 @@ class SocketcandChannel final : public SocketcandClientChannel {
     for (const auto& e : pending) element(e);
   }
 
-  // ---- reconnection (issue 12): exponential backoff through the owner's timers, never blocking.
+  // ---- reconnection: exponential backoff through the owner's timers, never blocking.
   std::optional<Time> next_deadline() const override {
     if (link_ == Link::Down) return retry_at_;
     if (link_ != Link::Up) return attempt_deadline_;

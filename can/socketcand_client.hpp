@@ -26,7 +26,7 @@ class SocketcandClientChannel : public Channel {
  public:
   // Connections re-established after the server went away.
   std::uint32_t reconnects() const override = 0;
-  // Reconnection (issue 12): after the connection is lost the channel reports bus-off, drops
+  // Reconnection: after the connection is lost the channel reports bus-off, drops
   // sends, and tries again after 100 ms, doubling to at most 5 s (reset after a successful
   // connection); each attempt is a non-blocking connect (completion seen through poll_fd()) and the
   // hi/open/rawmode handshake, bounded by 3 s. The owner calls advance() at next_deadline(), in

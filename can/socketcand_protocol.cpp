@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <cstring>
 
+#include "common/hex.hpp"
+
 namespace candp2::can {
 
 // ---------------------------------------------------------------------------------------------
@@ -22,18 +24,11 @@ bool is_space(char c) {
   return c == ' ' || c == '\t' || c == '\r' || c == '\n';
 }
 
-int hex_value(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
 bool parse_hex(std::string_view text, std::uint32_t* value) {
   if (text.empty() || text.size() > 8) return false;
   std::uint32_t v = 0;
   for (char c : text) {
-    const int d = hex_value(c);
+    const int d = hex_digit(c);
     if (d < 0) return false;
     v = (v << 4) | static_cast<std::uint32_t>(d);
   }

@@ -1,9 +1,14 @@
-// Hex dumps for logs, reports and golden tests: "11 22 33" (upper case, space separated).
+// Hex bytes as text, both ways: the one writer for logs, reports and golden tests ("11 22 33",
+// upper case, space separated) and the one reader for bytes a user writes in hex (a slot's
+// comment field, prm_hex/cfg_hex, a replay scenario's byte patterns).
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
+#include <string_view>
+#include <vector>
 
 namespace candp2 {
 
@@ -18,5 +23,30 @@ inline std::string hex_bytes(std::span<const std::uint8_t> bytes, char sep = ' '
   }
   return out;
 }
+
+// 0..15 for 0-9, a-f, A-F; -1 for anything else.
+int hex_digit(char c);
+
+// How the bytes are written. Spaces, commas and tabs separate bytes in every form.
+enum class HexForm : std::uint8_t {
+  // "02,89,B8", "FF EF 00 00 00": every byte is its own two digits between separators, as in a
+  // SIMATIC comment field (manual §5.1.4).
+  Separated,
+  // "88 80 C4", "8880C4", "88,80,C4": runs of digits, two per byte.
+  Runs,
+  // "00 33 ?? 00", "0033??00": two digits or "??" (any byte) per byte.
+  Patterns,
+};
+
+struct HexBytes {
+  std::vector<std::uint8_t> bytes;
+  std::vector<bool> care;  // per byte: false for "??" (HexForm::Patterns); true otherwise
+};
+
+// Reads `text` in the given form. nullopt and *error (when given) for malformed text, naming the
+// 0-based position: "position 3: 'G' is not a hex digit". Text without any byte is an error
+// ("no bytes given") unless `allow_empty`.
+std::optional<HexBytes> parse_hex_bytes(std::string_view text, HexForm form, std::string* error,
+                                        bool allow_empty = false);
 
 }  // namespace candp2

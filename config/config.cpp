@@ -58,34 +58,9 @@ const GatewayConfig* DaemonConfig::gateway_by_dp_address(std::uint8_t dp_address
 }
 
 std::optional<std::vector<std::uint8_t>> parse_hex(std::string_view text, std::string* error) {
-  auto fail = [&](std::string m) -> std::optional<std::vector<std::uint8_t>> {
-    if (error) *error = std::move(m);
-    return std::nullopt;
-  };
-  std::vector<std::uint8_t> out;
-  std::size_t i = 0;
-  while (i < text.size()) {
-    const char c = text[i];
-    if (c == ' ' || c == ',' || c == '\t') {
-      ++i;
-      continue;
-    }
-    if (json_reader::hex_digit(c) < 0)
-      return fail("position " + std::to_string(i) + ": '" + std::string(1, c) +
-                  "' is not a hex digit");
-    // A run of digits must have an even length: "8880C4" is three bytes, "888" is an error.
-    std::size_t j = i;
-    while (j < text.size() && json_reader::hex_digit(text[j]) >= 0) ++j;
-    if ((j - i) % 2 != 0)
-      return fail("position " + std::to_string(i) + ": '" + std::string(text.substr(i, j - i)) +
-                  "' has an odd number of hex digits (write two digits per byte)");
-    for (std::size_t k = i; k < j; k += 2)
-      out.push_back(static_cast<std::uint8_t>((json_reader::hex_digit(text[k]) << 4) |
-                                              json_reader::hex_digit(text[k + 1])));
-    i = j;
-  }
-  if (out.empty()) return fail("no bytes given");
-  return out;
+  auto read = parse_hex_bytes(text, HexForm::Runs, error);
+  if (!read) return std::nullopt;
+  return std::move(read->bytes);
 }
 
 std::optional<Endpoint> parse_endpoint(std::string_view text, std::string* error) {

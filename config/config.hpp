@@ -6,8 +6,9 @@
 //
 // Parsing never touches the network or the CAN side: it turns text into the model below and
 // checks what can be checked offline. What the emulated gateway itself would reject (a Set_Prm or
-// Chk_Cfg fault, emulator-spec §1.1/§2) is reported as a warning, not an error, because
-// configuring a faulty slave on purpose is a legitimate test (the master then shows the fault).
+// Chk_Cfg fault, docs/dp-slave.md "User parameters"/docs/slots.md "Chk_Cfg slots") is reported as a
+// warning, not an error, because configuring a faulty slave on purpose is a legitimate test (the
+// master then shows the fault).
 #pragma once
 
 #include <cstdint>
@@ -79,7 +80,8 @@ struct GatewayConfig {
   std::string name;
   std::uint8_t address = 3;  // as configured; the gateway clamps to 3..124 (manual §2.1)
   std::string bus;
-  gw::UserPrm parameters;                            // named parameters (emulator-spec §1.1)
+  gw::UserPrm parameters;                            // named parameters
+                                                     // (docs/dp-slave.md "User parameters")
   std::optional<std::vector<std::uint8_t>> prm_hex;  // raw Set_Prm telegram overrides parameters
   std::uint16_t watchdog_ms = 0;                     // 0 = WD off
   bool cia301_bootup = false;
@@ -106,7 +108,7 @@ struct DriveConfig {
   std::string json_path;
 };
 
-// emulator-spec §10: the PROFIBUS line (docs/configuration.md#profibus).
+// docs/profibus.md: the PROFIBUS line (docs/configuration.md#profibus).
 enum class ProfibusRole { Slaves, Master };
 std::string_view to_string(ProfibusRole r);
 
@@ -115,7 +117,7 @@ struct ProfibusConfig {
   std::uint32_t baud = 19200;
   ProfibusRole role = ProfibusRole::Slaves;
   std::optional<std::uint8_t> master_address;  // role slaves: answer only this master
-  std::uint32_t slot_time_bits = 100;          // TSL (emulator-spec §10: typical 100)
+  std::uint32_t slot_time_bits = 100;          // TSL (docs/profibus.md: typical 100)
   std::uint8_t retries = 1;                    // max_retry_limit (typical 1)
   std::uint8_t min_tsdr_bits = 11;             // role slaves: until Set_Prm says otherwise
   bool rs485 = false;
@@ -140,7 +142,8 @@ struct DaemonConfig {
   std::optional<std::string> can_log;      // candump -l file (relative paths: to the config file)
   std::optional<std::string> state_file;   // stored wake-up/SYNC values across restarts
   std::vector<ConfigError> warnings;       // from every part of the file
-  std::optional<ProfibusConfig> profibus;  // emulator-spec §10; none: everything in-process (§8)
+  std::optional<ProfibusConfig> profibus;  // docs/profibus.md; none: everything in-process
+                                           // (docs/modbus.md "The simulated master")
   std::optional<CaptureConfig> capture;    // pcapng captures (docs/capture.md); none: off
 
   bool remote_gateways() const { return profibus && profibus->role == ProfibusRole::Master; }
@@ -165,8 +168,8 @@ Result<DriveConfig> parse_drive_entry(const nlohmann::json& j, const std::string
 // What the simulated master sends for a gateway entry.
 std::vector<std::uint8_t> set_prm_bytes(const GatewayConfig& g);
 std::vector<std::uint8_t> chk_cfg_bytes(const GatewayConfig& g);
-// The CAN bit rate (bit/s) of the gateway's Set_Prm byte 8 (emulator-spec §1.1); nullopt when the
-// byte is missing or out of range (the gateway rejects that Set_Prm).
+// The CAN bit rate (bit/s) of the gateway's Set_Prm byte 8 (docs/dp-slave.md "User parameters");
+// nullopt when the byte is missing or out of range (the gateway rejects that Set_Prm).
 std::optional<std::uint32_t> configured_bitrate(const GatewayConfig& g);
 dp::SlaveParameters slave_parameters(const GatewayConfig& g);
 

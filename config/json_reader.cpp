@@ -59,13 +59,6 @@ std::string join(const std::vector<std::string>& words) {
   return out;
 }
 
-int hex_digit(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
 std::string relative_to(const std::string& file, const std::string& path) {
   namespace fs = std::filesystem;
   if (fs::path(path).is_absolute()) return path;

@@ -32,8 +32,6 @@ std::string element(const std::string& path, std::size_t i);
 std::string kind_of(const json& j);
 // "a, b, c".
 std::string join(const std::vector<std::string>& words);
-// 0..15 for a hex digit, -1 otherwise.
-int hex_digit(char c);
 // A path from the configuration `file`: relative paths are relative to the file's directory.
 std::string relative_to(const std::string& file, const std::string& path);
 

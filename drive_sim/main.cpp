@@ -77,10 +77,8 @@ std::optional<SocketcandTarget> parse_socketcand(const std::string& spec) {
   return t;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{"candp2-drive: a simulated Unitek DS/BAMOCAR servo drive (REGID protocol)"};
+// The command line.
+struct Options {
   std::string socketcan_if;
   std::string socketcand_spec;
   std::string rx_text = "0x201";
@@ -90,105 +88,61 @@ int main(int argc, char** argv) {
   std::string name = "drive";
   bool status_16bit = false;
   unsigned reference_ms = 500;
+};
 
+void add_options(CLI::App& app, Options& o) {
   app.set_version_flag("--version", candp2::version_line("candp2-drive"));
   auto* transport = app.add_option_group("transport", "the CAN bus to join");
-  transport->add_option("--socketcan", socketcan_if, "SocketCAN interface, e.g. vcan0");
-  transport->add_option("--socketcand", socketcand_spec,
+  transport->add_option("--socketcan", o.socketcan_if, "SocketCAN interface, e.g. vcan0");
+  transport->add_option("--socketcand", o.socketcand_spec,
                         "socketcand server HOST:PORT[/CHANNEL] (channel default vcan0)");
   transport->require_option(1);
-  app.add_option("--rx-id", rx_text, "receive identifier (manual range 0x201..0x27F)")
+  app.add_option("--rx-id", o.rx_text, "receive identifier (manual range 0x201..0x27F)")
       ->capture_default_str();
-  app.add_option("--tx-id", tx_text, "transmit identifier (manual range 0x181..0x1FF)")
+  app.add_option("--tx-id", o.tx_text, "transmit identifier (manual range 0x181..0x1FF)")
       ->capture_default_str();
-  app.add_option("--state", state_file,
+  app.add_option("--state", o.state_file,
                  "parameter memory file: loaded at start, written by REGID 0x84 (EEPROM write)");
-  app.add_option("--name", name, "name used in log lines")->capture_default_str();
-  app.add_flag("--status-16bit", status_16bit,
+  app.add_option("--name", o.name, "name used in log lines")->capture_default_str();
+  app.add_flag("--status-16bit", o.status_16bit,
                "send STATUS 0x40 / ERR_BITMAP1 0x8F as 16-bit replies (manual V1 1011 examples)");
-  app.add_option("--reference-ms", reference_ms, "duration of the simulated reference run")
+  app.add_option("--reference-ms", o.reference_ms, "duration of the simulated reference run")
       ->capture_default_str()
       ->check(CLI::Range(0u, 600000u));
-  app.add_option("--log-level", log_level, "trace, debug, info, warn, error")
+  app.add_option("--log-level", o.log_level, "trace, debug, info, warn, error")
       ->capture_default_str()
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}));
-  CLI11_PARSE(app, argc, argv);
+}
 
-  const auto rx = parse_id(rx_text);
-  const auto tx = parse_id(tx_text);
-  if (!rx || !tx) {
-    std::fprintf(stderr,
-                 "candp2-drive: --rx-id/--tx-id must be 11-bit identifiers (0x000..0x7FF)\n");
-    return 2;
-  }
-  std::optional<SocketcandTarget> remote;
-  if (!socketcand_spec.empty()) {
-    remote = parse_socketcand(socketcand_spec);
-    if (!remote) {
-      std::fprintf(stderr, "candp2-drive: --socketcand expects HOST:PORT[/CHANNEL], got '%s'\n",
-                   socketcand_spec.c_str());
-      return 2;
-    }
-  }
-
-  auto logger = spdlog::stderr_color_mt("candp2-drive");
-  // The shared spdlog sink (logsink/spdlog_sink.hpp) on a coloured stderr logger; --log-level is
-  // checked by CLI11 above, so parse_level() always answers.
-  candp2::logsink::SpdlogSink sink(*candp2::logsink::parse_level(log_level), logger);
-  Logger log(&sink, "main");
-
-  // SIGINT/SIGTERM arrive on a signalfd polled with the channel: no races, no async handlers.
+// SIGINT/SIGTERM arrive on a signalfd polled with the channel: no races, no async handlers.
+// -1 (logged) when they cannot be blocked or the descriptor cannot be made.
+int signal_fd(Logger& log) {
   sigset_t signals;
   sigemptyset(&signals);
   sigaddset(&signals, SIGINT);
   sigaddset(&signals, SIGTERM);
   if (sigprocmask(SIG_BLOCK, &signals, nullptr) != 0) {
     log.error("cannot block SIGINT/SIGTERM");
-    return 1;
+    return -1;
   }
   const int sig_fd = signalfd(-1, &signals, SFD_CLOEXEC | SFD_NONBLOCK);
-  if (sig_fd < 0) {
-    log.error("signalfd failed");
-    return 1;
-  }
+  if (sig_fd < 0) log.error("signalfd failed");
+  return sig_fd;
+}
 
-  std::string error;
-  std::unique_ptr<can::Channel> channel;
-  if (remote) {
-    channel = can::connect_socketcand(remote->host, remote->port, remote->channel, &error);
-  } else {
-    channel = can::open_socketcan(socketcan_if, &error);
-  }
-  if (!channel) {
-    log.error(error);
-    return 1;
-  }
-  log.info("joined " + std::string(channel->name()));
-
-  std::unique_ptr<drive::FileParameterStore> store;
-  if (!state_file.empty()) store = std::make_unique<drive::FileParameterStore>(state_file);
-
-  drive::UnitekDrive::Options options;
-  options.rx_id = *rx;
-  options.tx_id = *tx;
-  options.name = name;
-  options.status_16bit = status_16bit;
-  options.reference_run_time = milliseconds(reference_ms);
-  drive::UnitekDrive sim(options, &sink, store.get());
-  if (sim.rx_id() != *rx || sim.tx_id() != *tx)
-    log.warn("identifiers from the state file take precedence over --rx-id/--tx-id");
-
+// Runs the drive on the channel until a signal (0) or a channel without a valid descriptor (1).
+int serve(drive::UnitekDrive& sim, can::Channel& channel, int sig_fd, Logger& log) {
   const auto t0 = std::chrono::steady_clock::now();
   auto now = [&] {
     return std::chrono::duration_cast<Time>(std::chrono::steady_clock::now() - t0);
   };
-  sim.advance(now(), *channel);
+  sim.advance(now(), channel);
 
-  can::BusState last_state = channel->bus_state();
+  can::BusState last_state = channel.bus_state();
   for (;;) {
-    while (auto frame = channel->receive()) sim.on_frame(*frame, now(), *channel);
-    sim.advance(now(), *channel);
-    if (const auto state = channel->bus_state(); state != last_state) {
+    while (auto frame = channel.receive()) sim.on_frame(*frame, now(), channel);
+    sim.advance(now(), channel);
+    if (const auto state = channel.bus_state(); state != last_state) {
       log.warn("bus state " + std::string(to_string(last_state)) + " -> " +
                std::string(to_string(state)));
       last_state = state;
@@ -203,8 +157,8 @@ int main(int argc, char** argv) {
               ? 0
               : static_cast<int>(std::min<std::int64_t>(1000, (wait.count() + 999) / 1000));
     }
-    pollfd fds[2] = {{sig_fd, POLLIN, 0}, {channel->poll_fd(), POLLIN, 0}};
-    const nfds_t nfds = channel->poll_fd() >= 0 ? 2 : 1;
+    pollfd fds[2] = {{sig_fd, POLLIN, 0}, {channel.poll_fd(), POLLIN, 0}};
+    const nfds_t nfds = channel.poll_fd() >= 0 ? 2 : 1;
     if (nfds == 1) timeout_ms = std::min(timeout_ms, 10);  // in-process channel: drain often
     const int rc = poll(fds, nfds, timeout_ms);
     if (rc < 0 && errno != EINTR) {
@@ -219,11 +173,74 @@ int main(int argc, char** argv) {
       break;
     }
     if (rc > 0 && nfds == 2 && (fds[1].revents & POLLNVAL)) {
-      log.error("the CAN channel " + std::string(channel->name()) + " has no valid descriptor");
-      close(sig_fd);
+      log.error("the CAN channel " + std::string(channel.name()) + " has no valid descriptor");
       return 1;
     }
   }
-  close(sig_fd);
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"candp2-drive: a simulated Unitek DS/BAMOCAR servo drive (REGID protocol)"};
+  Options o;
+  add_options(app, o);
+  CLI11_PARSE(app, argc, argv);
+
+  const auto rx = parse_id(o.rx_text);
+  const auto tx = parse_id(o.tx_text);
+  if (!rx || !tx) {
+    std::fprintf(stderr,
+                 "candp2-drive: --rx-id/--tx-id must be 11-bit identifiers (0x000..0x7FF)\n");
+    return 2;
+  }
+  std::optional<SocketcandTarget> remote;
+  if (!o.socketcand_spec.empty()) {
+    remote = parse_socketcand(o.socketcand_spec);
+    if (!remote) {
+      std::fprintf(stderr, "candp2-drive: --socketcand expects HOST:PORT[/CHANNEL], got '%s'\n",
+                   o.socketcand_spec.c_str());
+      return 2;
+    }
+  }
+
+  auto logger = spdlog::stderr_color_mt("candp2-drive");
+  // The shared spdlog sink (logsink/spdlog_sink.hpp) on a coloured stderr logger; --log-level is
+  // checked by CLI11 above, so parse_level() always answers.
+  candp2::logsink::SpdlogSink sink(*candp2::logsink::parse_level(o.log_level), logger);
+  Logger log(&sink, "main");
+
+  const int sig_fd = signal_fd(log);
+  if (sig_fd < 0) return 1;
+
+  std::string error;
+  std::unique_ptr<can::Channel> channel;
+  if (remote) {
+    channel = can::connect_socketcand(remote->host, remote->port, remote->channel, &error);
+  } else {
+    channel = can::open_socketcan(o.socketcan_if, &error);
+  }
+  if (!channel) {
+    log.error(error);
+    return 1;
+  }
+  log.info("joined " + std::string(channel->name()));
+
+  std::unique_ptr<drive::FileParameterStore> store;
+  if (!o.state_file.empty()) store = std::make_unique<drive::FileParameterStore>(o.state_file);
+
+  drive::UnitekDrive::Options options;
+  options.rx_id = *rx;
+  options.tx_id = *tx;
+  options.name = o.name;
+  options.status_16bit = o.status_16bit;
+  options.reference_run_time = milliseconds(o.reference_ms);
+  drive::UnitekDrive sim(options, &sink, store.get());
+  if (sim.rx_id() != *rx || sim.tx_id() != *tx)
+    log.warn("identifiers from the state file take precedence over --rx-id/--tx-id");
+
+  const int rc = serve(sim, *channel, sig_fd, log);
+  close(sig_fd);
+  return rc;
 }

@@ -6,9 +6,9 @@
 //  values.
 //  - 0x52 STATUS_MASK: the list prints 0x0000F811 (a value read from one device); the default of
 //    0x3000 (status bits 12 Cal and 13 Tol) comes from the CAN manual, example 9 ("Default value
-//    for REGID_MASK_STATUS is 3000") and emulator-spec §9.
+//    for REGID_MASK_STATUS is 3000") and docs/drive-simulator.md.
 // The RO defaults are readings of the device the list was taken from; the simulator overwrites the
-// ones its motor model computes (see unitek_drive.cpp, update_outputs()).
+// ones its motor model computes (see motor_model.cpp, update_outputs()).
 #include "drive_sim/registers.hpp"
 
 #include <array>

@@ -1,4 +1,4 @@
-// A simulated Unitek DS/BAMOCAR servo drive on the CAN bus (emulator-spec §9).
+// A simulated Unitek DS/BAMOCAR servo drive on the CAN bus (docs/drive-simulator.md).
 //
 // Pure: frames come in through on_frame(), replies go out through a can::FrameSink, the caller
 // passes the time. No clock, no sockets, no files (parameters persist through a ParameterStore).

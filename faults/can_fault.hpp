@@ -1,4 +1,4 @@
-// Fault injection between a gateway and its CAN channel (docs/faults.md, issue 12).
+// Fault injection between a gateway and its CAN channel (docs/faults.md).
 //
 // The gateway engine never learns that a fault is injected: it sees the forced controller state
 // instead of the channel's real one (diagnosis byte 8, Ext_Diag, status block, LED C follow from

@@ -1,4 +1,4 @@
-// A simulated Unitek drive with its injected faults (docs/faults.md, issue 12): it can stop
+// A simulated Unitek drive with its injected faults (docs/faults.md): it can stop
 // answering, carry error and warning bits in ERR_BITMAP1 (REGID 0x8F) and restart. One
 // implementation for the daemon's Modbus drive registers (modbus/modbus_map.hpp, DriveFace) and
 // the replay steps drive_mute / drive_error_bits / drive_warning_bits / drive_restart

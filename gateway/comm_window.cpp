@@ -94,7 +94,7 @@ std::array<std::uint8_t, kCwLen> encode_cw_reply(const CwReply& r) {
     std::copy(payload.begin(), payload.end(), w.begin() + kCwData);
     w[kCwLength] = static_cast<std::uint8_t>(payload.size());
   } else {
-    // emulator-spec §5: EE EE 00 00, data 0, byte 12 = 0.
+    // docs/communication-window.md: EE EE 00 00, data 0, byte 12 = 0.
     w[kCwIdent] = w[kCwIdent + 1] = kCwNoFrame;
   }
   w[kCwCounter] = r.counter;
@@ -146,8 +146,8 @@ void CommWindow::on_write(std::span<const std::uint8_t> window, Time now, CwHost
     return;
   }
   const CwRequest req = decode_cw_request(window.first<kCwLen>());
-  // emulator-spec §5 / manual §5.3.3 "Achtung": a command runs once, when the loop counter differs
-  // from the last executed value (initially 0).
+  // docs/communication-window.md / manual §5.3.3 "Achtung": a command runs once, when the loop
+  // counter differs from the last executed value (initially 0).
   if (req.counter == last_counter_) return;
   last_counter_ = req.counter;
   if (log_.enabled(LogLevel::Debug))
@@ -212,7 +212,8 @@ std::uint8_t CommWindow::execute(const CwRequest& req, Time now, CwHost& host) {
           can::Frame::data_frame(id->id, id->extended, std::span(req.data.data(), req.length)));
       break;
     case kCwRead:
-      // emulator-spec §5: the oldest FIFO frame at once, else the next frame that arrives.
+      // docs/communication-window.md: the oldest FIFO frame at once, else the next frame that
+      // arrives.
       if (auto f = fifo_.pop()) {
         reply_.frame = *f;
         dropping_ = false;
@@ -272,7 +273,8 @@ std::vector<can::Ident> CommWindow::enabled() const {
 }
 
 bool CommWindow::on_frame(const can::Frame& frame) {
-  // Remote frames carry no data to deliver; they fall through like at slots (emulator-spec §4).
+  // Remote frames carry no data to deliver; they fall through like at slots
+  // (docs/slots.md "Data exchange in normal mode").
   if (frame.remote || enabled_.empty()) return false;
   if (!std::binary_search(enabled_.begin(), enabled_.end(), ident_key(frame))) return false;
   deliver(frame);
@@ -281,8 +283,8 @@ bool CommWindow::on_frame(const can::Frame& frame) {
 
 void CommWindow::deliver(const can::Frame& frame) {
   if (armed_) {
-    // emulator-spec §5: an armed command 3 takes the next frame straight into the window; it keeps
-    // the echo of that command 3.
+    // docs/communication-window.md: an armed command 3 takes the next frame straight into the
+    // window; it keeps the echo of that command 3.
     armed_ = false;
     reply_.frame = frame;
     read_ = encode_cw_reply(reply_);

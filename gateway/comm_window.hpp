@@ -1,6 +1,7 @@
-// The Communication Window (manual §5.3, emulator-spec §5): 16 output bytes carry a command from
-// the PLC, 16 input bytes carry the acknowledge and received frames; a 255-frame receive FIFO for
-// the identifiers enabled with command 4. Pure; the Gateway feeds it once per Data_Exchange.
+// The Communication Window (manual §5.3, docs/communication-window.md): 16 output bytes carry a
+// command from the PLC, 16 input bytes carry the acknowledge and received frames; a 255-frame
+// receive FIFO for the identifiers enabled with command 4. Pure; the Gateway feeds it once per
+// Data_Exchange.
 //
 // Wire formats: CwRequest is the window the PLC writes (manual table 5.3.1), CwReply the window it
 // reads (manual table 5.3.2). Both have a pure decode and encode; CommWindow is the state machine.
@@ -24,18 +25,20 @@ inline constexpr std::size_t kCwLen = 16;            // manual §5.3.1: always 1
 inline constexpr std::size_t kCwFifoCapacity = 255;  // manual §5.3.3.2 command 3: 255 CAN frames
 
 // Byte positions, both directions (manual tables 5.3.1 and 5.3.2).
-inline constexpr std::size_t kCwIdent = 0;        // bytes 0..3: identifier (emulator-spec §5)
+inline constexpr std::size_t kCwIdent = 0;        // bytes 0..3: identifier
+                                                  // (docs/communication-window.md)
 inline constexpr std::size_t kCwData = 4;         // bytes 4..11: data bytes 0..7
 inline constexpr std::size_t kCwLength = 12;      // Tx data length / number of received bytes
 inline constexpr std::size_t kCwCounter = 13;     // PLC loop counter / its echo
 inline constexpr std::size_t kCwSubCommand = 14;  // sub-command / its echo
 inline constexpr std::size_t kCwCommand = 15;     // write: command
-inline constexpr std::size_t kCwError = 15;       // read: error code (emulator-spec §5)
+inline constexpr std::size_t kCwError = 15;       // read: error code (docs/communication-window.md)
 
 inline constexpr std::uint8_t kCwNoFrame = 0xEE;     // manual §5.3.3.2: 'EEEE' while no data
-inline constexpr std::uint8_t kCwIdExtended = 0x20;  // byte 2 bit 5 flags a 29-bit id (spec §5)
+inline constexpr std::uint8_t kCwIdExtended = 0x20;  // byte 2 bit 5 flags a 29-bit id
+                                                     // (docs/communication-window.md)
 
-// Commands (manual table 5.4.3; 0 = no-op, emulator-spec §5).
+// Commands (manual table 5.4.3; 0 = no-op, docs/communication-window.md).
 enum CwCommand : std::uint8_t {
   kCwNop = 0,
   kCwSend = 1,
@@ -47,7 +50,8 @@ enum CwCommand : std::uint8_t {
   kCwSyncTime = 20,
 };
 
-// Byte 15 of the read window (emulator-spec §5; the manual leaves it "not supported yet").
+// Byte 15 of the read window (docs/communication-window.md; the manual leaves it "not supported
+// yet").
 enum CwError : std::uint8_t {
   kCwOk = 0,
   kCwErrLength = 1,           // data length > 8
@@ -58,7 +62,7 @@ enum CwError : std::uint8_t {
 };
 std::string_view cw_error_text(std::uint8_t error);
 
-// Identifier in window bytes 0..3 (emulator-spec §5). 11-bit: id >> 8, id & 0xFF, 0, 0.
+// Identifier in window bytes 0..3 (docs/communication-window.md). 11-bit: id >> 8, id & 0xFF, 0, 0.
 // 29-bit: (id >> 8) & 0xFF, id & 0xFF, 0x20 | (id >> 24), (id >> 16) & 0xFF.
 void cw_encode_ident(const can::Ident& id, std::span<std::uint8_t> bytes4);
 // nullopt for byte 2 bits 7-6 set, an 11-bit value above 0x7FF, or a byte 3 without the 29-bit
@@ -77,7 +81,8 @@ struct CwRequest {
 
   std::optional<can::Ident> identifier() const { return cw_decode_ident(ident); }
   void set_identifier(const can::Ident& id) { cw_encode_ident(id, ident); }
-  // Command 20: SYNC time from data bytes 0-1, big-endian ms (emulator-spec §5, manual §8.2 FB4).
+  // Command 20: SYNC time from data bytes 0-1, big-endian ms (docs/communication-window.md, manual
+  // §8.2 FB4).
   std::uint16_t sync_ms() const { return static_cast<std::uint16_t>((data[0] << 8) | data[1]); }
 
   friend bool operator==(const CwRequest&, const CwRequest&) = default;
@@ -153,7 +158,8 @@ class CommWindow {
   // The 16 bytes the PLC reads.
   void read(std::span<std::uint8_t> window) const;
   // A received frame: true when its identifier is enabled (it then takes precedence over slots,
-  // emulator-spec §4), also when the FIFO was full and the frame was dropped.
+  // docs/slots.md "Data exchange in normal mode"), also when the FIFO was full and the frame was
+  // dropped.
   bool on_frame(const can::Frame& frame);
 
   const CwReply& reply() const { return reply_; }
@@ -175,7 +181,7 @@ class CommWindow {
   Logger log_;
   CwReply reply_;
   std::array<std::uint8_t, kCwLen> read_{};  // encode_cw_reply(reply_)
-  std::uint8_t last_counter_ = 0;            // emulator-spec §5: initially 0
+  std::uint8_t last_counter_ = 0;            // docs/communication-window.md: initially 0
   bool armed_ = false;                       // command 3 waiting for a frame
   bool dropping_ = false;                    // within a run of MSG_LOST drops (logs once per run)
   std::vector<std::uint32_t> enabled_;       // ident keys (tx_port.hpp), sorted

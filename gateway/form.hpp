@@ -1,5 +1,5 @@
-// The `form` swap byte (manual §5.2.2, emulator-spec §4): Motorola (PLC) <-> Intel (CAN) byte
-// order.
+// The `form` swap byte (manual §5.2.2, docs/slots.md "Data exchange in normal mode"): Motorola
+// (PLC) <-> Intel (CAN) byte order.
 //
 // Bit 7 belongs to data byte 1, bit 0 to data byte 8. A run of 1-bits followed by the next 0-bit
 // marks a group of bytes (the 0-bit's byte included); each group's byte order is reversed. A 0-bit

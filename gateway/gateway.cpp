@@ -107,7 +107,7 @@ std::optional<dp::PrmFault> Gateway::on_set_prm(std::span<const std::uint8_t> te
   }
   sync_ms_ = p.role() == CanopenRole::Master ? stored_sync_ms_ : 0;
   if (role_changed) {
-    // The new role's release rules start from scratch (emulator-spec §7).
+    // The new role's release rules start from scratch (docs/canopen.md).
     halt("CANopen role or ModuleID changed");
     boot_sent_ = false;
     nmt_ = NmtState::Initialising;
@@ -131,7 +131,8 @@ std::optional<dp::CfgFault> Gateway::on_chk_cfg(std::span<const std::uint8_t> cf
     return *fault;
   }
   // The same configuration again (re-parameterization after a watchdog drop): slot buffers and
-  // the input image are kept, as frames received meanwhile updated them (emulator-spec §4).
+  // the input image are kept, as frames received meanwhile updated them
+  // (docs/slots.md "Data exchange in normal mode").
   const bool same = cfg_ && accepted_prm_ == prm_ && accepted_cfg_.size() == cfg.size() &&
                     std::equal(cfg.begin(), cfg.end(), accepted_cfg_.begin());
   cfg_ = std::move(std::get<SlotConfig>(decoded));
@@ -164,7 +165,7 @@ void Gateway::on_enter_data_exchange(Time now) {
     return;
   }
   // Slot traffic resumes after a watchdog drop or a re-parameterization: every Tx slot once, cycle
-  // timers restart (emulator-spec §1, §4).
+  // timers restart (docs/dp-slave.md, docs/slots.md "Data exchange in normal mode").
   if (cfg_->page_mode)
     page_.on_release(now, *this);
   else
@@ -172,7 +173,7 @@ void Gateway::on_enter_data_exchange(Time now) {
 }
 
 void Gateway::on_leave_data_exchange(Time) {
-  // emulator-spec §1: Tx on CAN stops (tx_active() is false), the input image keeps its values.
+  // docs/dp-slave.md: Tx on CAN stops (tx_active() is false), the input image keeps its values.
 }
 
 void Gateway::on_data_exchange(std::span<const std::uint8_t> outputs,
@@ -213,7 +214,8 @@ void Gateway::on_data_exchange(std::span<const std::uint8_t> outputs,
 dp::DeviceDiag Gateway::device_diag() const {
   dp::DeviceDiag d;
   if (prm_ && prm_->can_diagnosis) {
-    // manual table 3.4.5: bus state, IRQ_LOST, MSG_LOST (both saturate at 255, emulator-spec §3).
+    // manual table 3.4.5: bus state, IRQ_LOST, MSG_LOST (both saturate at 255,
+    // docs/dp-slave.md "Diagnosis").
     d.bytes = {bus_state_code(bus_state_),
                static_cast<std::uint8_t>(std::min<std::uint32_t>(irq_lost_, 255)),
                static_cast<std::uint8_t>(std::min<std::uint32_t>(cw_.msg_lost(), 255))};
@@ -242,7 +244,8 @@ void Gateway::on_can_frame(const can::Frame& frame, Time now) {
     handle_nmt(frame, now);
     return;
   }
-  // emulator-spec §4: identifiers enabled in the CW take precedence over input slots.
+  // docs/slots.md "Data exchange in normal mode": identifiers enabled in the CW take precedence
+  // over input slots.
   if (cw_.on_frame(frame)) return;
   if (!cfg_) return;
   if (cfg_->page_mode)
@@ -259,8 +262,7 @@ void Gateway::set_controller_status(can::BusState state, std::uint32_t rx_lost_t
   irq_lost_ = rx_lost_total;
 }
 
-// ---------------------------------------------------------------- release, CANopen (emulator-spec
-// §7)
+// -------------------------------------------------------------- release, CANopen (docs/canopen.md)
 
 void Gateway::boot_if_due(Time now) {
   // CANopen slave: the boot frame once the wake-up time is over, then pre-operational (manual
@@ -295,11 +297,11 @@ void Gateway::release(Time now, std::string_view why) {
   released_ = true;
   log_.info("CAN transmission released: " + std::string(why));
   if (role() == CanopenRole::Master && prm_->start_frame) {
-    // emulator-spec §7: NMT start-all, ID 0, DLC 2, 01 00 (manual §9).
+    // docs/canopen.md: NMT start-all, ID 0, DLC 2, 01 00 (manual §9).
     const std::uint8_t start[] = {kNmtStart, 0x00};
     transmit(can::Frame::std_data(kNmtId, start));
   }
-  // Then every Tx slot once (emulator-spec §7).
+  // Then every Tx slot once (docs/canopen.md).
   if (cfg_->page_mode)
     page_.on_release(now, *this);
   else
@@ -372,7 +374,7 @@ void Gateway::handle_nmt(const can::Frame& frame, Time now) {
       break;
     case kNmtResetNode:
     case kNmtResetComm:
-      // emulator-spec §7: a reset repeats the boot frame; the node is pre-operational again.
+      // docs/canopen.md: a reset repeats the boot frame; the node is pre-operational again.
       halt("NMT reset");
       send_boot_frame();
       nmt_ = NmtState::PreOperational;
@@ -394,7 +396,8 @@ bool Gateway::set_sync_time(std::uint16_t ms, Time now) {
     return true;
   }
   // manual §5.1.2 note: Prm bytes 14-15, CW comment bytes 4-5 and command 20 are equal sources;
-  // the last one written wins, and it is the gateway's stored value (emulator-spec §1.1).
+  // the last one written wins, and it is the gateway's stored value
+  // (docs/dp-slave.md "User parameters").
   sync_ms_ = ms;
   stored_sync_ms_ = ms;
   log_.info("SYNC time " + std::to_string(ms) + " ms" + (ms == 0 ? " (off)" : ""));
@@ -430,7 +433,8 @@ std::optional<Time> Gateway::sync_due() const {
 void Gateway::fire_sync(Time now) {
   const auto due = sync_due();
   if (!due || *due > now) return;
-  // emulator-spec §7: SYNC ID 0x080, DLC 0. Like every cyclic send, only in Data_Exch (spec §1).
+  // docs/canopen.md: SYNC ID 0x080, DLC 0. Like every cyclic send, only in Data_Exch
+  // (docs/dp-slave.md).
   if (tx_active()) transmit(can::Frame::std_data(kSyncId, {}));
   // The grid keeps its phase: a deferred SYNC does not move the next one, and grid points passed
   // meanwhile are not sent late (manual: "geringe Zeitverschiebungen").

@@ -26,14 +26,15 @@ namespace candp2::gw {
 struct GatewayOptions {
   std::uint8_t address = 3;          // rotary switches; clamped to 3..124 (manual §2.1)
   bool cia301_bootup = false;        // CANopen slave boot frame 0x700+ID instead of 0x80+ID
-  std::uint8_t stored_wakeup_s = 0;  // the gateway's stored values (emulator-spec §1.1)
+  std::uint8_t stored_wakeup_s = 0;  // the gateway's stored values
+                                     // (docs/dp-slave.md "User parameters")
   std::uint16_t stored_sync_ms = 0;
   LogSink* log = nullptr;
   // The configuration's name: log lines carry it ("g666", "g666.dp", "g666.cw"); empty: "gwN".
   std::string name{};
 };
 
-// CANopen NMT state of the gateway as a CANopen slave (emulator-spec §7).
+// CANopen NMT state of the gateway as a CANopen slave (docs/canopen.md).
 enum class NmtState : std::uint8_t { Initialising, PreOperational, Operational, Stopped };
 std::string_view to_string(NmtState s);
 
@@ -136,7 +137,7 @@ class Gateway final : private dp::SlaveApplication, private CwHost {
   PageMode page_;
   std::vector<std::uint8_t> input_image_;
 
-  // CAN release (emulator-spec §7).
+  // CAN release (docs/canopen.md).
   Time power_on_{0};
   bool released_ = false;
   NmtState nmt_ = NmtState::Initialising;

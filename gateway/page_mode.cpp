@@ -61,7 +61,7 @@ void PageMode::reset() {
   input_page_.assign(in_.size(), 0);
 }
 
-// ---------------------------------------------------------------- answers (emulator-spec §6.2)
+// ------------------------------------------------------ answers (docs/page-mode.md "Header bytes")
 
 void PageMode::answer(std::uint16_t number, std::uint8_t seq, Status status, std::uint16_t w4,
                       std::uint16_t w6) {
@@ -90,7 +90,7 @@ void PageMode::on_output_page(std::span<const std::uint8_t> page, Time now, TxPo
   if (!out_.has_header() || page.size() < out_.size()) return;
   const auto number = page::page_number(out_, page);
   if (!number) {
-    // emulator-spec §6.2: a torn page is ignored until it is consistent.
+    // docs/page-mode.md "Header bytes": a torn page is ignored until it is consistent.
     if (!torn_) {
       std::string numbers;
       for (std::size_t i = 0; i < out_.segments().size(); ++i) {
@@ -105,7 +105,7 @@ void PageMode::on_output_page(std::span<const std::uint8_t> page, Time now, TxPo
   }
   torn_ = false;
   const std::uint8_t seq = page[page::kSeqByte];
-  // emulator-spec §6.2: each output page is processed once per sequence number.
+  // docs/page-mode.md "Header bytes": each output page is processed once per sequence number.
   if (last_seq_ && *last_seq_ == seq) return;
   last_seq_ = seq;
   ++pages_processed_;
@@ -128,7 +128,7 @@ void PageMode::on_output_page(std::span<const std::uint8_t> page, Time now, TxPo
 }
 
 void PageMode::on_init(std::uint8_t seq) {
-  // emulator-spec §6.3: page 0 resets; answer page 1 with the page sizes.
+  // docs/page-mode.md "Pages": page 0 resets; answer page 1 with the page sizes.
   clear_configuration();
   state_ = State::TxConfig;
   answer(page::kInitAnswer, seq, Status::Ok, static_cast<std::uint16_t>(out_.size()),
@@ -266,7 +266,7 @@ void PageMode::finish_configuration(std::uint16_t n, std::uint8_t seq) {
   defs.clear();
   for (const auto& r : rx_) defs.push_back(r.def);
   const auto rx_places = page::pack_data(in_, defs);
-  // emulator-spec §6.3: N = max(Tx pages, Rx pages); at least one (empty) data page.
+  // docs/page-mode.md "Pages": N = max(Tx pages, Rx pages); at least one (empty) data page.
   const std::size_t pages =
       std::max<std::size_t>({1, page::pages_used(tx_places), page::pages_used(rx_places)});
   const auto count = static_cast<std::uint16_t>(rx_.size());
@@ -287,7 +287,7 @@ void PageMode::finish_configuration(std::uint16_t n, std::uint8_t seq) {
   for (std::size_t i = 0; i < rx_.size(); ++i) {
     rx_[i].place = rx_places[i];
     rx_by_page_[rx_places[i].page].push_back(static_cast<std::uint32_t>(i));
-    // manual §5.2.1 (emulator-spec §6.3: the same Rx rules as slots): the later entry wins.
+    // manual §5.2.1 (docs/page-mode.md "Pages": the same Rx rules as slots): the later entry wins.
     const std::uint32_t key = ident_key(rx_[i].def.id);
     auto it = std::lower_bound(rx_index_.begin(), rx_index_.end(), std::make_pair(key, 0u));
     if (it != rx_index_.end() && it->first == key) {
@@ -309,7 +309,7 @@ void PageMode::finish_configuration(std::uint16_t n, std::uint8_t seq) {
 // ---------------------------------------------------------------- data pages
 
 bool PageMode::send_due(TxEntry& e, std::uint8_t force, std::span<const std::uint8_t> data) const {
-  // manual table 6.4.7 (emulator-spec §6.3).
+  // manual table 6.4.7 (docs/page-mode.md "Pages").
   switch (force) {
     case page::kForceNever:
       return false;
@@ -330,7 +330,7 @@ bool PageMode::send_due(TxEntry& e, std::uint8_t force, std::span<const std::uin
 
 void PageMode::send(TxEntry& e, TxPort& tx) {
   if (!tx.tx_active()) {
-    e.held = true;  // emulator-spec §7: held until release, the latest data goes out then
+    e.held = true;  // docs/canopen.md: held until release, the latest data goes out then
     return;
   }
   e.held = false;
@@ -394,12 +394,14 @@ void PageMode::write_input_page(std::span<std::uint8_t> page) const {
 }
 
 bool PageMode::on_frame(const can::Frame& frame, Time) {
-  if (frame.remote || state_ != State::Data) return false;  // emulator-spec §4: no remote frames
+  // No remote frames (docs/slots.md "Data exchange in normal mode").
+  if (frame.remote || state_ != State::Data) return false;
   const std::uint32_t key = ident_key(frame);
   auto it = std::lower_bound(rx_index_.begin(), rx_index_.end(), std::make_pair(key, 0u));
   if (it == rx_index_.end() || it->first != key) return false;
   RxEntry& r = rx_[it->second];
-  // emulator-spec §4: min(DLC, n) bytes, the rest zero, form swap (CAN Intel -> PLC Motorola).
+  // docs/slots.md "Data exchange in normal mode": min(DLC, n) bytes, the rest zero, form swap (CAN
+  // Intel -> PLC Motorola).
   const std::size_t n = std::min<std::size_t>(frame.dlc, r.def.length);
   r.data.fill(0);
   std::copy_n(frame.data.begin(), n, r.data.begin());

@@ -1,4 +1,4 @@
-// Page-Mode (manual §6, emulator-spec §6): more CAN identifiers than one DP telegram holds, moved
+// Page-Mode (manual §6, docs/page-mode.md): more CAN identifiers than one DP telegram holds, moved
 // in pages over segment slots.
 //
 // candp2::gw::PageMode — the gateway's Page-Mode engine: pages 0/1, Tx configuration pages 51..150,
@@ -28,7 +28,7 @@ namespace candp2::gw {
 // The page wire format lives one layer down (profibus_sim/page/page_format.hpp); gw::page names it.
 namespace page = ::candp2::page;
 
-// The gateway's Page-Mode engine (emulator-spec §6).
+// The gateway's Page-Mode engine (docs/page-mode.md).
 class PageMode {
  public:
   enum class State : std::uint8_t {

@@ -4,6 +4,8 @@
 #include <map>
 #include <string>
 
+#include "common/hex.hpp"
+
 namespace candp2::gw {
 
 std::string_view cfg_code_text(std::uint8_t code) {
@@ -68,7 +70,7 @@ struct Totals {
   std::size_t in = 0, out = 0;
 };
 
-// emulator-spec §2 code 7: > 48 slots, > 244 input or output bytes, > 300 in total.
+// docs/slots.md "Chk_Cfg slots" code 7: > 48 slots, > 244 input or output bytes, > 300 in total.
 bool over_limits(std::size_t slot_count, const Totals& t) {
   return slot_count > kMaxSlots || t.in > kMaxInputLen || t.out > kMaxOutputLen ||
          t.in + t.out > kMaxDataLen;
@@ -79,7 +81,8 @@ std::uint32_t be32(const std::vector<std::uint8_t>& m, std::size_t at) {
          (std::uint32_t{m[at + 2]} << 8) | m[at + 3];
 }
 
-// Normal-mode slot, checks in the order of emulator-spec §2 (codes 1..6; 7 by the caller).
+// Normal-mode slot, checks in the order of docs/slots.md "Chk_Cfg slots" (codes 1..6; 7 by the
+// caller).
 std::variant<Slot, std::uint8_t> normal_slot(const CfgEntry& e, const UserPrm& prm) {
   Slot s;
   if (!e.special || (e.io != CfgIo::Input && e.io != CfgIo::Output)) return kCfgWrongIoType;
@@ -135,7 +138,8 @@ std::variant<Slot, std::uint8_t> normal_slot(const CfgEntry& e, const UserPrm& p
   } else {
     s.id = can::Ident{id, extended};
   }
-  if (input) s.cycle_ms = 0;  // emulator-spec §2: cycle bytes on an input slot are ignored
+  // Cycle bytes on an input slot are ignored (docs/slots.md "Comment bytes").
+  if (input) s.cycle_ms = 0;
   return s;
 }
 
@@ -149,7 +153,7 @@ std::variant<SlotConfig, dp::CfgFault> decode_slots(std::span<const std::uint8_t
   Totals totals;
   std::map<can::Ident, SlotKind> used;  // identifier -> Rx or Tx, for the clash rule
   std::size_t cw_in_count = 0, cw_out_count = 0;
-  // Page-Mode bookkeeping (emulator-spec §6.1).
+  // Page-Mode bookkeeping (docs/page-mode.md "Segments").
   std::optional<std::size_t> short_in, short_out;  // a segment below 32 bytes: must be the last
   bool cw_seen = false;
 
@@ -187,7 +191,8 @@ std::variant<SlotConfig, dp::CfgFault> decode_slots(std::span<const std::uint8_t
     if (over_limits(i + 1, totals)) return fault(i, kCfgLimitsExceeded);
     if (s.kind == SlotKind::CwIn || s.kind == SlotKind::CwOut) {
       cw_seen = true;
-      // emulator-spec §2 code 8: the Prm CW flag, one CW per direction, whole-length consistency.
+      // docs/slots.md "Chk_Cfg slots" code 8: the Prm CW flag, one CW per direction, whole-length
+      // consistency.
       if (!prm.comm_window) return fault(i, kCfgCommWindow);
       auto& count = s.kind == SlotKind::CwIn ? cw_in_count : cw_out_count;
       if (++count > 1 || !s.consistent) return fault(i, kCfgCommWindow);
@@ -215,8 +220,8 @@ std::variant<SlotConfig, dp::CfgFault> decode_slots(std::span<const std::uint8_t
     // manual table 6.4.1 rule 1: at least 32 input bytes.
     if (in_total < kSegmentLen) return fault(last_in.value_or(0), kCfgPageLayout);
     if (!any_out) return fault(0, kCfgNoOutput);
-    // emulator-spec §6.1: the first output segment carries the page number and header bytes 2-7
-    // (sequence number), so it needs at least 8 bytes.
+    // docs/page-mode.md "Segments": the first output segment carries the page number and header
+    // bytes 2-7 (sequence number), so it needs at least 8 bytes.
     constexpr std::size_t kPageHeaderLen = 8;
     const auto first_out = std::find_if(out.slots.begin(), out.slots.end(), [](const Slot& s) {
       return s.kind == SlotKind::SegmentOut;
@@ -234,38 +239,9 @@ std::variant<SlotConfig, dp::CfgFault> decode_slots(std::span<const std::uint8_t
 }
 
 std::optional<std::vector<std::uint8_t>> parse_comment(std::string_view text, std::string* error) {
-  std::vector<std::uint8_t> out;
-  std::size_t i = 0;
-  auto hex = [](char c) -> int {
-    if (c >= '0' && c <= '9') return c - '0';
-    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-    return -1;
-  };
-  while (i < text.size()) {
-    if (text[i] == ',' || text[i] == ' ' || text[i] == '\t') {
-      ++i;
-      continue;
-    }
-    std::size_t j = i;
-    while (j < text.size() && text[j] != ',' && text[j] != ' ' && text[j] != '\t') ++j;
-    for (std::size_t k = i; k < j; ++k) {
-      if (hex(text[k]) < 0) {
-        if (error)
-          *error = "position " + std::to_string(k) + ": '" + std::string(1, text[k]) +
-                   "' is not a hex digit";
-        return std::nullopt;
-      }
-    }
-    if (j - i != 2) {
-      if (error)
-        *error = "position " + std::to_string(i) + ": '" + std::string(text.substr(i, j - i)) +
-                 "' is not one byte (write two hex digits per byte, e.g. 02,89,B8)";
-      return std::nullopt;
-    }
-    out.push_back(static_cast<std::uint8_t>((hex(text[i]) << 4) | hex(text[i + 1])));
-    i = j;
-  }
+  auto read = parse_hex_bytes(text, HexForm::Separated, error, /*allow_empty=*/true);
+  if (!read) return std::nullopt;
+  std::vector<std::uint8_t> out = std::move(read->bytes);
   // manual §5.1.4: the comment field holds at most 15 bytes (14 in Page-Mode dialogs).
   if (out.size() > 15) {
     if (error) *error = "more than 15 comment bytes";

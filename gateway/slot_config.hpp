@@ -1,5 +1,6 @@
-// Chk_Cfg → gateway slots (manual §5.2, §5.3.2, §6.4.2, §7; emulator-spec §2, §6.1).
-// Pure: the decoded configuration or the Cfg fault the real gateway reports (diag 3E slot code).
+// Chk_Cfg → gateway slots (manual §5.2, §5.3.2, §6.4.2, §7; docs/slots.md "Chk_Cfg slots",
+// docs/page-mode.md "Segments"). Pure: the decoded configuration or the Cfg fault the real gateway
+// reports (diag 3E slot code).
 #pragma once
 
 #include <cstdint>
@@ -16,7 +17,8 @@
 
 namespace candp2::gw {
 
-// Cfg fault codes, diag byte 10 after 0x3E (manual §3.4.2 list; 7-10 emulator-spec §2 additions).
+// Cfg fault codes, diag byte 10 after 0x3E (manual §3.4.2 list; 7-10 docs/slots.md "Chk_Cfg slots"
+// additions).
 enum CfgCode : std::uint8_t {
   kCfgWrongIoType = 1,
   kCfgWrongUnit = 2,

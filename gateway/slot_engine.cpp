@@ -67,7 +67,8 @@ void SlotEngine::on_outputs(std::span<const std::uint8_t> outputs, TxPort& tx, T
   const bool active = tx.tx_active();
   for (TxSlot& s : tx_) {
     const std::uint8_t* bytes = outputs.data() + s.offset;
-    // emulator-spec §4: data bytes or the Tx-Counter byte differ from the previous Data_Exchange.
+    // docs/slots.md "Data exchange in normal mode": data bytes or the Tx-Counter byte differ from
+    // the previous Data_Exchange.
     const bool changed = !s.have_data || std::memcmp(s.last.data(), bytes, s.length) != 0;
     if (changed) std::memcpy(s.last.data(), bytes, s.length);
     s.have_data = true;
@@ -79,7 +80,8 @@ void SlotEngine::on_outputs(std::span<const std::uint8_t> outputs, TxPort& tx, T
 }
 
 bool SlotEngine::on_frame(const can::Frame& frame, std::span<std::uint8_t> inputs, Time now) {
-  if (frame.remote) return false;  // emulator-spec §4: remote frames never update slots
+  // Remote frames never update slots (docs/slots.md "Data exchange in normal mode").
+  if (frame.remote) return false;
   const auto key = ident_key(frame);
   auto it =
       std::lower_bound(rx_index_.begin(), rx_index_.end(), std::make_pair(key, std::uint16_t{0}));
@@ -105,7 +107,7 @@ void SlotEngine::on_release(Time now, TxPort& tx) {
   released_ = true;
   for (TxSlot& s : tx_) {
     s.sent_since_release = false;
-    // emulator-spec §4: the cycle timer runs freely from release.
+    // docs/slots.md "Data exchange in normal mode": the cycle timer runs freely from release.
     s.next_cycle = now + milliseconds(s.cycle_ms);
     if (s.have_data && tx.tx_active()) {
       send(s, tx, now);

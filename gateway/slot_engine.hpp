@@ -1,6 +1,7 @@
-// Normal-mode slot traffic (manual §2.2, §3.2.3, §5.2.2-5.2.3; emulator-spec §4):
-// Tx on release, on change and every `cycle` ms; Rx into the input image with zero fill, form swap,
-// Rx-Counter; "the later Rx slot wins". Pure; the input image is owned by the caller.
+// Normal-mode slot traffic (manual §2.2, §3.2.3, §5.2.2-5.2.3;
+// docs/slots.md "Data exchange in normal mode"): Tx on release, on change and every `cycle` ms; Rx
+// into the input image with zero fill, form swap, Rx-Counter; "the later Rx slot wins". Pure; the
+// input image is owned by the caller.
 #pragma once
 
 #include <array>

@@ -1,5 +1,5 @@
 // What the gateway's engines may do on the CAN side. The Gateway implements it: it counts frames,
-// and knows whether CAN transmission is released (emulator-spec §7).
+// and knows whether CAN transmission is released (docs/canopen.md).
 #pragma once
 
 #include "can/frame.hpp"

@@ -58,7 +58,7 @@ std::variant<UserPrm, dp::PrmFault> decode_user_prm(std::span<const std::uint8_t
     return PrmFault{static_cast<std::uint8_t>(std::min(t.size(), kSetPrmLen)), 0};
   }
   UserPrm p;
-  // emulator-spec §1.1 table, in telegram byte order.
+  // docs/dp-slave.md "User parameters" table, in telegram byte order.
   if (t[kPrmReserved7] != 0) return PrmFault{kPrmReserved7, 0x00};
   if (t[kPrmBitrate] > kBitrateMax) return PrmFault{kPrmBitrate, kBitrateDefault};
   p.bitrate_index = t[kPrmBitrate];

@@ -1,5 +1,6 @@
-// Set_Prm user parameters of the CAN-DP/2 (manual §5.1.2, GSD ExtUserPrmData 1-12, emulator-spec
-// §1.1): telegram bytes 7..15 (Max_User_Prm_Data_Len = 9). Pure decode/validate/encode.
+// Set_Prm user parameters of the CAN-DP/2 (manual §5.1.2, GSD ExtUserPrmData 1-12,
+// docs/dp-slave.md "User parameters"): telegram bytes 7..15 (Max_User_Prm_Data_Len = 9). Pure
+// decode/validate/encode.
 #pragma once
 
 #include <array>
@@ -19,7 +20,7 @@ inline constexpr std::size_t kUserPrmLen = 9;          // GSD Max_User_Prm_Data_
 inline constexpr std::size_t kSetPrmLen = 16;          // 7 standard + 9 user bytes
 inline constexpr std::array<std::uint8_t, 2> kExtDiagHeader = {0x05, 0x04};  // manual table 3.4.5
 
-// Telegram byte positions (emulator-spec §1.1).
+// Telegram byte positions (docs/dp-slave.md "User parameters").
 inline constexpr std::size_t kPrmReserved7 = 7;
 inline constexpr std::size_t kPrmBitrate = 8;
 inline constexpr std::size_t kPrmFlags = 9;

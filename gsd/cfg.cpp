@@ -100,7 +100,7 @@ std::string describe_slot(const gw::Slot& s) {
       const bool in = s.kind == SlotKind::CwIn;
       std::string t = std::string("Communication Window ") +
                       (in ? "read (input)" : "write (output)") + ", form " + hex8(s.form);
-      // manual §5.3.2 / emulator-spec §5: comment bytes 4-5, 00 00 = not given.
+      // manual §5.3.2 / docs/communication-window.md: comment bytes 4-5, 00 00 = not given.
       t += s.cw_sync_ms ? ", SYNC time " + std::to_string(s.cw_sync_ms) + " ms" : ", no SYNC time";
       return t;
     }
@@ -128,8 +128,8 @@ std::string describe_slot(const gw::Slot& s) {
 
 std::optional<std::uint16_t> ignored_input_cycle(const gw::Slot& s, const gw::UserPrm& prm) {
   if (s.kind != gw::SlotKind::Rx || s.length < 1 || s.length > 64) return std::nullopt;
-  // The gateway drops the cycle of an input (emulator-spec §2); read the same comment bytes the
-  // way it reads an output's, with the same counter setting.
+  // The gateway drops the cycle of an input (docs/slots.md "Chk_Cfg slots"); read the same comment
+  // bytes the way it reads an output's, with the same counter setting.
   gw::UserPrm as_output = prm;
   as_output.page_mode = false;
   as_output.tx_counter = s.counter;

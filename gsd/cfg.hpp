@@ -4,8 +4,8 @@
 // There is one decoder for each: the identifier formats are decoded by dp::decode_chk_cfg
 // (profibus_sim/dp/dp_telegram.hpp, IEC 61158-6-3 Chk_Cfg; manual §7 quotes the formats), the
 // CAN-DP/2 slot rules are applied by gw::decode_slots (gateway/slot_config.hpp, manual §5.2,
-// §5.3.2, §6.4, §7; emulator-spec §2, §6.1). This header only wraps them for GSD modules, so the
-// GSD module check and the gateway can never disagree.
+// §5.3.2, §6.4, §7; docs/slots.md "Chk_Cfg slots", docs/page-mode.md "Segments"). This header only
+// wraps them for GSD modules, so the GSD module check and the gateway can never disagree.
 #pragma once
 
 #include <cstdint>
@@ -60,12 +60,13 @@ inline constexpr std::int64_t kCanDp2Ident = gw::kIdentNumber;  // manual §4: 0
 //   2. the same with Rx-/Tx-Counter on (a 9-byte slot, manual §5.1.2);
 //   3./4. Communication Window flag on, the entry, then a CW input / CW output (manual §5.3.2);
 //   5. Page-Mode on, a 32-byte input and a 32-byte output segment, then the entry (as the last
-//      segment of its direction, which may be shorter; manual table 6.4.1, emulator-spec §6.1).
-// When none accepts, the fault of context 1 is the answer.
+// segment of its direction, which may be shorter; manual table 6.4.1,
+// docs/page-mode.md "Segments"). When none accepts, the fault of context 1 is the answer.
 struct CanDp2Slot {
   std::optional<gw::Slot> slot;                // the gateway's reading when a context accepted it
   std::string condition;                       // "" or e.g. "Page-Mode on" (contexts 2..5)
-  std::optional<std::uint16_t> ignored_cycle;  // cycle bytes on an input (emulator-spec §2)
+  std::optional<std::uint16_t> ignored_cycle;  // cycle bytes on an input
+                                               // (docs/slots.md "Chk_Cfg slots")
   std::optional<std::uint8_t> fault_code;      // Cfg fault code of context 1 when rejected
   std::string text;                            // "Rx 11-bit ID 0x181, 8 bytes, form 0x00" or ""
   std::optional<std::string> problem;  // "Cfg fault code 3: wrong length (...)" when rejected
@@ -75,10 +76,10 @@ CanDp2Slot describe_candp2(const CfgEntry& e);
 // "Tx 11-bit ID 0x203, 6 bytes, form 0x00, cycle 100 ms" for a slot of gw::decode_slots.
 std::string describe_slot(const gw::Slot& s);
 
-// The cycle an input slot's comment bytes carry although the gateway ignores it (emulator-spec
-// §2: "cycle bytes on an input slot are ignored, the validator warns"): the same length and
-// comment bytes decoded by gw::decode_slots as an output slot. nullopt for other slots, for no
-// cycle bytes and for cycle 0.
+// The cycle an input slot's comment bytes carry although the gateway ignores it
+// (docs/slots.md "Chk_Cfg slots": "cycle bytes on an input slot are ignored, the validator warns"):
+// the same length and comment bytes decoded by gw::decode_slots as an output slot. nullopt for
+// other slots, for no cycle bytes and for cycle 0.
 std::optional<std::uint16_t> ignored_input_cycle(const gw::Slot& s, const gw::UserPrm& prm);
 
 // A module line holding the single byte 0x00 is the configuration tools' "universal module":

@@ -13,7 +13,7 @@ namespace candp2::gsd {
 // User_Prm_Data_Len / Max_User_Prm_Data_Len, malformed module configuration bytes, limits
 // exceeded. Warnings: doubtful but workable entries (e.g. User_Prm_Data disagreeing with the
 // Ext_User_Prm_Data defaults). For the CAN-DP/2 (Ident_Number 0x04A4) module entries are also
-// checked against the gateway's slot rules (manual §7, emulator-spec §2).
+// checked against the gateway's slot rules (manual §7, docs/slots.md "Chk_Cfg slots").
 std::vector<Diagnostic> check(const Model& model);
 
 }  // namespace candp2::gsd

@@ -1,7 +1,8 @@
 // User parameter bytes (the part of Set_Prm after the 7 DP standard bytes) from a GSD:
 // User_Prm_Data, then every Ext_User_Prm_Data_Const, then every Ext_User_Prm_Data_Ref with its
 // ExtUserPrmData default or a named override. Bit(n) and BitArea(a-b) replace only their bits;
-// 16- and 32-bit values are written big-endian (GSD spec; emulator-spec §1.1 bytes 14..15).
+// 16- and 32-bit values are written big-endian (GSD spec; docs/dp-slave.md "User parameters" bytes
+// 14..15).
 #pragma once
 
 #include <cstdint>

@@ -21,29 +21,10 @@ namespace {
 
 BytePattern as_pattern(const json& j, const std::string& path) {
   const std::string text = as_string(j, path, "hex bytes like \"00 33 ?? 00\" (?? = any byte)");
-  BytePattern p;
-  std::size_t i = 0;
-  while (i < text.size()) {
-    const char c = text[i];
-    if (c == ' ' || c == ',' || c == '\t') {
-      ++i;
-      continue;
-    }
-    if (i + 1 < text.size() && c == '?' && text[i + 1] == '?') {
-      p.bytes.push_back(0);
-      p.care.push_back(false);
-      i += 2;
-      continue;
-    }
-    if (i + 1 >= text.size() || hex_digit(c) < 0 || hex_digit(text[i + 1]) < 0)
-      fail(path, "position " + std::to_string(i) +
-                     ": expected two hex digits or ?? per byte, e.g. \"00 33 ?? 00\"");
-    p.bytes.push_back(static_cast<std::uint8_t>((hex_digit(c) << 4) | hex_digit(text[i + 1])));
-    p.care.push_back(true);
-    i += 2;
-  }
-  if (p.bytes.empty()) fail(path, "no bytes given");
-  return p;
+  std::string error;
+  auto read = parse_hex_bytes(text, HexForm::Patterns, &error);
+  if (!read) fail(path, error);
+  return BytePattern{std::move(read->bytes), std::move(read->care)};
 }
 
 can::Frame as_frame(const json& j, const std::string& path) {

@@ -57,7 +57,7 @@ bool is_pty_fd(int fd) {
 }  // namespace
 
 const std::vector<std::uint32_t>& supported_bauds() {
-  // emulator-spec §10: 9.6k, 19.2k, 45.45k, 93.75k, 187.5k, 500k, 1.5M; the GSD (gsd/CDPS04A4.GSD)
+  // docs/profibus.md: 9.6k, 19.2k, 45.45k, 93.75k, 187.5k, 500k, 1.5M; the GSD (gsd/CDPS04A4.GSD)
   // also lists 3M, 6M and 12M.
   static const std::vector<std::uint32_t> bauds = {9600,   19200,   45450,   93750,   187500,
                                                    500000, 1500000, 3000000, 6000000, 12000000};
@@ -87,7 +87,7 @@ bool parse_pty_port(std::string_view port, std::string* path) {
 
 Duration char_time(std::uint32_t baud, std::size_t chars) {
   if (baud == 0) return Duration(1);
-  // emulator-spec §10: 11 bits per character (start, 8 data, even parity, stop).
+  // docs/profibus.md: 11 bits per character (start, 8 data, even parity, stop).
   const std::uint64_t bits = 11ull * chars;
   const std::uint64_t us = (bits * 1000000ull + baud - 1) / baud;
   return Duration(std::max<std::uint64_t>(us, 1));
@@ -292,7 +292,7 @@ bool SerialPort::configure(int fd, bool is_pty, std::string* error, bool mark_pa
     return false;
   }
   ::cfmakeraw(&tio);
-  // emulator-spec §10: 8 data bits, even parity, one stop bit; no modem control, no flow control.
+  // docs/profibus.md: 8 data bits, even parity, one stop bit; no modem control, no flow control.
   tio.c_cflag &= ~(CSIZE | PARODD | CSTOPB | CRTSCTS);
   tio.c_cflag |= CS8 | PARENB | CLOCAL | CREAD;
   // Parity errors marked in the stream (0xFF 0x00 X), a data 0xFF doubled; no software flow

@@ -1,4 +1,4 @@
-// The serial PHY of the PROFIBUS line (emulator-spec §10): a UART in raw 8E1 or a pseudo-terminal.
+// The serial PHY of the PROFIBUS line (docs/profibus.md): a UART in raw 8E1 or a pseudo-terminal.
 //
 // Transport layer (like can/socketcan.hpp): it owns a descriptor and never reads a clock; the
 // caller passes the time in and puts fd() into its event loop (non-blocking, no threads).
@@ -31,7 +31,7 @@
 
 namespace candp2::serial {
 
-// emulator-spec §10: 9.6k .. 12M; 45450 is the PROFIBUS "45.45 kbit/s" rate.
+// docs/profibus.md: 9.6k .. 12M; 45450 is the PROFIBUS "45.45 kbit/s" rate.
 const std::vector<std::uint32_t>& supported_bauds();
 bool is_supported_baud(std::uint32_t baud);
 std::string supported_bauds_text();  // "9600, 19200, 45450, ..." for error messages
@@ -39,7 +39,7 @@ std::string supported_bauds_text();  // "9600, 19200, 45450, ..." for error mess
 // "pty:PATH" -> PATH (true); anything else false.
 bool parse_pty_port(std::string_view port, std::string* path);
 
-// One character time at `baud` for 8E1 (11 bits, emulator-spec §10), rounded up, at least 1 µs.
+// One character time at `baud` for 8E1 (11 bits, docs/profibus.md), rounded up, at least 1 µs.
 Duration char_time(std::uint32_t baud, std::size_t chars = 1);
 
 struct SerialOptions {
@@ -60,7 +60,7 @@ struct RxByte {
 
 // Hands received characters to an FDL parser in order: runs of good characters in one piece
 // (`run(span)`, never empty), a character with a parity error on its own (`bad(value)`;
-// emulator-spec §10: the telegram it belongs to is discarded).
+// docs/profibus.md: the telegram it belongs to is discarded).
 template <typename Run, typename Bad>
 void split_parity(std::span<const RxByte> rx, Run&& run, Bad&& bad) {
   std::vector<std::uint8_t> chunk;

@@ -155,7 +155,7 @@ run_tests() {
   local status=0
   local t=$SECONDS
   echo "== the run command's build (Release) and its smoke test"
-  # A user's build must be warning-free too (issue 11), though warnings do not stop it there:
+  # A user's build must be warning-free too, though warnings do not stop it there:
   # whatever this build compiles is checked for compiler warnings here.
   local release_log=$release_dir/build.log
   mkdir -p "$release_dir"

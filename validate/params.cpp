@@ -12,13 +12,14 @@ std::int64_t flag(bool b) {
   return b ? 1 : 0;
 }
 
-// GSD ExtUserPrmData 1..13 of gsd/CDPS04A4.GSD (manual §4 and §5.1.2, emulator-spec §1.1).
+// GSD ExtUserPrmData 1..13 of gsd/CDPS04A4.GSD (manual §4 and §5.1.2,
+// docs/dp-slave.md "User parameters").
 constexpr ParamMapping kMappings[] = {
     {"can_bitrate", "CAN-Bitrate",
      [](const gw::UserPrm& p) -> std::int64_t { return p.bitrate_index; }},
     {"communication_window", "Communication Window",
      [](const gw::UserPrm& p) { return flag(p.comm_window); }},
-    // PrmText 3: RTR-Frames 0 = "Yes" = send RTR frames (emulator-spec §1.1).
+    // PrmText 3: RTR-Frames 0 = "Yes" = send RTR frames (docs/dp-slave.md "User parameters").
     {"rtr_frames", "RTR-Frames", [](const gw::UserPrm& p) { return flag(!p.send_rtr); }},
     {"canopen", "CANopen-Slave", [](const gw::UserPrm& p) { return flag(p.canopen_slave); }},
     {"canopen", "CANopen-Master", [](const gw::UserPrm& p) { return flag(p.canopen_master); }},

@@ -1,8 +1,8 @@
 // Named user parameters of the configuration (docs/configuration.md, "parameters") and the
 // ExtUserPrmData of the CAN-DP/2 GSD they correspond to (gsd/CDPS04A4.GSD; manual §5.1.2,
-// emulator-spec §1.1). With `candp2 validate --gsd FILE` the named parameters are encoded through
-// the GSD (gsd/prm.hpp) instead of gw::encode_user_prm; for the shipped GSD both encodings agree
-// byte for byte (tests/validate/prm_roundtrip_test.cpp).
+// docs/dp-slave.md "User parameters"). With `candp2 validate --gsd FILE` the named parameters are
+// encoded through the GSD (gsd/prm.hpp) instead of gw::encode_user_prm; for the shipped GSD both
+// encodings agree byte for byte (tests/validate/prm_roundtrip_test.cpp).
 #pragma once
 
 #include <cstdint>

@@ -27,7 +27,7 @@ std::string_view to_string(WarningKind k) {
 }
 
 std::string prm_byte_name(std::size_t b) {
-  // DP standard part (EN 50170 DDLM_Set_Prm) and emulator-spec §1.1 user bytes.
+  // DP standard part (EN 50170 DDLM_Set_Prm) and docs/dp-slave.md "User parameters" user bytes.
   static constexpr const char* kNames[] = {
       "Station_Status", "WD_Fact_1",         "WD_Fact_2",
       "min_TSDR",       "Ident_Number high", "Ident_Number low",
@@ -79,7 +79,7 @@ void slot_warnings(GatewayReport& r) {
                                   "(emulator-spec §2)"});
     }
     if (s.kind == gw::SlotKind::Tx && s.id) {
-      // emulator-spec §2: the same Tx identifier on two output slots is accepted.
+      // docs/slots.md "Chk_Cfg slots": the same Tx identifier on two output slots is accepted.
       for (std::size_t k = 0; k < i; ++k) {
         if (!slots[k].slot || slots[k].slot->kind != gw::SlotKind::Tx || slots[k].slot->id != s.id)
           continue;
@@ -113,7 +113,7 @@ GatewayReport check_gateway(GatewayInput input) {
                           "DP address " + std::to_string(in.address) + " is clamped to " +
                               std::to_string(r.dp_address) + " (manual §2.1: 3..124)"});
 
-  // The master's start-up sequence (emulator-spec §8): Set_Prm, Chk_Cfg, Slave_Diag. The slave
+  // The master's start-up sequence (docs/modbus.md): Set_Prm, Chk_Cfg, Slave_Diag. The slave
   // ignores Chk_Cfg after a rejected Set_Prm, as it would on the bus.
   dp::DpSlave& slave = gateway.dp();
   r.prm_accepted = slave.set_prm(in.master_address, in.params.prm, t0);

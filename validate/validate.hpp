@@ -1,8 +1,9 @@
 // What the emulated CAN-DP/2 makes of a gateway configuration, for `candp2 validate`
 // (docs/validate.md). The Set_Prm and Chk_Cfg telegrams go through a real gw::Gateway via its DP
 // services (Set_Prm, Chk_Cfg, Slave_Diag), so the reported diagnosis is the gateway's own answer,
-// never re-derived. On top come the warnings the manual and emulator-spec §2/§8 ask for:
-// behaviour the gateway accepts but a user rarely wants.
+// never re-derived. On top come the warnings the manual and
+// docs/slots.md "Chk_Cfg slots"/docs/modbus.md ask for: behaviour the gateway accepts but a user
+// rarely wants.
 //
 // Pure: no files, no JSON parsing, no clock. The input is what the simulated master would send
 // (dp::SlaveParameters); cmd_validate.cpp builds it from the daemon configuration.
@@ -59,7 +60,7 @@ struct GatewayReport {
   dp::DpSlave::Diag diag{};  // Slave_Diag after Set_Prm and Chk_Cfg
   std::optional<dp::PrmFault> prm_fault;
   std::optional<dp::CfgFault> cfg_fault;
-  bool not_supported = false;  // Station_Status_1 bit 4 (Sync_Req/Freeze_Req, emulator-spec §1)
+  bool not_supported = false;  // Station_Status_1 bit 4 (Sync_Req/Freeze_Req, docs/dp-slave.md)
   std::optional<std::string> cfg_decode_error;  // Chk_Cfg bytes truncated
   std::vector<SlotRow> slots;
   std::vector<Warning> warnings;
@@ -71,11 +72,11 @@ struct GatewayReport {
 GatewayReport check_gateway(GatewayInput input);
 
 // Overlapping PLC addresses of slots of the same direction, across all gateways (the master has
-// one process image, emulator-spec §8). The warning goes to the later slot's gateway.
+// one process image, docs/modbus.md). The warning goes to the later slot's gateway.
 void check_overlaps(std::vector<GatewayReport>& reports);
 
 // Overlapping PLC addresses of a slave's bytes with a gateway's slot or another slave's bytes
-// (one process image, emulator-spec §8); reported at the slave (validate/slaves.cpp).
+// (one process image, docs/modbus.md); reported at the slave (validate/slaves.cpp).
 void check_slave_overlaps(const std::vector<GatewayReport>& gateways,
                           std::vector<SlaveReport>& slaves);
 
@@ -94,7 +95,7 @@ struct Report {
 // `strict` also any warning). 2 (unusable input) is decided before a report exists.
 int exit_code(const Report& r, bool strict);
 
-// The bytes of a Set_Prm fault, named (emulator-spec §1.1): "flags (byte 9)".
+// The bytes of a Set_Prm fault, named (docs/dp-slave.md "User parameters"): "flags (byte 9)".
 std::string prm_byte_name(std::size_t telegram_byte);
 
 }  // namespace candp2::validate

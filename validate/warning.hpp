@@ -10,9 +10,9 @@ namespace candp2::validate {
 enum class WarningKind {
   AddressClamped,  // manual §2.1: DP address outside 3..124
   DuplicateRx,     // manual §5.2.1: the later input slot wins, the earlier never receives
-  DuplicateTx,     // emulator-spec §2: accepted, two slots send the same identifier
-  InputCycle,      // emulator-spec §2: cycle bytes on an input slot are ignored
-  Overlap,         // emulator-spec §8: PLC addresses overlap (one PLC image for all gateways)
+  DuplicateTx,     // docs/slots.md "Chk_Cfg slots": accepted, two slots send the same identifier
+  InputCycle,      // docs/slots.md "Chk_Cfg slots": cycle bytes on an input slot are ignored
+  Overlap,         // docs/modbus.md: PLC addresses overlap (one PLC image for all gateways)
   GsdEncoding,     // --gsd: the GSD encodes the parameters differently from the built-in encoding
 };
 std::string_view to_string(WarningKind k);  // "duplicate-rx", ...

@@ -42,7 +42,7 @@ void DpSlave::reject_prm(PrmFault fault, std::string_view why) {
             hex_bytes(std::array{fault.byte, fault.correct}) + ")");
 }
 
-// Standard profile (IEC 61158-6-3 Set_Prm Station_Status bits 7, 6; docs/slaves.md "Lock"):
+// Standard profile (IEC 61158-6-3 Set_Prm Station_Status bits 7, 6; docs/slaves.md "Set_Prm"):
 // 1 0 locks the slave to this master and parameterizes it; 0 1 and 1 1 unlock it; 0 0 only
 // changes min_TSDR (the FDL front end takes it) and, from the master holding the lock, the user
 // parameters. A slave locked to one master ignores Set_Prm from any other.
@@ -112,15 +112,15 @@ bool DpSlave::set_prm(std::uint8_t master, std::span<const std::uint8_t> t, Time
     enter(SlaveState::WaitPrm, now, "Set_Prm rejected");
     return false;
   };
-  // emulator-spec §1.1: checks run in telegram byte order; the length comes first. The standard
-  // profile leaves the user parameter length to the application.
+  // docs/dp-slave.md "User parameters": checks run in telegram byte order; the length comes first.
+  // The standard profile leaves the user parameter length to the application.
   if (standard() ? t.size() < kPrmStdLen : t.size() != expected) {
     const auto first = static_cast<std::uint8_t>(std::min(t.size(), expected));
     return fail(PrmFault{first, 0}, "length " + std::to_string(t.size()) + ", expected " +
                                         (standard() ? "at least 7" : std::to_string(expected)));
   }
   const auto std_part = *decode_prm_std(t);
-  // emulator-spec §1: FREEZE/SYNC not supported -> Not_Supported (Station_Status_1 bit 4). The
+  // docs/dp-slave.md: FREEZE/SYNC not supported -> Not_Supported (Station_Status_1 bit 4). The
   // standard profile supports what its GSD says.
   const bool sync_bad = std_part.sync_req() && !(standard() && info_.options.sync);
   const bool freeze_bad = std_part.freeze_req() && !(standard() && info_.options.freeze);
@@ -161,7 +161,7 @@ bool DpSlave::chk_cfg(std::uint8_t master, std::span<const std::uint8_t> cfg, Ti
     cfg_accepted_ = false;
     log_.warn("Chk_Cfg rejected: slot " + std::to_string(fault->slot) + " code " +
               std::to_string(fault->code));
-    // emulator-spec §1: a faulty Chk_Cfg leaves the slave in Wait_Prm.
+    // docs/dp-slave.md: a faulty Chk_Cfg leaves the slave in Wait_Prm.
     prm_.reset();
     enter(SlaveState::WaitPrm, now, "Chk_Cfg rejected");
     return false;

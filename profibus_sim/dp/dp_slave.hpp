@@ -1,4 +1,4 @@
-// A DP-V0 slave state machine (emulator-spec §1): Wait_Prm → Wait_Cfg → Data_Exch, watchdog,
+// A DP-V0 slave state machine (docs/dp-slave.md): Wait_Prm → Wait_Cfg → Data_Exch, watchdog,
 // Slave_Diag, Get_Cfg, Global_Control. Generic over the device: the device firmware plugs in as a
 // SlaveApplication, like firmware behind a VPC3 ASIC. Driven only through DP services; time is
 // passed in with every call. No I/O.
@@ -43,7 +43,7 @@ struct PrmFault {
 
 struct CfgFault {
   std::uint8_t slot = 0;  // diag byte 9
-  std::uint8_t code = 0;  // diag byte 10 (emulator-spec §2 codes 1..10)
+  std::uint8_t code = 0;  // diag byte 10 (docs/slots.md "Chk_Cfg slots" codes 1..10)
   friend bool operator==(const CfgFault&, const CfgFault&) = default;
 };
 
@@ -126,7 +126,8 @@ inline constexpr std::uint8_t kGcSync = 0x20;
 
 class DpSlave {
  public:
-  static constexpr std::size_t kDiagLen = 11;  // emulator-spec §3: the CAN-DP/2 sends 11 bytes
+  static constexpr std::size_t kDiagLen = 11;  // docs/dp-slave.md "Diagnosis": the CAN-DP/2 sends
+                                               // 11 bytes
   using Diag = std::array<std::uint8_t, kDiagLen>;
 
   DpSlave(SlaveInfo info, SlaveApplication& app, LogSink* log = nullptr);

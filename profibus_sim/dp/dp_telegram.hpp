@@ -34,7 +34,7 @@ struct PrmStd {
   bool wd_on() const { return station_status & kPrmWdOn; }
   bool freeze_req() const { return station_status & kPrmFreezeReq; }
   bool sync_req() const { return station_status & kPrmSyncReq; }
-  // Watchdog time: 10 ms × WD_Fact_1 × WD_Fact_2 (emulator-spec §1).
+  // Watchdog time: 10 ms × WD_Fact_1 × WD_Fact_2 (docs/dp-slave.md).
   std::uint32_t watchdog_ms() const { return 10u * wd_fact_1 * wd_fact_2; }
 };
 

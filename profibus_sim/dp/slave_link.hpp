@@ -12,22 +12,13 @@
 #include <vector>
 
 #include "common/time.hpp"
+#include "profibus_sim/dp/dp_service.hpp"
 #include "profibus_sim/dp/dp_slave.hpp"
 
 namespace candp2::dp {
 
-// The DP-V0 services a class 1 master sends (EN 50170 vol. 2; emulator-spec §10 "DP services over
-// FDL").
-enum class Service : std::uint8_t {
-  SlaveDiag,  // SAP 60: answer = the diagnosis bytes (6..244; the CAN-DP/2: 11, emulator-spec §3)
-  SetPrm,     // SAP 61, data = the whole Set_Prm telegram: answer = acknowledge
-  ChkCfg,     // SAP 62, data = Chk_Cfg bytes: answer = acknowledge
-  GetCfg,     // SAP 59: answer = the configuration bytes
-  DataExchange,   // default SAP, data = output bytes: answer = input bytes
-  GlobalControl,  // SAP 58, data = Control_Command, Group_Select: unacknowledged (SDN)
-};
-std::string_view to_string(Service s);
-
+// The simulated master requests the class 1 services (Slave_Diag .. Global_Control of
+// dp::Service); the in-process link refuses the class 2 services.
 struct Request {
   Service service = Service::SlaveDiag;
   std::uint8_t master = 1;         // the requesting master's address

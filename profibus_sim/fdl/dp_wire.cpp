@@ -18,6 +18,12 @@ std::optional<std::uint8_t> dsap_of(dp::Service s) {
       return kSapGlobalControl;
     case dp::Service::DataExchange:
       return std::nullopt;  // the default SAP: no address extension
+    case dp::Service::SetSlaveAdd:
+      return kSapSetSlaveAdd;
+    case dp::Service::RdInp:
+      return kSapRdInp;
+    case dp::Service::RdOutp:
+      return kSapRdOutp;
   }
   return std::nullopt;
 }
@@ -69,12 +75,15 @@ std::optional<Telegram> dp_answer(const Telegram& request, dp::Service service,
   switch (service) {
     case dp::Service::SetPrm:
     case dp::Service::ChkCfg:
+    case dp::Service::SetSlaveAdd:
       return Telegram::sc();
     case dp::Service::DataExchange:
       return data_exchange_answer(request, response.data, response.diag_pending);
     case dp::Service::SlaveDiag:
     case dp::Service::GetCfg:
     case dp::Service::GlobalControl:
+    case dp::Service::RdInp:
+    case dp::Service::RdOutp:
       break;
   }
   return data_answer(request, kFcDl, response.data);

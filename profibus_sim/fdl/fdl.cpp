@@ -1,4 +1,4 @@
-// FDL telegram codec and stream parser (emulator-spec §10).
+// FDL telegram codec and stream parser (docs/profibus.md).
 #include "profibus_sim/fdl/fdl.hpp"
 
 namespace candp2::fdl {

@@ -1,7 +1,7 @@
 // PROFIBUS FDL (layer 2, IEC 61158-4-3 type 3 / EN 50170 vol. 2) telegrams on the wire: the start
 // delimiters, frame control, address extensions (SAPs), the frame check sequence, a codec for one
 // telegram and a stream parser that finds telegrams in a byte stream that may start mid-telegram or
-// carry noise. Pure: bytes in, telegrams/bytes out, no I/O, no clock (emulator-spec §10).
+// carry noise. Pure: bytes in, telegrams/bytes out, no I/O, no clock (docs/profibus.md).
 // Names follow the standard's abbreviations.
 #pragma once
 
@@ -15,7 +15,7 @@
 
 namespace candp2::fdl {
 
-// ---- Start/end delimiters (emulator-spec §10 table "Telegrams") ------------------------------
+// ---- Start/end delimiters (docs/profibus.md "Telegrams") -------------------------------------
 inline constexpr std::uint8_t kSD1 = 0x10;  // no data unit: SD1 DA SA FC FCS ED
 inline constexpr std::uint8_t kSD2 = 0x68;  // variable: SD2 LE LEr SD2 DA SA FC DU FCS ED
 inline constexpr std::uint8_t kSD3 = 0xA2;  // fixed 8-byte data unit: SD3 DA SA FC DU(8) FCS ED
@@ -23,9 +23,10 @@ inline constexpr std::uint8_t kSD4 = 0xDC;  // token: SD4 DA SA
 inline constexpr std::uint8_t kSC = 0xE5;   // short acknowledge (single character)
 inline constexpr std::uint8_t kED = 0x16;   // end delimiter
 
-// LE of SD2 = number of bytes DA, SA, FC, DSAP/SSAP and DU (emulator-spec §10). IEC 61158-4-3
+// LE of SD2 = number of bytes DA, SA, FC, DSAP/SSAP and DU (docs/profibus.md). IEC 61158-4-3
 // sends 4..249 (at least one data-unit byte; SD1 is the telegram without data); on receive 3..249
-// is accepted like pyprofibus fdl.py and profirust telegram.rs do (docs/decisions.md "FDL LE").
+// is accepted like pyprofibus fdl.py and profirust telegram.rs do
+// (docs/decisions.md "FDL on the wire").
 inline constexpr std::size_t kLeMin = 4;
 inline constexpr std::size_t kLeMinRx = 3;
 inline constexpr std::size_t kLeMax = 249;
@@ -33,14 +34,14 @@ inline constexpr std::size_t kMaxDataUnit = kLeMax - 3;     // DSAP/SSAP + DU by
 inline constexpr std::size_t kSd3DataLen = 8;               // SD3: exactly 8 DU bytes (incl. SAPs)
 inline constexpr std::size_t kMaxTelegramLen = kLeMax + 6;  // SD2 LE LEr SD2 ... FCS ED
 
-// ---- Addresses (emulator-spec §10) ------------------------------------------------------------
+// ---- Addresses (docs/profibus.md) -------------------------------------------------------------
 inline constexpr std::uint8_t kAddrExt = 0x80;     // DA/SA bit 7: a SAP byte follows FC
 inline constexpr std::uint8_t kAddrMask = 0x7F;    // station address 0..127
 inline constexpr std::uint8_t kBroadcast = 127;    // global address: nobody answers
 inline constexpr std::uint8_t kSapMask = 0x3F;     // bits 5..0 of a SAP (address extension) byte
 inline constexpr std::uint8_t kSapExtMask = 0xC0;  // bits 7..6: segment/further extension (unused)
 
-// DP service access points (EN 50170 vol. 2 DP; emulator-spec §10 "DP services over FDL").
+// DP service access points (EN 50170 vol. 2 DP; docs/profibus.md "DP services over FDL").
 inline constexpr std::uint8_t kSapMasterMaster = 54;  // MM services (class 2)
 inline constexpr std::uint8_t kSapSetSlaveAdd = 55;
 inline constexpr std::uint8_t kSapRdInp = 56;
@@ -51,7 +52,7 @@ inline constexpr std::uint8_t kSapSlaveDiag = 60;
 inline constexpr std::uint8_t kSapSetPrm = 61;
 inline constexpr std::uint8_t kSapChkCfg = 62;  // also the master's SSAP for all DP services
 
-// ---- Frame control (emulator-spec §10 "FC of a request/response") -----------------------------
+// ---- Frame control (docs/profibus.md "Frame control") -----------------------------------------
 inline constexpr std::uint8_t kFcReq = 0x40;              // bit 6: request (1) / response (0)
 inline constexpr std::uint8_t kFcFcb = 0x20;              // request bit 5: frame count bit
 inline constexpr std::uint8_t kFcFcv = 0x10;              // request bit 4: frame count bit valid
@@ -146,7 +147,7 @@ struct Telegram {
 };
 
 // Frame check sequence: arithmetic sum mod 256 of DA, SA, FC and the data unit incl. SAP bytes
-// (emulator-spec §10) — i.e. of the bytes passed in.
+// (docs/profibus.md) — i.e. of the bytes passed in.
 std::uint8_t fcs(std::span<const std::uint8_t> bytes);
 
 // Wire bytes of a telegram. Precondition (checked; violated → empty vector): addresses ≤ 127,

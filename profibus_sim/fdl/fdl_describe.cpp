@@ -1,5 +1,5 @@
-// Readable FDL/DP telegram lines (emulator-spec §10, DP-V0 payloads per EN 50170 vol. 2 and
-// emulator-spec §3 for the diagnosis header).
+// Readable FDL/DP telegram lines (docs/profibus.md, DP-V0 payloads per EN 50170 vol. 2 and
+// docs/dp-slave.md "Diagnosis" for the diagnosis header).
 #include "profibus_sim/fdl/fdl_describe.hpp"
 
 #include <array>
@@ -11,36 +11,49 @@
 
 namespace candp2::fdl {
 
-std::string_view to_string(Service s) {
+std::optional<dp::Service> dp_service(Service s) {
   switch (s) {
+    case Service::DataExchange:
+      return dp::Service::DataExchange;
+    case Service::SetSlaveAdd:
+      return dp::Service::SetSlaveAdd;
+    case Service::RdInp:
+      return dp::Service::RdInp;
+    case Service::RdOutp:
+      return dp::Service::RdOutp;
+    case Service::GlobalControl:
+      return dp::Service::GlobalControl;
+    case Service::GetCfg:
+      return dp::Service::GetCfg;
+    case Service::SlaveDiag:
+      return dp::Service::SlaveDiag;
+    case Service::SetPrm:
+      return dp::Service::SetPrm;
+    case Service::ChkCfg:
+      return dp::Service::ChkCfg;
     case Service::Unknown:
-      return "?";
+    case Service::FdlStatus:
+    case Service::OtherSap:
+    case Service::Token:
+    case Service::Ack:
+      break;
+  }
+  return std::nullopt;
+}
+
+std::string_view to_string(Service s) {
+  if (const auto dp = dp_service(s)) return dp::to_string(*dp);
+  switch (s) {
     case Service::FdlStatus:
       return "FDL_Status";
-    case Service::DataExchange:
-      return "Data_Exchange";
-    case Service::SetSlaveAdd:
-      return "Set_Slave_Add";
-    case Service::RdInp:
-      return "Rd_Inp";
-    case Service::RdOutp:
-      return "Rd_Outp";
-    case Service::GlobalControl:
-      return "Global_Control";
-    case Service::GetCfg:
-      return "Get_Cfg";
-    case Service::SlaveDiag:
-      return "Slave_Diag";
-    case Service::SetPrm:
-      return "Set_Prm";
-    case Service::ChkCfg:
-      return "Chk_Cfg";
     case Service::OtherSap:
       return "SAP";
     case Service::Token:
       return "Token";
     case Service::Ack:
       return "Ack";
+    default:
+      break;
   }
   return "?";
 }

@@ -1,4 +1,4 @@
-// One readable line per FDL telegram (emulator-spec §10), for logs and `candp2 sniff`: addresses,
+// One readable line per FDL telegram (docs/profibus.md), for logs and `candp2 sniff`: addresses,
 // SAPs, frame control, the DP service derived from the SAPs and the direction, and the payload of
 // generic DP-V0 services decoded (Set_Prm standard fields, Chk_Cfg entries, Slave_Diag status bits,
 // Global_Control, Data_Exchange bytes). A response names its service only through the request
@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 
+#include "profibus_sim/dp/dp_service.hpp"
 #include "profibus_sim/fdl/fdl.hpp"
 
 namespace candp2::fdl {
@@ -30,6 +31,9 @@ enum class Service : std::uint8_t {
   Token,
   Ack,  // short acknowledge without a known request
 };
+// The DP service a telegram kind is (nullopt for FDL_Status, tokens, acknowledges, other SAPs).
+std::optional<dp::Service> dp_service(Service s);
+// A DP service by its dp::to_string name; "FDL_Status", "SAP", "Token", "Ack", "?" otherwise.
 std::string_view to_string(Service s);
 
 // Request function / response status name of an FC byte ("SRD_high", "DL", ...).

@@ -9,7 +9,7 @@ namespace candp2::fdl {
 
 namespace {
 
-// emulator-spec §10: a telegram is preceded by ≥ 33 bit times of idle (TSYN).
+// docs/profibus.md: a telegram is preceded by ≥ 33 bit times of idle (TSYN).
 constexpr std::uint32_t kTsynBits = 33;
 
 }  // namespace
@@ -65,7 +65,7 @@ void FdlMaster::start_next(Time now) {
   Outstanding o;
   o.pending = std::move(queue_.front());
   queue_.pop_front();
-  // emulator-spec §10: FDL_Status first, at start and after the station was lost.
+  // docs/profibus.md: FDL_Status first, at start and after the station was lost.
   o.fdl_status = !o.pending.station->known;
   current_ = std::move(o);
   current_->bytes = build(*current_);
@@ -91,7 +91,7 @@ void FdlMaster::transmit(Time now) {
   if (log_.enabled(LogLevel::Debug))
     log_.debug("station " + std::to_string(st.address()) + " <- " + hex_bytes(o.bytes) +
                (o.attempt ? " (retry " + std::to_string(o.attempt) + ")" : ""));
-  // The slot time runs from the request's last character (emulator-spec §10 "Timing").
+  // The slot time runs from the request's last character (docs/profibus.md "Timing").
   o.request_end = now + wire_time(o.bytes.size());
   o.deadline = o.request_end + bit_times(options_.slot_time_bits) + options_.latency_allowance;
   o.answer_started = false;
@@ -142,7 +142,7 @@ void FdlMaster::drain(Time now) {
   while (auto ev = parser_.next()) {
     if (ev->error != Error::None) {
       // A bad FCS, framing or parity error: no answer; the slot timer runs on and the request is
-      // repeated (emulator-spec §10). The parser counts it (line_stats()).
+      // repeated (docs/profibus.md). The parser counts it (line_stats()).
       log_.debug("line: " + std::string(to_string(ev->error)) + ": " + hex_bytes(ev->raw));
       continue;
     }
@@ -165,7 +165,7 @@ std::optional<dp::Response> FdlMaster::match(const Telegram& t) const {
     if (t.kind != Kind::SD1) return std::nullopt;
     return dp::Response{dp::Response::Status::Ok, {}, false};
   }
-  // An answer with SAPs has them swapped (emulator-spec §10): DSAP = our SSAP, SSAP = the DSAP.
+  // An answer with SAPs has them swapped (docs/profibus.md): DSAP = our SSAP, SSAP = the DSAP.
   const auto dsap = dsap_of(o.pending.request.service);
   if (t.dsap && (!dsap || *t.dsap != kMasterSap)) return std::nullopt;
   if (t.ssap && (!dsap || *t.ssap != *dsap)) return std::nullopt;
@@ -214,7 +214,7 @@ void FdlMaster::on_telegram(const Telegram& t, Time now) {
   line_free_at_ = now + bit_times(kTsynBits);
 
   if (o.fdl_status) {
-    // emulator-spec §10: the FCB sequence starts afresh after FDL_Status.
+    // docs/profibus.md: the FCB sequence starts afresh after FDL_Status.
     st.known = true;
     st.fcb.restart();
     log_.info("station " + std::to_string(st.address()) + " answers FDL_Status (FC 0x" +
@@ -246,7 +246,7 @@ void FdlMaster::expire(Time now) {
   Remote& st = *o.pending.station;
   ++st.stats.timeouts;
   if (o.attempt < options_.retries) {
-    // emulator-spec §10: repeat up to max_retry_limit times, with the SAME FCB.
+    // docs/profibus.md: repeat up to max_retry_limit times, with the SAME FCB.
     ++o.attempt;
     ++st.stats.retries;
     log_.debug("station " + std::to_string(st.address()) +

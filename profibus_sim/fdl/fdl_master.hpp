@@ -1,16 +1,16 @@
-// The FDL master station (emulator-spec §10): the simulated DP master's remote stations on one
+// The FDL master station (docs/profibus.md): the simulated DP master's remote stations on one
 // serial line. Pure: bytes out through a callback, bytes in through on_bytes(), time passed in,
 // no I/O, no clock, no threads.
 //
 // It is the only master on its line (a single-master line). It sends no token telegrams (SD4):
 // the token only moves the right to send between masters, and there is no other master to pass
-// it to; slaves ignore SD4 (emulator-spec §10 table). pyprofibus, an open-source class 1 master,
-// does the same (pyprofibus/dp_master.py never sends a token; a received one is ignored, "TODO
-// handle token"), and the capture of emulator-spec §10 starts with FDL_Status, no token. A
+// it to; slaves ignore SD4 (the table in docs/profibus.md). pyprofibus, an open-source class 1
+// master, does the same (pyprofibus/dp_master.py never sends a token; a received one is ignored,
+// "TODO handle token"), and the capture of docs/profibus.md starts with FDL_Status, no token. A
 // standard master alone in its logical ring would pass the token to itself (SD4 with DA = SA); that
 // only lets another master join the ring, which this product does not support.
 //
-// Behaviour (emulator-spec §10):
+// Behaviour (docs/profibus.md):
 //  - one telegram outstanding on the line at a time; DP requests queue up in arrival order;
 //  - a station is first asked for its FDL_Status (SD1 FC 0x49), at start and after it was lost;
 //  - FCB per station: the first SRD after FDL_Status carries FCB=1 FCV=0, every later one FCV=1
@@ -64,9 +64,9 @@ namespace candp2::fdl {
 struct MasterStationOptions {
   std::uint8_t address = 2;  // this master's FDL address (0..126)
   std::uint32_t baud = 19200;
-  // TSL in bit times (emulator-spec §10: typical 100 at ≤ 187.5k; the bus parameters set it).
+  // TSL in bit times (docs/profibus.md: typical 100 at ≤ 187.5k; the bus parameters set it).
   std::uint32_t slot_time_bits = 100;
-  // max_retry_limit: repetitions of a request that got no valid answer (emulator-spec §10: 1).
+  // max_retry_limit: repetitions of a request that got no valid answer (docs/profibus.md: 1).
   std::uint8_t retries = 1;
   // Added to the slot time: what the PHY, the OS and a USB adapter add to the answer's delay.
   Duration latency_allowance{0};

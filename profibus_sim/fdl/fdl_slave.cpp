@@ -1,4 +1,4 @@
-// FDL slave front end (emulator-spec §10 "DP services over FDL", "FCB/FCV", "Timing").
+// FDL slave front end (docs/profibus.md "DP services over FDL", "FCB/FCV", "Timing").
 #include "profibus_sim/fdl/fdl_slave.hpp"
 
 #include <string>
@@ -14,7 +14,7 @@ std::vector<std::uint8_t> short_response(const Telegram& req, std::uint8_t funct
   return encode(short_answer(req, function));
 }
 
-// A response carrying data, SAPs swapped (emulator-spec §10: "SD2 with DSAP 62 / SSAP 60
+// A response carrying data, SAPs swapped (docs/profibus.md: "SD2 with DSAP 62 / SSAP 60
 // swapped"); SD1 when there is neither a SAP nor data (profibus_sim/fdl/dp_wire.hpp).
 std::vector<std::uint8_t> data_response(const Telegram& req, std::uint8_t function,
                                         std::span<const std::uint8_t> data) {
@@ -78,8 +78,9 @@ std::optional<Reply> SlaveFrontEnd::on_telegram(const Telegram& t, Time request_
   if (!t.is_request() || t.da > kAddrMask || t.sa > kAddrMask) return std::nullopt;
   const std::uint8_t fn = t.function();
 
-  // emulator-spec §10: address 127 = broadcast, nobody answers. Global_Control (SDN, DSAP 58)
-  // reaches every station (it is ignored by this device, §1, but counts as master activity).
+  // docs/profibus.md: address 127 = broadcast, nobody answers. Global_Control (SDN, DSAP 58)
+  // reaches every station (it is ignored by this device, docs/dp-slave.md "States", but counts as
+  // master activity).
   if (t.da == kBroadcast) {
     if (is_sdn(fn) && t.dsap == kSapGlobalControl &&
         (!options_.master_address || t.sa == *options_.master_address)) {
@@ -113,7 +114,7 @@ std::optional<Reply> SlaveFrontEnd::on_telegram(const Telegram& t, Time request_
 
   std::optional<std::vector<std::uint8_t>> response;
   if (fn == kFcFdlStatus) {
-    // emulator-spec §10: FDL_Status SD1 FC 0x49 -> SD1 FC 0x00 (slave, OK). The master starts
+    // docs/profibus.md: FDL_Status SD1 FC 0x49 -> SD1 FC 0x00 (slave, OK). The master starts
     // its FCB sequence afresh after it (FCB=1, FCV=0 next).
     st->links[t.sa] = Link{};
     if (debug) log_.debug(who(t.da, t.sa) + ": FDL_Status, FCB sequence restarts");
@@ -127,7 +128,7 @@ std::optional<Reply> SlaveFrontEnd::on_telegram(const Telegram& t, Time request_
     return std::nullopt;
   } else if (is_srd(fn)) {
     Link& link = st->links[t.sa];
-    // emulator-spec §10 "FCB/FCV": FCV=1 and the same FCB as the previous request of this master
+    // docs/profibus.md "FCB/FCV": FCV=1 and the same FCB as the previous request of this master
     // is a repetition: resend the last response without executing again.
     if (t.fcv() && link.valid && link.fcb == t.fcb()) {
       ++st->stats.repetitions;
@@ -165,7 +166,8 @@ std::optional<std::vector<std::uint8_t>> SlaveFrontEnd::execute(Station& st, con
       return response;
     }
     case kSapSetPrm: {
-      // emulator-spec §10: Set_Prm -> SC; a fault shows in the diagnosis (§1).
+      // docs/profibus.md: Set_Prm -> SC; a fault shows in the diagnosis (docs/dp-slave.md
+      // "States").
       if (dp.set_prm(t.sa, t.du, now) && t.du.size() > 3 && t.du[3] != 0) {
         // Set_Prm byte 3 = min_TSDR in bit times; 0 keeps the value in force.
         if (st.min_tsdr != t.du[3])
@@ -192,7 +194,7 @@ std::optional<std::vector<std::uint8_t>> SlaveFrontEnd::execute(Station& st, con
     case kSapSetSlaveAdd:
       return set_slave_add(st, t, now);
     default:
-      // MM services (54) and unknown SAPs: RS, "no service activated" (emulator-spec §10).
+      // MM services (54) and unknown SAPs: RS, "no service activated" (docs/profibus.md).
       log_.debug(who(t.da, t.sa) + ": SAP " + std::to_string(*t.dsap) + " not activated: RS");
       return short_response(t, kFcRs);
   }
@@ -221,7 +223,7 @@ std::optional<std::vector<std::uint8_t>> SlaveFrontEnd::data_exchange(Station& s
 }
 
 // Set_Slave_Add (SAP 55): SC when the slave took the new address (it answers there from now on),
-// RS when it refuses (the CAN-DP/2 never takes one, emulator-spec §1) or the address is taken.
+// RS when it refuses (the CAN-DP/2 never takes one, docs/dp-slave.md) or the address is taken.
 std::optional<std::vector<std::uint8_t>> SlaveFrontEnd::set_slave_add(Station& st,
                                                                       const Telegram& t, Time now) {
   const std::uint8_t old = st.slave->info().address;

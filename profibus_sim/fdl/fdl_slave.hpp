@@ -1,4 +1,4 @@
-// The FDL slave front end (emulator-spec §10): one object answers, on one line, for every
+// The FDL slave front end (docs/profibus.md): one object answers, on one line, for every
 // configured dp::DpSlave at its DP address. It maps FDL requests (SD1/SD2/SD3 with or without SAPs)
 // onto the DP services of dp::DpSlave and builds the responses, with FCB/FCV repetition handling,
 // FDL_Status, DH while new diagnosis is pending and the min_TSDR delay. Pure: a decoded request and
@@ -22,10 +22,10 @@ namespace candp2::fdl {
 
 struct SlaveFrontEndOptions {
   std::uint32_t baud = 19200;  // line bit rate: converts bit times to microseconds
-  // Only answer requests from this master address (emulator-spec §10 `master_address`); any
+  // Only answer requests from this master address (docs/profibus.md `master_address`); any
   // master when unset.
   std::optional<std::uint8_t> master_address;
-  // min_TSDR before a station's Set_Prm set one (emulator-spec §10: default 11 bit times).
+  // min_TSDR before a station's Set_Prm set one (docs/profibus.md: default 11 bit times).
   std::uint8_t default_min_tsdr_bits = 11;
 };
 

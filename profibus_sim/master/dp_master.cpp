@@ -194,14 +194,15 @@ bool DpMaster::answered(Entry& e, const Response& r, Time /*now*/, std::string_v
 }
 
 bool DpMaster::take_diag(Entry& e, const Response& r, Time now) {
-  if (!answered(e, r, now, "Slave_Diag")) return false;
+  if (!answered(e, r, now, to_string(Service::SlaveDiag))) return false;
   // IEC 61158-6-3: 6 standard bytes and up to 238 bytes of Ext_Diag_Data.
   if (r.status != Response::Status::Ok || r.data.size() < kDiagStdLen ||
       r.data.size() > kDiagMaxLen) {
     invalid(e, now,
             r.status != Response::Status::Ok
-                ? "Slave_Diag refused"
-                : "Slave_Diag with " + std::to_string(r.data.size()) + " bytes (expected " +
+                ? std::string(to_string(Service::SlaveDiag)) + " refused"
+                : std::string(to_string(Service::SlaveDiag)) + " with " +
+                      std::to_string(r.data.size()) + " bytes (expected " +
                       std::to_string(kDiagStdLen) + ".." + std::to_string(kDiagMaxLen) + ")");
     return false;
   }
@@ -232,7 +233,7 @@ void DpMaster::on_set_prm(Entry& e, Time now) {
 }
 
 void DpMaster::set_prm_answered(Entry& e, const Response& r, Time now) {
-  if (!answered(e, r, now, "Set_Prm")) return;
+  if (!answered(e, r, now, to_string(Service::SetPrm))) return;
   if (r.status != Response::Status::Ok) return fault(e, now, "Set_Prm refused");
   go(e, MasterSlaveState::ChkCfg, "Set_Prm sent");
 }
@@ -242,7 +243,7 @@ void DpMaster::on_chk_cfg(Entry& e, Time now) {
 }
 
 void DpMaster::chk_cfg_answered(Entry& e, const Response& r, Time now) {
-  if (!answered(e, r, now, "Chk_Cfg")) return;
+  if (!answered(e, r, now, to_string(Service::ChkCfg))) return;
   if (r.status != Response::Status::Ok) return fault(e, now, "Chk_Cfg refused");
   go(e, MasterSlaveState::CheckDiag, "Chk_Cfg sent");
 }
@@ -281,7 +282,7 @@ void DpMaster::diag_due_answered(Entry& e, const Response& r, Time now) {
 }
 
 void DpMaster::exchange_answered(Entry& e, const Response& r, Time now) {
-  if (!answered(e, r, now, "Data_Exchange")) return;
+  if (!answered(e, r, now, to_string(Service::DataExchange))) return;
   if (r.status == Response::Status::Refused) {
     // The slave left Data_Exch (watchdog, reset): read why, then parameterize again.
     return send(e, Service::SlaveDiag, {}, now, &DpMaster::refused_diag_answered);
@@ -291,7 +292,7 @@ void DpMaster::exchange_answered(Entry& e, const Response& r, Time now) {
                    "Data_Exchange with " + std::to_string(r.data.size()) +
                        " input bytes (configured " + std::to_string(e.map.in_len) + ")");
   ++e.data_exchanges;
-  // Inputs in slot order: for overlapping addresses the later slot's bytes win (emulator-spec §8).
+  // Inputs in slot order: for overlapping addresses the later slot's bytes win (docs/modbus.md).
   for (const auto& m : e.map.in)
     std::memcpy(image_.inputs.data() + m.plc_address, r.data.data() + m.dp_offset, m.length);
   if (r.diag_pending) e.diag_due = true;  // DH: read the new diagnosis in the next cycle
@@ -352,24 +353,6 @@ std::optional<DpMaster::SlaveView> DpMaster::slave(std::uint8_t address) const {
 
 // ---------------------------------------------------------------- links
 
-std::string_view to_string(Service s) {
-  switch (s) {
-    case Service::SlaveDiag:
-      return "Slave_Diag";
-    case Service::SetPrm:
-      return "Set_Prm";
-    case Service::ChkCfg:
-      return "Chk_Cfg";
-    case Service::GetCfg:
-      return "Get_Cfg";
-    case Service::DataExchange:
-      return "Data_Exchange";
-    case Service::GlobalControl:
-      return "Global_Control";
-  }
-  return "?";
-}
-
 std::string_view to_string(Response::Status s) {
   switch (s) {
     case Response::Status::Ok:
@@ -411,6 +394,11 @@ void InProcessLink::request(Request req, Time now, Completion done) {
     case Service::GlobalControl:
       slave_.global_control(req.master, req.data.empty() ? 0 : req.data[0], now,
                             req.data.size() > 1 ? req.data[1] : 0);
+      break;
+    case Service::SetSlaveAdd:
+    case Service::RdInp:
+    case Service::RdOutp:
+      r.status = Response::Status::Refused;  // a class 2 master's service: not on this link
       break;
   }
   done(r, now);

@@ -1,4 +1,4 @@
-// The simulated DP master (class 1) with its PLC process image (emulator-spec §8).
+// The simulated DP master (class 1) with its PLC process image (docs/modbus.md).
 //
 // Per slave: Slave_Diag → Set_Prm → Chk_Cfg → Slave_Diag → cyclic Data_Exchange, retrying the
 // parameterization while the slave reports a fault; every transition and the diagnosis it saw are
@@ -6,14 +6,15 @@
 // one PLC process image (I and Q, 8192 bytes each) shared by all slaves, as in a PLC; slot bytes
 // are copied between the image and each slave's DP data at the PLC addresses of the configuration.
 //
-// The diagnosis may be 6..244 bytes (IEC 61158-6-3); the CAN-DP/2 always sends 11 (emulator-spec
-// §3). Each slave is reached through a dp::SlaveLink (profibus_sim/dp/slave_link.hpp): in-process
-// (a DpSlave in the same process, answers at once) or over FDL (fdl::FdlMaster, answers later). One
-// request per slave is outstanding at a time; a slave whose answer has not come yet is skipped in
-// that cycle. A station that does not answer shows Station_Non_Existent (diag byte 0 bit 0) in the
-// diagnosis the master exposes and is parameterized again from Init when it answers again, as a
-// real master's diagnosis shows it; a malformed answer shows Invalid_Slave_Response (bit 5).
-// Pure: time passed in; the daemon calls cycle() every cycle_ms.
+// The diagnosis may be 6..244 bytes (IEC 61158-6-3); the CAN-DP/2 always sends 11
+// (docs/dp-slave.md "Diagnosis"). Each slave is reached through a dp::SlaveLink
+// (profibus_sim/dp/slave_link.hpp): in-process (a DpSlave in the same process, answers at once) or
+// over FDL (fdl::FdlMaster, answers later). One request per slave is outstanding at a time; a slave
+// whose answer has not come yet is skipped in that cycle. A station that does not answer shows
+// Station_Non_Existent (diag byte 0 bit 0) in the diagnosis the master exposes and is parameterized
+// again from Init when it answers again, as a real master's diagnosis shows it; a malformed answer
+// shows Invalid_Slave_Response (bit 5). Pure: time passed in; the daemon calls cycle() every
+// cycle_ms.
 #pragma once
 
 #include <array>
@@ -32,7 +33,7 @@
 
 namespace candp2::dp {
 
-inline constexpr std::size_t kImageSize = 8192;  // emulator-spec §8: registers 0..4095 x 2 bytes
+inline constexpr std::size_t kImageSize = 8192;  // docs/modbus.md: registers 0..4095 x 2 bytes
 
 struct ProcessImage {
   std::array<std::uint8_t, kImageSize> inputs{};   // PLC I bytes (slave → PLC)
@@ -62,7 +63,7 @@ struct SlaveParameters {
 
 // Where a slave's DP data bytes live in the PLC process image: one piece per mapped Chk_Cfg entry
 // (the addresses of the SIMATIC dialog). The built-in master copies through it; a profibus line
-// in role slaves mirrors the wire into the image through it (emulator-spec §10).
+// in role slaves mirrors the wire into the image through it (docs/profibus.md).
 struct ImageMapping {
   std::size_t dp_offset;      // offset in the slave's output (or input) data
   std::uint16_t plc_address;  // PLC Q (or I) byte address

@@ -24,7 +24,7 @@ std::string_view to_string(Status s) {
   return "unknown status";
 }
 
-// ---------------------------------------------------------------- layout (emulator-spec §6.1)
+// ----------------------------------------------------------- layout (docs/page-mode.md "Segments")
 
 Layout::Layout(std::vector<std::size_t> segment_lengths) : segments_(std::move(segment_lengths)) {
   for (std::size_t i = 0; i < segments_.size(); ++i) {
@@ -72,7 +72,8 @@ std::optional<std::uint16_t> page_number(const Layout& layout, std::span<const s
   if (layout.empty() || page.size() < layout.size()) return std::nullopt;
   const auto& segs = layout.segments();
   const auto& offs = layout.segment_offsets();
-  // A segment shorter than 2 bytes carries what fits of the number (spec §6.1 allows 1..32 bytes).
+  // A segment shorter than 2 bytes carries what fits of the number (docs/page-mode.md "Segments"
+  // allows 1..32 bytes).
   std::uint16_t number =
       segs[0] >= 2 ? get_be16(page, 0) : static_cast<std::uint16_t>(page[0] << 8);
   for (std::size_t i = 1; i < segs.size(); ++i) {
@@ -118,7 +119,8 @@ std::optional<IdEntry> decode_entry(std::span<const std::uint8_t> b, std::string
   IdEntry e;
   if (v & 0xC0000000u) return bad("identifier " + hex_bytes(b.first(4)) + ": bits 30/31 set");
   if (v & kIdFlag29) {
-    e.id = {v & can::kMaxExtId, true};  // emulator-spec §6.3: bit 29 flags a 29-bit identifier
+    e.id = {v & can::kMaxExtId, true};  // docs/page-mode.md "Pages": bit 29 flags a 29-bit
+                                        // identifier
   } else {
     if (v > can::kMaxStdId)
       return bad("identifier " + hex_bytes(b.first(4)) +

@@ -1,9 +1,10 @@
-// The Page-Mode page wire format (manual §6, emulator-spec §6), shared by the gateway's Page-Mode
+// The Page-Mode page wire format (manual §6, docs/page-mode.md), shared by the gateway's Page-Mode
 // engine (gateway/page_mode.hpp) and the PLC-side page driver (profibus_sim/plc/page_driver.hpp):
-// segment layout and payload regions (§6.1), header bytes (§6.2), the 6-byte identifier entries
-// and end markers of configuration pages (§6.3, manual tables 6.4.4/6.4.5), the packing of data
-// entries onto pages 251.. (manual tables 6.4.6/6.4.8). Pure functions and value types at the
-// wire-format level (library candp2_pageformat, over candp2_can only): no engine, no I/O.
+// segment layout and payload regions ("Segments"), header bytes ("Header bytes"), the 6-byte
+// identifier entries and end markers of configuration pages ("Pages", manual tables 6.4.4/6.4.5),
+// the packing of data entries onto pages 251.. (manual tables 6.4.6/6.4.8). Pure functions and
+// value types at the wire-format level (library candp2_pageformat, over candp2_can only): no
+// engine, no I/O.
 #pragma once
 
 #include <array>
@@ -28,22 +29,22 @@ inline constexpr std::uint16_t kRxConfigLast = 250;
 inline constexpr std::uint16_t kDataFirst = 251;
 inline constexpr std::size_t kMaxDataPages = 65285;  // manual §6.4.7: 251..65535
 
-// Segment structure (emulator-spec §6.1, manual table 6.4.2).
+// Segment structure (docs/page-mode.md "Segments", manual table 6.4.2).
 inline constexpr std::size_t kPageNumberLen = 2;  // every segment starts with the page number
 inline constexpr std::size_t kHeaderLen = 8;      // first segment: page number + bytes 2-7
 inline constexpr std::size_t kSegmentLen = 32;    // manual table 6.4.1 rule 2
 
-// Header bytes (emulator-spec §6.2).
+// Header bytes (docs/page-mode.md "Header bytes").
 inline constexpr std::size_t kSeqByte = 2;     // output: sequence number; input: acknowledge
 inline constexpr std::size_t kStatusByte = 3;  // input only
 inline constexpr std::size_t kWord4 = 4;       // input bytes 4-5, big-endian
 inline constexpr std::size_t kWord6 = 6;       // input bytes 6-7, big-endian
-// Page 1 payload (emulator-spec §6.3).
+// Page 1 payload (docs/page-mode.md "Pages").
 inline constexpr std::size_t kInitOutSegments = 8;
 inline constexpr std::size_t kInitInSegments = 9;
 inline constexpr std::size_t kInitCommWindow = 10;
 
-// Configuration pages (manual tables 6.4.4/6.4.5, 6.5.2/6.5.3; emulator-spec §6.3).
+// Configuration pages (manual tables 6.4.4/6.4.5, 6.5.2/6.5.3; docs/page-mode.md "Pages").
 inline constexpr std::size_t kEntryLen = 6;   // identifier (4, big-endian), form, length
 inline constexpr std::size_t kMarkerLen = 4;  // DD DD DD DD / EE EE EE EE
 inline constexpr std::uint8_t kMarkerMore = 0xDD;
@@ -63,7 +64,7 @@ inline constexpr std::uint8_t kForceToggleA = 3;  // a change into 3 or into 4 s
 inline constexpr std::uint8_t kForceToggleB = 4;
 inline constexpr std::uint8_t kForceMax = 4;
 
-// Input byte 3 (emulator-spec §6.2).
+// Input byte 3 (docs/page-mode.md "Header bytes").
 enum class Status : std::uint8_t {
   Ok = 0,
   Unexpected = 1,     // page not expected here (wrong order, undefined number, beyond N)
@@ -80,8 +81,8 @@ struct Region {
   friend bool operator==(const Region&, const Region&) = default;
 };
 
-// How a page is cut into segments (emulator-spec §6.1): every segment starts with the page
-// number; the first segment's bytes 2-7 are the header, its payload starts at byte 8; every
+// How a page is cut into segments (docs/page-mode.md "Segments"): every segment starts with the
+// page number; the first segment's bytes 2-7 are the header, its payload starts at byte 8; every
 // further segment's payload starts at its byte 2.
 class Layout {
  public:
@@ -183,8 +184,8 @@ struct DataPlace {
   friend bool operator==(const DataPlace&, const DataPlace&) = default;
 };
 // Output entries (force + data) and input entries (count_in + data) in configuration order: each
-// page holds as many whole entries as fit, the next page continues (emulator-spec §6.3). Entries
-// longer than max_entry() are not placed (the result is shorter).
+// page holds as many whole entries as fit, the next page continues (docs/page-mode.md "Pages").
+// Entries longer than max_entry() are not placed (the result is shorter).
 std::vector<DataPlace> pack_data(const Layout& layout, std::span<const IdEntry> entries);
 // Number of pages `pack_data` uses (0 for no entries).
 std::size_t pages_used(std::span<const DataPlace> places);

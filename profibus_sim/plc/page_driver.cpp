@@ -212,7 +212,7 @@ std::span<const std::uint8_t> PageDriver::in_page(const dp::ProcessImage& image,
 void PageDriver::write_page(dp::ProcessImage& image, std::uint16_t number, Time now) {
   auto p = out_page(image);
   page::put_page_number(out_, p, number);
-  // emulator-spec §6.2: a new sequence number for every page; bytes 3-7 zero.
+  // docs/page-mode.md "Header bytes": a new sequence number for every page; bytes 3-7 zero.
   p[page::kSeqByte] = ++seq_;
   std::fill_n(p.begin() + page::kStatusByte, page::kHeaderLen - page::kStatusByte, 0);
   page_ = number;
@@ -275,8 +275,9 @@ void PageDriver::scan(dp::ProcessImage& image, Time now) {
       restart("retry");
       [[fallthrough]];
     case State::Init: {
-      // Page 0 over the whole output page (every segment must carry page 0, emulator-spec §6.2);
-      // the segment layout is not known before page 1, so all of it is zeroed first.
+      // Page 0 over the whole output page (every segment must carry page 0,
+      // docs/page-mode.md "Header bytes"); the segment layout is not known before page 1, so all of
+      // it is zeroed first.
       auto p = out_page(image);
       std::fill(p.begin(), p.end(), 0);
       out_ = page::Layout({options_.output_page_len});  // page number at byte 0 only

@@ -8,10 +8,10 @@
 // split over several DBs chained by DD markers (the end marked EE). RET_VALUE reports the page type
 // in progress (table 6.5.7).
 //
-// Handshake (emulator-spec §6.2): every page carries a new sequence number in byte 2; the driver
-// waits until the input page answers that page number with that sequence number. Like FB2 it
-// works in two phases, one per PLC cycle: write a page, then read its answer — a page takes two
-// PLC cycles (manual §6.1), a full rotation over N data pages 2 × N cycles.
+// Handshake (docs/page-mode.md "Header bytes"): every page carries a new sequence number in byte 2;
+// the driver waits until the input page answers that page number with that sequence number. Like
+// FB2 it works in two phases, one per PLC cycle: write a page, then read its answer — a page takes
+// two PLC cycles (manual §6.1), a full rotation over N data pages 2 × N cycles.
 //
 // Pure: time passed in, no I/O; the PLC process image is the master's.
 #pragma once

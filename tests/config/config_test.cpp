@@ -78,8 +78,8 @@ TEST(Config, Manual514SlotExample) {
   ASSERT_EQ(c.gateways.size(), 1u);
   const auto& g = c.gateways[0];
   EXPECT_TRUE(c.warnings.empty()) << c.warnings.front().to_string();
-  // Special identifier format (emulator-spec §2): input 0x43 (m=3), length 0x85 (consistent, 6),
-  // comment 02 89 B8; output 0x83 0x85 03 09 B8 (manual §5.1.4, §7).
+  // Special identifier format (docs/slots.md "Chk_Cfg slots"): input 0x43 (m=3), length 0x85
+  // (consistent, 6), comment 02 89 B8; output 0x83 0x85 03 09 B8 (manual §5.1.4, §7).
   EXPECT_EQ(hex(chk_cfg_bytes(g)), "43 85 02 89 B8 83 85 03 09 B8");
   // GSD defaults (manual §5.1.2): 125 kbit/s (6), flags 0, ModuleID 1, wake-up 255, SYNC 65535.
   EXPECT_EQ(hex(set_prm_bytes(g)), "00 01 01 00 04 A4 00 00 06 00 01 00 00 FF FF FF");
@@ -97,7 +97,7 @@ TEST(Config, Defaults) {
   j.erase("master");
   j["gateways"][0].erase("name");
   const auto c = ok(j);
-  EXPECT_EQ(c.modbus_listen.to_string(), "127.0.0.1:1502");  // issue 5: default listen address
+  EXPECT_EQ(c.modbus_listen.to_string(), "127.0.0.1:1502");  // Default listen address
   EXPECT_EQ(c.master_address, 1);
   EXPECT_EQ(c.cycle_ms, 10u);
   EXPECT_EQ(c.log_level, "info");
@@ -129,8 +129,8 @@ TEST(Config, NamedParameters) {
   EXPECT_TRUE(p.canopen_master);
   EXPECT_TRUE(p.start_frame);
   EXPECT_EQ(p.module_id, 127);
-  // Set_Prm (emulator-spec §1.1): WD on (10 ms x 10 x 1), byte 8 = 2, flags 0x10|0x04|0x02 = 16,
-  // ModuleID 7F, diag 0x03, wake-up 3, SYNC 03 E8.
+  // Set_Prm (docs/dp-slave.md "User parameters"): WD on (10 ms x 10 x 1), byte 8 = 2, flags
+  // 0x10|0x04|0x02 = 16, ModuleID 7F, diag 0x03, wake-up 3, SYNC 03 E8.
   EXPECT_EQ(hex(set_prm_bytes(c.gateways[0])), "08 0A 01 00 04 A4 00 00 02 16 7F 03 00 03 03 E8");
 }
 
@@ -187,7 +187,7 @@ TEST(Config, SocketcanBitrateMode) {
   const auto c = ok(j);
   EXPECT_EQ(c.bus("hw")->bitrate, BitrateMode::Apply);
   EXPECT_EQ(c.bus("hw")->restart_ms, 100u);
-  // emulator-spec §1.1 byte 8: index 2 = 500k, 6 (default) = 125k.
+  // docs/dp-slave.md "User parameters" byte 8: index 2 = 500k, 6 (default) = 125k.
   j["gateways"][0]["parameters"]["can_bitrate"] = "500k";
   EXPECT_EQ(configured_bitrate(ok(j).gateways[0]), 500000u);
   EXPECT_EQ(configured_bitrate(ok(base()).gateways[0]), 125000u);
@@ -285,7 +285,7 @@ TEST(Config, ExampleFilesInTheRepositoryAreValid) {
 }
 
 // ------------------------------------------------------------------------------ bad files
-// issue 5: missing key, wrong type, unknown bus, slot comment with odd hex — file + JSON path.
+// Missing key, wrong type, unknown bus, slot comment with odd hex — file + JSON path.
 
 TEST(ConfigErrors, MissingKey) {
   json j = base();
@@ -460,7 +460,7 @@ TEST(ConfigErrors, FileErrors) {
 
 TEST(ConfigWarnings, WhatTheGatewayWouldRejectIsAWarning) {
   json j = base();
-  j["gateways"][0]["slots"][1]["comment"] = "03,09";  // emulator-spec §2 code 5
+  j["gateways"][0]["slots"][1]["comment"] = "03,09";  // docs/slots.md "Chk_Cfg slots" code 5
   const auto c = ok(j);
   ASSERT_EQ(c.warnings.size(), 1u);
   EXPECT_EQ(c.warnings[0].json_path, "$.gateways[0].slots[1]");
@@ -470,7 +470,8 @@ TEST(ConfigWarnings, WhatTheGatewayWouldRejectIsAWarning) {
   const auto p = ok(with_gateway({{"parameters", {{"canopen", "master"}, {"page_mode", true}}}}));
   ASSERT_FALSE(p.warnings.empty());
   EXPECT_EQ(p.warnings[0].json_path, "$.gateways[0].parameters");
-  // emulator-spec §1.1: Page-Mode with a CANopen role: byte 9, Page-Mode bit cleared.
+  // docs/dp-slave.md "User parameters": Page-Mode with a CANopen role: byte 9, Page-Mode bit
+  // cleared.
   EXPECT_NE(p.warnings[0].message.find("diagnosis 3D 09 04"), std::string::npos)
       << p.warnings[0].message;
 }
@@ -533,7 +534,7 @@ TEST(ParseHex, Forms) {
   EXPECT_FALSE(parse_hex("0x12", &error));
 }
 
-// ------------------------------------------------------------------- profibus (emulator-spec §10)
+// ------------------------------------------------------------------- profibus (docs/profibus.md)
 
 json with_profibus(const json& profibus) {
   json j = base();
@@ -567,7 +568,7 @@ TEST(ConfigProfibus, RoleSlavesOnAPtyWithDefaults) {
   EXPECT_EQ(c.profibus->baud, 19200u);
   EXPECT_EQ(c.profibus->role, ProfibusRole::Slaves);
   EXPECT_FALSE(c.profibus->master_address);
-  // emulator-spec §10: min_TSDR default 11, slot time typical 100, retries typical 1.
+  // docs/profibus.md: min_TSDR default 11, slot time typical 100, retries typical 1.
   EXPECT_EQ(c.profibus->min_tsdr_bits, 11);
   EXPECT_EQ(c.profibus->slot_time_bits, 100u);
   EXPECT_EQ(c.profibus->retries, 1);
@@ -614,7 +615,7 @@ TEST(ConfigProfibus, RoleMasterRemoteGatewaysWithoutBuses) {
   EXPECT_TRUE(c.buses.empty());
   ASSERT_EQ(c.gateways.size(), 1u);
   EXPECT_TRUE(c.gateways[0].bus.empty());
-  // What the master sends over FDL: the prm_hex and cfg_hex bytes as given (emulator-spec §10).
+  // What the master sends over FDL: the prm_hex and cfg_hex bytes as given (docs/profibus.md).
   EXPECT_EQ(hex(set_prm_bytes(c.gateways[0])), "88 1E 01 00 04 A4 00 00 02 00 01 00 00 FF FF FF");
   EXPECT_EQ(hex(chk_cfg_bytes(c.gateways[0])), "43 85 02 89 B8 83 85 03 09 B8");
 }
@@ -644,7 +645,7 @@ TEST(ConfigProfibusErrors, BaudNotSupportedListsTheAllowedOnes) {
       bad(with_profibus({{"port", "pty:/tmp/pb"}, {"baud", 115200}, {"role", "slaves"}}));
   EXPECT_EQ(e.json_path, "$.profibus.baud");
   EXPECT_NE(e.message.find("115200 is not supported"), std::string::npos) << e.message;
-  // emulator-spec §10 rates, including the non-standard ones.
+  // docs/profibus.md rates, including the non-standard ones.
   for (const char* b : {"9600", "19200", "45450", "93750", "187500", "500000", "1500000"})
     EXPECT_NE(e.message.find(b), std::string::npos) << b << " in " << e.message;
   const auto missing = bad(with_profibus({{"port", "pty:/tmp/pb"}, {"role", "slaves"}}));

@@ -412,7 +412,7 @@ TEST(RegisterTable, MatchesTheRegisterListInTheManual) {
     EXPECT_EQ(info.width, hex.size() == 8 ? Width::W32 : Width::W16);
     const unsigned long printed =
         std::stoul(hex, nullptr, 16) & (hex.size() == 8 ? 0xFFFFFFFFu : 0xFFFFu);
-    // STATUS_MASK: CAN manual example 9 and emulator-spec §9 give the default 0x3000.
+    // STATUS_MASK: CAN manual example 9 and docs/drive-simulator.md give the default 0x3000.
     EXPECT_EQ(info.default_value, info.regid == reg::kStatusMask ? 0x3000u : printed);
   }
 }

@@ -4,8 +4,9 @@ package's plugin for the daemon; every register number from the daemon's own map
 The running daemon (manual §5.1.4 slot example on a virtual bus exported over socketcand) is
 driven by mbpoll and Debian's pymodbus writing outputs and reading inputs, and by python-can
 (through the socketcand export) observing the resulting CAN frames and injecting Rx frames: the
-round trip byte-swapped as form byte B8 says (emulator-spec §4: a b c d e f -> b a f e d c). Bad
-Modbus requests get the right exception (emulator-spec §8) and the daemon serves on; bad
+round trip byte-swapped as form byte B8 says (docs/slots.md "Data exchange in normal mode": a b c d
+e f -> b a f e d c). Bad
+Modbus requests get the right exception (docs/modbus.md) and the daemon serves on; bad
 configurations are rejected with the file and the JSON path; SIGHUP reopens the CAN log; SIGTERM
 stops cleanly.
 
@@ -31,7 +32,7 @@ import candp2
 
 MBPOLL = "/usr/bin/mbpoll"
 WAIT = 10.0  # seconds: upper bound for anything that should happen within a few cycles
-UNIT = 5  # unit ID = DP address of the gateway (emulator-spec §8)
+UNIT = 5  # unit ID = DP address of the gateway (docs/modbus.md)
 
 
 def read(path):
@@ -154,7 +155,7 @@ class TestDaemonE2E:
         assert gw.slot(0).data == bytes.fromhex("0A0B0C0D0E0F")
 
     def test_4_bad_requests_get_the_right_exception(self, daemon, gw, pymodbus):
-        # emulator-spec §8: outside the tables 0x02, unknown unit ID 0x0B; 0 and 255 = first
+        # docs/modbus.md: outside the tables 0x02, unknown unit ID 0x0B; 0 and 255 = first
         # gateway.
         m = daemon.register_map
         rr = pymodbus.read_holding_registers(m.outputs.first + m.outputs.count, 1, slave=UNIT)
@@ -214,7 +215,7 @@ class TestDaemonE2E:
 
 
 class TestBadConfigurations:
-    """issue 5: missing key, wrong type, unknown bus, slot comment with odd hex: rejected with the
+    """Missing key, wrong type, unknown bus, slot comment with odd hex: rejected with the
     file and the JSON path, exit status 2, by --check, by a normal start and by candp2.Daemon
     alike."""
 

@@ -1,4 +1,4 @@
-"""End-to-end test of the out-of-the-box demo (issue 6) through Modbus only, on the candp2
+"""End-to-end test of the out-of-the-box demo through Modbus only, on the candp2
 package (pytest; ctest e2e_demo).
 
 candp2d runs config/demo.json (its built-in default; here on free ports): a gateway at DP address 3

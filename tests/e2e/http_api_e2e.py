@@ -1,8 +1,8 @@
-"""candp2d's HTTP face (issue 13, docs/daemon.md "HTTP face") against the running demo daemon
+"""candp2d's HTTP face (docs/daemon.md "HTTP face") against the running demo daemon
 (pytest on the candp2 package; ctest e2e_http_api):
 
   - GET /api/v1/status: the gateway's state, diagnosis, LEDs, counters and slot bytes; after a
-    Modbus write of Q 0..4 (emulator-spec §8) the output slot shows the written bytes and its Tx
+    Modbus write of Q 0..4 (docs/modbus.md) the output slot shows the written bytes and its Tx
     count moves; the numbers agree with the Modbus status block;
   - read-only: POST, PUT, DELETE get 405 with "Allow: GET, HEAD"; unknown paths 404;
   - GET /metrics parsed by Debian's python3-prometheus-client with values asserted;

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The live front panel in headless Chromium (issue 13): Debian's chromium loads the page from a
+"""The live front panel in headless Chromium: Debian's chromium loads the page from a
 running candp2d (the demo configuration plus a gateway gw5 whose Chk_Cfg it rejects); after Modbus
 writes of Q 0..4 (enable axis1, read its speed every 100 ms, 30 % speed: the Unitek commands of
 config/demo.json) the page must show the last written bytes in gateway 3's slot table, LED D on
@@ -54,7 +54,7 @@ def test_front_panel(candp2_binary, tmp_path):
     chromium = os.environ.get("CHROMIUM", "/usr/bin/chromium")
     os.makedirs(output_dir, exist_ok=True)
     cfg = demo_config()
-    # emulator-spec §2: Page-Mode on with a plain slot is rejected (Cfg code 9).
+    # docs/slots.md "Chk_Cfg slots": Page-Mode on with a plain slot is rejected (Cfg code 9).
     cfg["gateways"].append({"name": "gw5", "address": 5, "bus": "can0",
                             "parameters": {"can_bitrate": "500k", "page_mode": True},
                             "slots": [{"io": "output", "address": 32, "length": 2,

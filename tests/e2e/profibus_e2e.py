@@ -1,10 +1,10 @@
-"""End-to-end test of candp2d's PROFIBUS line (emulator-spec §10) over a pseudo-terminal (pytest
+"""End-to-end test of candp2d's PROFIBUS line (docs/profibus.md) over a pseudo-terminal (pytest
 on the candp2 package; ctest e2e_profibus).
 
 Process S runs `profibus.role: "slaves"` on `pty:<tmp>/pb` with gateway 3 (the manual §5.1.4 slots)
 on a virtual CAN bus exported over socketcand. It is driven over the pty by:
 
-  * a small FDL master written here (test code: telegrams built from emulator-spec §10's tables,
+  * a small FDL master written here (test code: telegrams built from the tables in docs/profibus.md,
     the first telegrams byte for byte as in its capture), and
   * a second candp2d, process M, with `role: "master"` on the same pty (the link path opened as a
     serial device) driving remote gateway 3.
@@ -36,18 +36,21 @@ import candp2
 
 WAIT = 10.0  # seconds: upper bound for anything that should happen within a few cycles
 STATION = 3  # the gateway's DP address
-MASTER = 2   # the test master's address (emulator-spec §10 capture: class 1 master at 2)
+# the test master's address (the capture in docs/profibus.md "A real master's first telegrams":
+# class 1 master at 2)
+MASTER = 2
 
-# emulator-spec §10: SD1 0x10, SD2 0x68, SD3 0xA2, SC 0xE5, ED 0x16; SAPs of the DP services.
+# docs/profibus.md: SD1 0x10, SD2 0x68, SD3 0xA2, SC 0xE5, ED 0x16; SAPs of the DP services.
 SD1, SD2, SD3, SC, ED = 0x10, 0x68, 0xA2, 0xE5, 0x16
 SAP_DIAG, SAP_PRM, SAP_CFG, SAP_MASTER = 60, 61, 62, 62
 
-# manual §5.1.4 slots (special identifier format, emulator-spec §2): input 6 bytes from 0x289,
-# output 6 bytes to 0x309, form B8.
+# manual §5.1.4 slots (special identifier format, docs/slots.md "Chk_Cfg slots"): input 6 bytes from
+# 0x289, output 6 bytes to 0x309, form B8.
 CFG_514 = bytes.fromhex("43 85 02 89 B8 83 85 03 09 B8")
-# Output slot with 9 data bytes: wrong length (emulator-spec §2 code 3) in slot 1.
+# Output slot with 9 data bytes: wrong length (docs/slots.md "Chk_Cfg slots" code 3) in slot 1.
 CFG_BAD = bytes.fromhex("43 85 02 89 B8 83 88 03 09 B8")
-# emulator-spec §10 capture: WD on, 300 ms (30 x 1 x 10 ms), ident 04A4, GSD default user bytes.
+# the capture in docs/profibus.md "A real master's first telegrams": WD on, 300 ms (30 x 1 x 10 ms),
+# ident 04A4, GSD default user bytes.
 PRM_300MS = bytes.fromhex("88 1E 01 00 04 A4 00 00 02 00 01 00 00 FF FF FF")
 
 
@@ -70,7 +73,7 @@ def wait_for_line(daemon, needle, timeout=WAIT):
 
 
 def fcs(data):
-    return sum(data) & 0xFF  # emulator-spec §10: arithmetic sum mod 256
+    return sum(data) & 0xFF  # docs/profibus.md: arithmetic sum mod 256
 
 
 def sd2(da, sa, fc, du, dsap=None, ssap=None):
@@ -85,7 +88,7 @@ def sd2(da, sa, fc, du, dsap=None, ssap=None):
 
 
 class FdlMaster:
-    """A minimal class 1 master on the pty link: FCB/FCV as emulator-spec §10 describes."""
+    """A minimal class 1 master on the pty link: FCB/FCV as docs/profibus.md describes."""
 
     def __init__(self, path, address=MASTER):
         self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
@@ -147,7 +150,7 @@ class FdlMaster:
             return None if len(buf) < 2 else buf[1] + 6
         raise AssertionError("unexpected start byte %02X in %s" % (buf[0], buf.hex()))
 
-    # DP services (emulator-spec §10 table)
+    # DP services (the table in docs/profibus.md)
     def slave_diag(self, station):
         r = self.srd(station, b"", dsap=SAP_DIAG)
         assert r and r[0] == SD2, r
@@ -250,7 +253,8 @@ class TestMasterDrivesSlaves:
             bytes([SD1, 0x02, 0x03, 0x00, 0x05, ED])
         diag = m.transact(bytes.fromhex("68 05 05 68 83 82 6D 3C 3E EC 16"))
         assert diag is not None, "no Slave_Diag answer:\n" + s.daemon.log
-        # SD2, SAPs swapped (DSAP 62, SSAP 60), FC DL; 11 diagnosis bytes (emulator-spec §3).
+        # SD2, SAPs swapped (DSAP 62, SSAP 60), FC DL; 11 diagnosis bytes
+        # (docs/dp-slave.md "Diagnosis").
         assert diag[:9] == bytes([SD2, 16, 16, SD2, 0x82, 0x83, 0x08, 0x3E, 0x3C])
         assert diag[12] == 0xFF   # byte 3: no master yet
         assert diag[13:15] == bytes([0x04, 0xA4])
@@ -265,7 +269,8 @@ class TestMasterDrivesSlaves:
         r = m.transact(bytes.fromhex("68 09 09 68 03 02 7D 11 22 33 44 55 66 E7 16"))
         assert r is not None
         assert r[0] in (SD2, SD3, SC)
-        # The output bytes go out on CAN, byte-swapped as form B8 says (emulator-spec §4).
+        # The output bytes go out on CAN, byte-swapped as form B8 says
+        # (docs/slots.md "Data exchange in normal mode").
         s.expect_frame(0x309, bytes.fromhex("22 11 66 55 44 33"))
         s.gw.wait_until(lambda g: g.state == "Data_Exch", timeout=WAIT)
         m.fcb[STATION] = True  # the capture's last Data_Exchange had FCB=1
@@ -302,7 +307,7 @@ class TestMasterDrivesSlaves:
 
     def test_5_cfg_fault_read_over_fdl(self, master):
         diag = master.parameterize(STATION, cfg=CFG_BAD)
-        assert diag[0] & 0x04, "no Cfg_Fault in " + diag.hex()  # emulator-spec §3
+        assert diag[0] & 0x04, "no Cfg_Fault in " + diag.hex()  # docs/dp-slave.md "Diagnosis"
         assert diag[8:11] == bytes([0x3E, 1, 3])  # slot 1, code 3 wrong length
         diag = master.parameterize(STATION)  # and back
         assert not diag[0] & 0x06, diag.hex()
@@ -387,7 +392,7 @@ class TestTwoDaemons:
 
     def test_1_cfg_fault_diagnosis_on_m(self, s, start_master):
         bad = slots_514()
-        bad[1]["length"] = 9  # emulator-spec §2 code 3
+        bad[1]["length"] = 9  # docs/slots.md "Chk_Cfg slots" code 3
         m, gw = start_master(bad)
         gw.wait_until(lambda g: "Cfg_Fault" in g.diagnosis
                       and g.diagnosis.cfg_fault == candp2.CfgFault(slot=1, code=3),

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Smoke test of what `tools/setup.sh run` builds and starts (issue 11), run by
+"""Smoke test of what `tools/setup.sh run` builds and starts, run by
 `tools/setup.sh test` on the run command's own Release build:
 
   1. `candp2d --version` names the version and the source revision;

@@ -28,7 +28,8 @@ sja1000)
     $IP link set can0 type can bitrate 125000 || fail "can0 bit rate"
     $IP link set can1 type can bitrate 500000 || fail "can1 bit rate"
     $IP link set can0 up && $IP link set can1 up || fail "can0/can1 up"
-    # manual §5.1.2: "CAN-Bitrate" 500k = Set_Prm byte 8 index 2 (emulator-spec §1.1).
+    # manual §5.1.2: "CAN-Bitrate" 500k = Set_Prm byte 8 index 2
+    # (docs/dp-slave.md "User parameters").
     sed -e 's/"interface": "vcan0"/"interface": "can0", "bitrate": "apply", "restart_ms": 100/' \
         -e 's/"can_bitrate": "125k"/"can_bitrate": "500k"/' \
         /etc/candp2/candp2d.json >/tmp/candp2d.json
@@ -105,7 +106,8 @@ mbpoll -m tcp -p 1502 -a 5 -0 -r $IN_FIRST -c 3 -t 3:hex -1 127.0.0.1 |
     grep -q "\[$IN_FIRST\]:[[:space:]]*0x0A0B" || fail "input register $IN_FIRST"
 echo "candp2d on SocketCAN ($KIND): round trip OK"
 
-# Controller state (emulator-spec §3 diag byte 8, manual table 3.3.1 LED C) with CAN-Diagnosis on.
+# Controller state (docs/dp-slave.md "Diagnosis" diag byte 8, manual table 3.3.1 LED C) with
+# CAN-Diagnosis on.
 reg_is $DIAG8 0x0000 && reg_is $STATUS_LED_C 0x0001 ||
     fail "bus not ok at start: diag8 $(reg $DIAG8) led_c $(reg $STATUS_LED_C)"
 if [ "$KIND" = vcan ]; then

@@ -1,4 +1,4 @@
-// Fuzzes the Communication Window (issue 3): the write/read window decoders and the window state
+// Fuzzes the Communication Window: the write/read window decoders and the window state
 // machine, alone and inside a whole gateway (CANopen master with a CW), driven by a byte script.
 // Invariants: no crash or sanitizer report; encode(decode(w)) == w for write windows and for every
 // read window decode accepts; every read window the gateway shows decodes; the FIFO never exceeds

@@ -1,4 +1,4 @@
-// Fuzzes Page-Mode page decoding (issue 4): the page wire format and the gateway's page engine,
+// Fuzzes Page-Mode page decoding: the page wire format and the gateway's page engine,
 // alone and inside a whole gateway, driven by a byte script.
 //
 // Script: byte 0 = number of output segments (1..8), byte 1 = number of input segments (1..8),

@@ -1,4 +1,4 @@
-// Fuzzes the Set_Prm and Chk_Cfg decoders and a whole gateway fed with them (issue 2).
+// Fuzzes the Set_Prm and Chk_Cfg decoders and a whole gateway fed with them.
 // Invariants: no crash or sanitizer report; a fault always names a byte inside the telegram or a
 // slot inside the configuration; an accepted configuration respects the manual's limits; Chk_Cfg
 // identifier bytes survive an encode/decode round trip.

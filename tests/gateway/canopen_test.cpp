@@ -1,5 +1,5 @@
 // CAN release rules, CANopen master and slave functions, SYNC, CAN diagnosis (manual §5.1.2,
-// §5.3.3 command 20, §9, table 3.4.5; emulator-spec §1, §3, §7).
+// §5.3.3 command 20, §9, table 3.4.5; docs/dp-slave.md, docs/canopen.md).
 #include <gtest/gtest.h>
 
 #include "can/virtual_bus.hpp"
@@ -42,7 +42,7 @@ using CanopenTest = GatewayFixture;
 
 TEST_F(CanopenTest, LayerTwoModeIgnoresCanopenSettings) {
   // manual table 5.1.2 last row: without CANopen-Slave/Master, wake-up time, RTR, Start-Frame and
-  // SYNC time are ignored; transmission is released when Data_Exch is entered (emulator-spec §7).
+  // SYNC time are ignored; transmission is released when Data_Exch is entered (docs/canopen.md).
   UserPrm p;
   p.wakeup_s = 5;
   p.sync_ms = 100;
@@ -68,7 +68,7 @@ TEST_F(CanopenTest, MasterWaitsForTheWakeUpTime) {
   now = milliseconds(500);
   ASSERT_TRUE(configure(p, kCfg));
   now = seconds(1);
-  exchange({0xAA, 0xBB});  // held until release (emulator-spec §7)
+  exchange({0xAA, 0xBB});  // held until release (docs/canopen.md)
   EXPECT_TRUE(rec.take().empty());
   EXPECT_FALSE(gw->status().released);
   // The wake-up time counts from power-on (t = 0), not from parameterization.
@@ -157,7 +157,7 @@ TEST_F(CanopenTest, SyncEverySyncTime) {
   ASSERT_TRUE(configure(master(0, 100), kCfg));
   rec.take();
   run_until(milliseconds(350));
-  // emulator-spec §7: ID 0x080, DLC 0, every SYNC time ms from release.
+  // docs/canopen.md: ID 0x080, DLC 0, every SYNC time ms from release.
   EXPECT_EQ(times(rec),
             (std::vector<Time>{milliseconds(100), milliseconds(200), milliseconds(300)}));
   EXPECT_EQ(rec.take(), V({"080#", "080#", "080#"}));
@@ -165,7 +165,7 @@ TEST_F(CanopenTest, SyncEverySyncTime) {
 }
 
 TEST_F(CanopenTest, SyncNeedsDataExch) {
-  // emulator-spec §1: after a watchdog drop Tx on CAN stops, cyclic sends (SYNC) too.
+  // docs/dp-slave.md: after a watchdog drop Tx on CAN stops, cyclic sends (SYNC) too.
   ASSERT_TRUE(configure(master(0, 100), kCfg, 150));
   rec.take();
   run_until(milliseconds(100));
@@ -302,7 +302,7 @@ TEST_F(SyncSourceTest, EachSourceOverridesTheOthers) {
   EXPECT_EQ(measured_period(), milliseconds(300));
   set_prm(400);  // a new Set_Prm overrides command 20
   EXPECT_EQ(gw->status().sync_ms, 400);
-  chk_cfg(0);  // 00 00 = not given (emulator-spec §5)
+  chk_cfg(0);  // 00 00 = not given (docs/communication-window.md)
   EXPECT_EQ(gw->status().sync_ms, 400);
   EXPECT_EQ(measured_period(), milliseconds(400));
   EXPECT_EQ(command20(250), kCwOk);
@@ -352,7 +352,7 @@ TEST_F(CanopenTest, SlaveBootFrameAfterTheWakeUpTime) {
   EXPECT_EQ(gw->next_deadline(), seconds(1));
   rx("000#0100");  // NMT during the wake-up time: ignored
   run_until(seconds(1));
-  // manual table 5.1.2: "128 dez + Module-No.", DLC 0 (emulator-spec §7).
+  // manual table 5.1.2: "128 dez + Module-No.", DLC 0 (docs/canopen.md).
   EXPECT_EQ(rec.take(), V({"085#"}));
   EXPECT_EQ(gw->status().nmt, NmtState::PreOperational);
   gw->dp().chk_cfg(kMaster, kCfg, now);
@@ -377,7 +377,7 @@ TEST_F(CanopenTest, SlaveNmtTransitions) {
   rx("000#01");  // DLC 1: not an NMT frame (manual §9: DLC 2)
   EXPECT_EQ(gw->status().nmt, NmtState::PreOperational);
   EXPECT_TRUE(rec.take().empty());
-  // NMT start for node 5 releases as for the master: Tx slots, RTR frames (emulator-spec §7).
+  // NMT start for node 5 releases as for the master: Tx slots, RTR frames (docs/canopen.md).
   rx("000#0105");
   EXPECT_EQ(gw->status().nmt, NmtState::Operational);
   EXPECT_EQ(rec.take(), V({"201#0101", "181#R8", "00012345#R3"}));
@@ -464,7 +464,7 @@ TEST_F(CanopenTest, SlaveReleasedAtDataExchSendsEachSlotOnce) {
 
 TEST(CanDiagnosisOnVirtualBus, BusStateIrqLostAndMsgLost) {
   // The daemon wires the channel's bus_state()/rx_lost() into set_controller_status; here the
-  // virtual bus's fault injection drives it (manual table 3.4.5, emulator-spec §3).
+  // virtual bus's fault injection drives it (manual table 3.4.5, docs/dp-slave.md "Diagnosis").
   can::VirtualBus bus(can::VirtualBus::Options{.rx_queue_limit = 300});
   auto gw_ep = bus.endpoint("gateway");
   auto node = bus.endpoint("node");

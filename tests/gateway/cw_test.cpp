@@ -1,4 +1,5 @@
-// The Communication Window (manual §5.3, §8.2 FB4; emulator-spec §4, §5).
+// The Communication Window (manual §5.3, §8.2 FB4; docs/slots.md "Data exchange in normal mode",
+// docs/communication-window.md).
 #include <gtest/gtest.h>
 
 #include <cctype>
@@ -171,7 +172,8 @@ TEST_F(CommWindowTest, Manual82Fb4Sequence) {
 TEST_F(CommWindowTest, IdleWindowBeforeAnyCommand) {
   ASSERT_TRUE(setup());
   EXPECT_EQ(poll(), idle(0));
-  // emulator-spec §5: the counter starts at 0, so a window with counter 0 does not execute.
+  // docs/communication-window.md: the counter starts at 0, so a window with counter 0 does not
+  // execute.
   EXPECT_EQ(write(window("00 12 00 00 11 00 00 00 00 00 00 00 01 00 00 01")), idle(0));
   EXPECT_TRUE(rec.take().empty());
 }
@@ -250,7 +252,7 @@ TEST_F(CommWindowTest, EveryErrorCode) {
 }
 
 TEST_F(CommWindowTest, ErrorNotReleasedBeforeWakeUp) {
-  // 5: CAN not yet released - a CANopen master during its wake-up time (emulator-spec §7).
+  // 5: CAN not yet released - a CANopen master during its wake-up time (docs/canopen.md).
   UserPrm p = cw_prm();
   p.canopen_master = true;
   p.wakeup_s = 5;
@@ -276,7 +278,7 @@ TEST_F(CommWindowTest, ErrorSyncUnavailableAsCanopenSlave) {
   ASSERT_TRUE(setup(p));
   EXPECT_EQ(rec.take(), V({"085#"}));  // boot frame (canopen_test covers it)
   EXPECT_EQ(error_of(command(kCwSyncTime, {}, {0x00, 0x64})), kCwErrSyncUnavailable);
-  // Pre-operational: nothing may be sent yet (emulator-spec §7).
+  // Pre-operational: nothing may be sent yet (docs/canopen.md).
   EXPECT_EQ(error_of(command(kCwSend, Std(0x12), {1})), kCwErrNotReleased);
   rx("000#0105");  // NMT start
   EXPECT_EQ(error_of(command(kCwSend, Std(0x12), {1})), kCwOk);
@@ -290,14 +292,14 @@ TEST_F(CommWindowTest, SendDataLengthsAndExtendedIdentifier) {
   EXPECT_EQ(error_of(command(kCwSend, Std(0x7FF), {}, 0)), kCwOk);
   // Data bytes past the length are not sent.
   EXPECT_EQ(error_of(command(kCwSend, Std(0x001), {1, 2, 3, 4, 5, 6, 7, 8}, 3)), kCwOk);
-  // emulator-spec §5: 29-bit 0x12345678 = 56 78 32 34.
+  // docs/communication-window.md: 29-bit 0x12345678 = 56 78 32 34.
   EXPECT_EQ(write(window("56 78 32 34 AA BB 00 00 00 00 00 00 02 F0 00 01")), idle(0xF0));
   EXPECT_EQ(rec.take(), V({"7FF#", "001#010203", "12345678#AABB"}));
 }
 
 TEST_F(CommWindowTest, RemoteFrameCommands) {
   ASSERT_TRUE(setup());
-  // Command 6: remote frame with DLC = byte 12 (emulator-spec §5).
+  // Command 6: remote frame with DLC = byte 12 (docs/communication-window.md).
   EXPECT_EQ(error_of(command(kCwSendRtr, Std(0x181), {}, 8)), kCwOk);
   EXPECT_FALSE(gw->comm_window().is_enabled(Std(0x181)));
   // Command 7 = command 4, then command 6.
@@ -314,7 +316,7 @@ TEST_F(CommWindowTest, EnableDistinguishes11And29BitIdentifiers) {
   EXPECT_EQ(gw->comm_window().fifo_level(), 0u);
   rx("00000123#02");
   EXPECT_EQ(gw->comm_window().fifo_level(), 1u);
-  // Read window of a 29-bit frame: byte 2 carries the flag (emulator-spec §5).
+  // Read window of a 29-bit frame: byte 2 carries the flag (docs/communication-window.md).
   EXPECT_EQ(command(kCwRead), "01 23 20 00 02 00 00 00 00 00 00 00 01 02 00 00");
   // Enabling twice is one entry; disabling a never-enabled identifier is no error.
   command(kCwEnable, Ext(0x123));
@@ -365,7 +367,7 @@ TEST_F(CommWindowTest, OtherCommandsShowNoFrameAndCancelAnArmedRead) {
   command(kCwEnable, Std(0x181));
   rx("181#01");
   EXPECT_EQ(command(kCwRead), "01 81 00 00 01 00 00 00 00 00 00 00 01 02 00 00");
-  // emulator-spec §5: after every command other than 3 the window is EE EE 00 00.
+  // docs/communication-window.md: after every command other than 3 the window is EE EE 00 00.
   EXPECT_EQ(command(kCwNop), idle(3));
   EXPECT_EQ(command(kCwRead), idle(4));
   EXPECT_EQ(command(kCwNop), idle(5));  // the read armed by command 3 is replaced
@@ -413,7 +415,7 @@ TEST_F(CommWindowTest, MsgLostSaturatesInDiagnosis) {
   command(kCwEnable, Std(0x100));
   for (int i = 0; i < 255 + 300; ++i) rx("100#01");
   EXPECT_EQ(gw->comm_window().msg_lost(), 300u);
-  EXPECT_EQ(diag()[10], 255);  // emulator-spec §3: saturates at 255
+  EXPECT_EQ(diag()[10], 255);  // docs/dp-slave.md "Diagnosis": saturates at 255
   // Reading makes room again: the next frame is stored, not lost.
   command(kCwRead);
   rx("100#02");
@@ -423,7 +425,8 @@ TEST_F(CommWindowTest, MsgLostSaturatesInDiagnosis) {
 
 TEST_F(CommWindowTest, FramesStoredWhileTheDpMasterIsAway) {
   // Reception is asynchronous to the PLC (manual §5.3.3 command 3): frames are stored between
-  // Data_Exchanges, also after a watchdog drop; the same configuration keeps them (spec §4).
+  // Data_Exchanges, also after a watchdog drop; the same configuration keeps them
+  // (docs/slots.md "Data exchange in normal mode").
   ASSERT_TRUE(configure(cw_prm(), kCwCfg, 50));
   out_.assign(16, 0);
   command(kCwEnable, Std(0x181));
@@ -444,7 +447,8 @@ TEST_F(CommWindowTest, EnabledIdentifiersTakePrecedenceOverInputSlots) {
   EXPECT_EQ(slot(gw->slot_config()->cw_out).offset, 1u);
   rx("181#1111");
   EXPECT_EQ(slot_bytes(), "11 11");
-  // emulator-spec §4 / manual §5.2.1: while enabled in the CW, 0x181 no longer updates the slot.
+  // docs/slots.md "Data exchange in normal mode" / manual §5.2.1: while enabled in the CW, 0x181 no
+  // longer updates the slot.
   command(kCwEnable, Std(0x181));
   rx("181#2222");
   EXPECT_EQ(slot_bytes(), "11 11");
@@ -468,7 +472,8 @@ TEST_F(CommWindowTest, NewConfigurationResetsTheWindow) {
   ASSERT_TRUE(setup());
   command(kCwEnable, Std(0x181));
   rx("181#01");
-  // Re-parameterization with the same configuration keeps the window (emulator-spec §4) ...
+  // Re-parameterization with the same configuration keeps the window
+  // (docs/slots.md "Data exchange in normal mode") ...
   ASSERT_TRUE(configure(cw_prm(), kCwCfg));
   EXPECT_EQ(gw->comm_window().fifo_level(), 1u);
   EXPECT_EQ(poll(), idle(1));
@@ -484,7 +489,7 @@ TEST_F(CommWindowTest, NewConfigurationResetsTheWindow) {
 // ---------------------------------------------------------------- the pure wire formats
 
 TEST(CwWire, IdentifierEncoding) {
-  // emulator-spec §5.
+  // docs/communication-window.md.
   std::array<std::uint8_t, 4> b{};
   cw_encode_ident(Std(0x123), b);
   EXPECT_EQ(hex(b), "01 23 00 00");

@@ -1,4 +1,4 @@
-// The DP slave state machine and its diagnosis (emulator-spec §1, §3; manual §3.4).
+// The DP slave state machine and its diagnosis (docs/dp-slave.md; manual §3.4).
 #include <gtest/gtest.h>
 
 #include "fixture.hpp"
@@ -11,7 +11,8 @@ const std::vector<std::uint8_t> kCfg =
 
 TEST_F(GatewayFixture, DiagnosisBeforeParameterization) {
   make({.address = 17});
-  // emulator-spec §3: 11 bytes; Station_Not_Ready, Prm_Req, bit 2 always 1, master FF, 04 A4 05 04.
+  // docs/dp-slave.md "Diagnosis": 11 bytes; Station_Not_Ready, Prm_Req, bit 2 always 1, master FF,
+  // 04 A4 05 04.
   EXPECT_EQ(hex(diag()), "02 05 00 FF 04 A4 05 04 00 00 00");
   EXPECT_EQ(gw->dp().state(), dp::SlaveState::WaitPrm);
   EXPECT_FALSE(gw->dp().get_cfg(now).has_value());
@@ -59,7 +60,7 @@ TEST_F(GatewayFixture, ChkCfgFromAnotherMasterIgnored) {
 TEST_F(GatewayFixture, NewSetPrmInDataExchRequiresNewChkCfg) {
   ASSERT_TRUE(configure(UserPrm{}, kCfg));
   gw->dp().set_prm(kMaster, make_set_prm(UserPrm{}), now);
-  EXPECT_EQ(gw->dp().state(), dp::SlaveState::WaitCfg);  // emulator-spec §1
+  EXPECT_EQ(gw->dp().state(), dp::SlaveState::WaitCfg);  // docs/dp-slave.md
 }
 
 TEST_F(GatewayFixture, CfgFaultClearedByGoodParameterization) {
@@ -70,7 +71,7 @@ TEST_F(GatewayFixture, CfgFaultClearedByGoodParameterization) {
 }
 
 TEST_F(GatewayFixture, WatchdogExpiryDropsToWaitPrmAndStopsTx) {
-  // emulator-spec §1: with WD_On a gap longer than 10 ms x f1 x f2 drops the slave to Wait_Prm.
+  // docs/dp-slave.md: with WD_On a gap longer than 10 ms x f1 x f2 drops the slave to Wait_Prm.
   ASSERT_TRUE(configure(UserPrm{}, cfg_of({out_slot(1, {0x01, 0x00, 0x00, 0x00, 0x64})}), 50));
   EXPECT_EQ(gw->dp().watchdog_ms(), 50u);
   exchange({0x11});
@@ -143,7 +144,7 @@ TEST_F(GatewayFixture, CanDiagnosisReportsBusStateAndLostCounters) {
   gw->set_controller_status(can::BusState::Ok, 300);
   const auto d = diag();
   EXPECT_EQ(d[0], 0);
-  EXPECT_EQ(d[9], 255);  // emulator-spec §3: saturates at 255
+  EXPECT_EQ(d[9], 255);  // docs/dp-slave.md "Diagnosis": saturates at 255
 }
 
 TEST_F(GatewayFixture, WithoutCanDiagnosisBusStateIsNotReported) {

@@ -86,7 +86,7 @@ class GatewayFixture : public ::testing::Test {
   std::unique_ptr<Gateway> gw;
 };
 
-// Chk_Cfg builders in the special identifier format (manual §7, emulator-spec §2).
+// Chk_Cfg builders in the special identifier format (manual §7, docs/slots.md "Chk_Cfg slots").
 inline std::vector<std::uint8_t> cfg_of(std::initializer_list<dp::CfgEntry> entries) {
   std::vector<dp::CfgEntry> v(entries);
   return dp::encode_chk_cfg(v);

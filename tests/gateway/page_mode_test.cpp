@@ -1,4 +1,4 @@
-// Page-Mode, gateway side (manual §6, emulator-spec §6): layout, pages 0/1, configuration pages,
+// Page-Mode, gateway side (manual §6, docs/page-mode.md): layout, pages 0/1, configuration pages,
 // data pages with force and count_in, acknowledge, torn pages, status codes.
 #include "gateway/page_mode.hpp"
 
@@ -143,7 +143,7 @@ std::vector<IdEntry> many(std::uint32_t first, std::size_t n, std::uint8_t len) 
 
 TEST(PageLayout, RegionsFollowSpec61) {
   // Manual §6.4.2 example 2: 32 + 32 + 18 bytes; first segment payload from byte 8, further
-  // segments from byte 2 (emulator-spec §6.1).
+  // segments from byte 2 (docs/page-mode.md "Segments").
   const Layout l({32, 32, 18});
   EXPECT_EQ(l.size(), 82u);
   EXPECT_EQ(l.regions(), (std::vector<page::Region>{{8, 24}, {34, 30}, {66, 16}}));
@@ -179,7 +179,8 @@ TEST(PageLayout, Manual642Example2ElevenTxIdentifiersOnPage51) {
 }
 
 TEST(PageLayout, EntryEncodingAndValidation) {
-  // emulator-spec §6.3: identifier big-endian, bit 29 flags 29-bit; manual DB94: 0x201, B8, 6.
+  // docs/page-mode.md "Pages": identifier big-endian, bit 29 flags 29-bit; manual DB94: 0x201, B8,
+  // 6.
   EXPECT_EQ(hex(page::encode_entry(id11(0x201, 0xB8, 6))), "00 00 02 01 B8 06");
   EXPECT_EQ(hex(page::encode_entry({{0x123456, true}, 0x00, 8})), "20 12 34 56 00 08");
   std::string why;
@@ -214,7 +215,8 @@ TEST(PageLayout, DataEntriesNeverStraddleSegments) {
 TEST_F(PageModeTest, Page0AnswersPage1WithSizes) {
   setup({32, 32, 18}, {32, 32}, true);
   const auto a = init();
-  // emulator-spec §6.3: page 1, ack, status 0, output 82 / input 64 bytes, 3 / 2 segments, CW.
+  // docs/page-mode.md "Pages": page 1, ack, status 0, output 82 / input 64 bytes, 3 / 2 segments,
+  // CW.
   EXPECT_EQ(bytes(a, 0, 11), "00 01 01 00 00 52 00 40 03 02 01");
   EXPECT_EQ(bytes(a, 32, 2), "00 01");  // every input segment starts with the page number
   EXPECT_EQ(gw->status().tx_frames, 0u);
@@ -262,7 +264,7 @@ TEST_F(PageModeTest, ConfigurationOverSeveralPagesAndDataPageCount) {
   EXPECT_EQ(status(a), 0);
   EXPECT_EQ(w6(a), 20);
   // Output: regions 24/30/16 hold 2+3+1 = 6 entries of 9 bytes → 5 pages for 30; input: 24/30
-  // hold 2+3 = 5 → 4 pages for 20. N = 5 (emulator-spec §6.3).
+  // hold 2+3 = 5 → 4 pages for 20. N = 5 (docs/page-mode.md "Pages").
   const auto d = send(blank(251));
   EXPECT_EQ(status(d), 0);
   EXPECT_EQ(w4(d), 5);  // Rx entries on page 251
@@ -497,7 +499,7 @@ TEST_F(PageModeTest, Manual82ForceTable647) {
     return v;
   };
   // Rotation 1: force 2 first time, 1 always, 4 change from "none", 0 never, 3 change from "none".
-  // form B8 on 6 bytes: a b c d e f -> b a f e d c (emulator-spec §4).
+  // form B8 on 6 bytes: a b c d e f -> b a f e d c (docs/slots.md "Data exchange in normal mode").
   auto a = send(data_page(251, kMotorTx, values({2, 1, 4, 0, 3}, d1)));
   EXPECT_EQ(w6(a), 1);
   EXPECT_EQ(rec.take(),
@@ -552,7 +554,8 @@ TEST_F(PageModeTest, RxCountInFormAndZeroFill) {
   configure_all({}, rx);
   rx_frame("281#020106050403");
   rx_frame("281#020106050403");
-  rx_frame("01ABCDEF#11");        // short frame: rest zero (emulator-spec §4)
+  rx_frame("01ABCDEF#11");        // short frame: rest zero
+                                  // (docs/slots.md "Data exchange in normal mode")
   rx_frame("281#R6");             // remote frames never update
   rx_frame("00000281#FFFFFFFF");  // another identifier (29-bit kind)
   const auto a = send(blank(251));
@@ -630,7 +633,7 @@ TEST_F(PageModeTest, ManyIdentifiersAcrossPages127Motors) {
 // ------------------------------------------------------------------ segment layout (Cfg code 9)
 
 TEST_F(PageModeTest, FirstOutputSegmentMustHoldTheHeader) {
-  // emulator-spec §6.1: bytes 2-7 of the first segment are the header.
+  // docs/page-mode.md "Segments": bytes 2-7 of the first segment are the header.
   EXPECT_FALSE(configure(page_prm(), segments_cfg({7}, {32})));
   const auto d = diag();
   EXPECT_EQ(d[8], 0x3E);

@@ -1,4 +1,5 @@
-// Normal-mode slot traffic (manual §2.2, §3.2.3, §5.2; emulator-spec §4).
+// Normal-mode slot traffic (manual §2.2, §3.2.3, §5.2;
+// docs/slots.md "Data exchange in normal mode").
 #include <gtest/gtest.h>
 
 #include "fixture.hpp"
@@ -7,8 +8,8 @@ namespace candp2::gw::test {
 namespace {
 
 TEST_F(GatewayFixture, Manual514RoundTripWithFormB8) {
-  // manual §5.1.4: input 0x0289 / output 0x0309, 6 bytes, form B8 (emulator-spec §4: a b c d e f
-  // -> b a f e d c).
+  // manual §5.1.4: input 0x0289 / output 0x0309, 6 bytes, form B8
+  // (docs/slots.md "Data exchange in normal mode": a b c d e f -> b a f e d c).
   ASSERT_TRUE(configure(UserPrm{},
                         cfg_of({in_slot(6, {0x02, 0x89, 0xB8}), out_slot(6, {0x03, 0x09, 0xB8})})));
   exchange({0x0A, 0x0B, 0x0C, 0x0D, 0x0E, 0x0F});
@@ -41,7 +42,8 @@ TEST_F(GatewayFixture, TxSlotsInSlotOrderWithinOneExchange) {
 }
 
 TEST_F(GatewayFixture, CyclicSendEveryCycleNotRestartedByChange) {
-  // manual §5.2.3: 03,E8 = every 1000 ms; emulator-spec §4: the timer runs freely from release.
+  // manual §5.2.3: 03,E8 = every 1000 ms; docs/slots.md "Data exchange in normal mode": the timer
+  // runs freely from release.
   ASSERT_TRUE(configure(UserPrm{}, cfg_of({out_slot(1, {0x03, 0x09, 0x00, 0x03, 0xE8})})));
   const Time release = now;
   exchange({0x01});
@@ -70,7 +72,8 @@ TEST_F(GatewayFixture, RxZeroFillsShortFrames) {
   rx("181#11223344");
   EXPECT_EQ(hex(exchange({0})), "11 22 33 44");
   rx("181#55");
-  EXPECT_EQ(hex(exchange({0})), "55 00 00 00");  // emulator-spec §4: the rest is zero
+  EXPECT_EQ(hex(exchange({0})), "55 00 00 00");  // docs/slots.md "Data exchange in normal mode":
+                                                 // the rest is zero
   rx("181#0102030405060708");
   EXPECT_EQ(hex(exchange({0})), "01 02 03 04");  // min(DLC, n) bytes taken
 }
@@ -126,7 +129,8 @@ TEST_F(GatewayFixture, DummyOutputSendsNothing) {
 }
 
 TEST_F(GatewayFixture, FramesBeforeDataExchUpdateSlotBuffers) {
-  // emulator-spec §4: frames that arrive before Data_Exch still update the slot buffers.
+  // docs/slots.md "Data exchange in normal mode": frames that arrive before Data_Exch still update
+  // the slot buffers.
   const auto cfg = cfg_of({in_slot(1, {0x01, 0x81, 0x00}), dummy_out()});
   ASSERT_TRUE(configure(UserPrm{}, cfg));
   gw->dp().set_prm(kMaster, make_set_prm(UserPrm{}), now);  // back to Wait_Cfg

@@ -38,14 +38,15 @@ INSTANTIATE_TEST_SUITE_P(
         FormCase{"§5.2.2 8E", 0x8E, {1, 2, 3, 4, 5, 6, 7, 8}, {2, 1, 3, 4, 8, 7, 6, 5}},
         // manual §5.2.2: FE swaps all 8 bytes.
         FormCase{"§5.2.2 FE", 0xFE, {1, 2, 3, 4, 5, 6, 7, 8}, {8, 7, 6, 5, 4, 3, 2, 1}},
-        // emulator-spec §4: B8 on 6 bytes: a b c d e f -> b a f e d c.
+        // docs/slots.md "Data exchange in normal mode": B8 on 6 bytes: a b c d e f -> b a f e d c.
         FormCase{"§4 B8/6", 0xB8, {0xA, 0xB, 0xC, 0xD, 0xE, 0xF}, {0xB, 0xA, 0xF, 0xE, 0xD, 0xC}},
         FormCase{"00 = none", 0x00, {1, 2, 3}, {1, 2, 3}},
-        // emulator-spec §4: a group still open at the last data byte ends there.
+        // docs/slots.md "Data exchange in normal mode": a group still open at the last data byte
+        // ends there.
         FormCase{"open group", 0xE0, {1, 2}, {2, 1}},
         FormCase{"lone zero bits", 0x40, {1, 2, 3, 4}, {1, 3, 2, 4}}));
 
-// ---------------------------------------------------------------- Set_Prm (emulator-spec §1.1)
+// ---------------------------------------------------- Set_Prm (docs/dp-slave.md "User parameters")
 
 // Every bit rate as manual table 5.1.1 names it, in one place: logs, pages, reports.
 TEST(Bitrates, TextAsTable511NamesThem) {
@@ -98,7 +99,8 @@ struct PrmFaultCase {
 
 class PrmFaults : public GatewayFixture, public ::testing::WithParamInterface<PrmFaultCase> {};
 
-// Every Prm fault of emulator-spec §1.1 shows as diag 3D, faulty byte, correct value.
+// Every Prm fault of docs/dp-slave.md "User parameters" shows as diag 3D, faulty byte, correct
+// value.
 TEST_P(PrmFaults, ReportedInDiagnosisBytes8To10) {
   const auto& c = GetParam();
   make();
@@ -130,7 +132,7 @@ INSTANTIATE_TEST_SUITE_P(Spec11, PrmFaults,
 TEST_F(GatewayFixture, PrmLengthFaultNamesFirstMissingOrExcessByte) {
   make();
   auto t = make_set_prm(UserPrm{});
-  // emulator-spec §1.1: byte 9 = first missing byte index, byte 10 = 0.
+  // docs/dp-slave.md "User parameters": byte 9 = first missing byte index, byte 10 = 0.
   gw->dp().set_prm(kMaster, std::span(t).first(12), now);
   auto d = diag();
   EXPECT_EQ(d[8], 0x3D);
@@ -158,7 +160,7 @@ TEST_F(GatewayFixture, SyncOrFreezeRequestIsNotSupported) {
   t[0] |= dp::kPrmSyncReq;
   EXPECT_FALSE(gw->dp().set_prm(kMaster, t, now));
   const auto d = diag();
-  // emulator-spec §1: Not_Supported, Station_Status_1 bit 4.
+  // docs/dp-slave.md: Not_Supported, Station_Status_1 bit 4.
   EXPECT_EQ(d[0] & dp::kDiag1NotSupported, dp::kDiag1NotSupported);
   EXPECT_EQ(gw->dp().state(), dp::SlaveState::WaitPrm);
 }
@@ -297,7 +299,7 @@ std::vector<std::uint8_t> cat(std::vector<std::uint8_t> a, const std::vector<std
 
 class CfgFaults : public GatewayFixture, public ::testing::WithParamInterface<CfgCase> {};
 
-// emulator-spec §2: every Cfg code 1..10, with the slot number in diag byte 9.
+// docs/slots.md "Chk_Cfg slots": every Cfg code 1..10, with the slot number in diag byte 9.
 TEST_P(CfgFaults, ReportedInDiagnosisBytes8To10) {
   const auto& c = GetParam();
   EXPECT_FALSE(configure(c.prm, c.cfg)) << c.what;
@@ -384,7 +386,7 @@ INSTANTIATE_TEST_SUITE_P(
                 CfgCase{"10 no output", cfg_of({in_slot(2, {0x01, 0x23, 0x00})}), 0, 10}));
 
 TEST(ChkCfg, SameTxIdentifierTwiceAndSameRxTwiceAreAccepted) {
-  // emulator-spec §2: behaviour, not errors (the validator warns).
+  // docs/slots.md "Chk_Cfg slots": behaviour, not errors (the validator warns).
   auto c = slots_ok(cfg_of({out_slot(2, {0x01, 0x00, 0x00}), out_slot(2, {0x01, 0x00, 0x00}),
                             in_slot(2, {0x02, 0x00, 0x00}), in_slot(2, {0x02, 0x00, 0x00})}));
   EXPECT_EQ(c.slots.size(), 4u);

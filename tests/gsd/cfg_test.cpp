@@ -1,5 +1,5 @@
 // Configuration (Chk_Cfg identifier) bytes: general and special format decoding, and the
-// CAN-DP/2 meaning of the comment bytes (manual §5.2, §5.3.2, §7; emulator-spec §2).
+// CAN-DP/2 meaning of the comment bytes (manual §5.2, §5.3.2, §7; docs/slots.md "Chk_Cfg slots").
 #include "gsd/cfg.hpp"
 
 #include <gtest/gtest.h>
@@ -76,8 +76,9 @@ struct SlotCase {
   const char* problem;  // "" = accepted
 };
 
-// The meaning comes from gw::decode_slots (manual §5.2, §5.3.2, §7, table 6.4.1; emulator-spec §2
-// codes), so these cases also pin that the GSD view and the gateway agree.
+// The meaning comes from gw::decode_slots (manual §5.2, §5.3.2, §7, table 6.4.1;
+// docs/slots.md "Chk_Cfg slots" codes), so these cases also pin that the GSD view and the gateway
+// agree.
 TEST(GsdCfg, CanDp2Meaning) {
   const SlotCase cases[] = {
       // manual §7 example
@@ -93,7 +94,8 @@ TEST(GsdCfg, CanDp2Meaning) {
       {{0x45, 0x03, 0x20, 0x12, 0x34, 0x56, 0x8E},
        "Rx 29-bit ID 0x00123456, 4 bytes, form 0x8E",
        ""},
-      // emulator-spec §2: cycle bytes on an input are ignored; 9 bytes only with the Rx-Counter
+      // docs/slots.md "Chk_Cfg slots": cycle bytes on an input are ignored; 9 bytes only with the
+      // Rx-Counter
       {{0x45, 0x08, 0x01, 0x81, 0x00, 0x00, 0x10},
        "Rx 11-bit ID 0x181, 9 bytes (8 data + Rx-Counter), form 0x00, cycle 16 ms ignored on an "
        "input (valid only with Rx-Counter on)",
@@ -116,7 +118,7 @@ TEST(GsdCfg, CanDp2Meaning) {
       {{0x40, 0x9F}, "Page-Mode input segment, 32 bytes (valid only with Page-Mode on)", ""},
       {{0x80, 0x87}, "Page-Mode output segment, 8 bytes (valid only with Page-Mode on)", ""},
       // Not consistent, so not a segment; as a normal slot the gateway checks the length (code
-      // 3) before the identifier (code 4), in the order of emulator-spec §2.
+      // 3) before the identifier (code 4), in the order of docs/slots.md "Chk_Cfg slots".
       {{0x40, 0x1F}, "", "Cfg fault code 3: wrong length"},
       {{0x40, 0x07}, "", "Cfg fault code 4: identifier missing"},
       {{0x20}, "", "Cfg fault code 1: wrong I/O type"},  // general format
@@ -150,8 +152,8 @@ TEST(GsdCfg, CanDp2Meaning) {
   EXPECT_FALSE(is_universal_module(std::vector<std::uint8_t>{0x00, 0x00}));
 }
 
-// emulator-spec §2: the cycle an input slot's comment carries is read as the gateway reads an
-// output's; nothing for no cycle bytes, cycle 0 or outputs.
+// docs/slots.md "Chk_Cfg slots": the cycle an input slot's comment carries is read as the gateway
+// reads an output's; nothing for no cycle bytes, cycle 0 or outputs.
 TEST(GsdCfg, IgnoredInputCycle) {
   gw::Slot rx;
   rx.kind = gw::SlotKind::Rx;

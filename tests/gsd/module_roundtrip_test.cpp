@@ -1,4 +1,4 @@
-// Every Module of the shipped GSD against the gateway core (issue 7): its configuration bytes,
+// Every Module of the shipped GSD against the gateway core: its configuration bytes,
 // placed in a configuration the gateway can accept, decode with gw::decode_slots to the slot the
 // module name promises; describe_candp2 (the GSD view) reports the very same slot. The
 // placeholder identifier 0x7F8 has its documented meaning (docs/gsd.md): the "no CAN assignment"
@@ -113,7 +113,7 @@ TEST(GsdModuleRoundTrip, EveryModuleDecodesToTheSlotItsNamePromises) {
     EXPECT_EQ(s.consistent, p->consistent);
     EXPECT_EQ(s.form, 0x00);     // no byte swapping (manual §7 example)
     EXPECT_EQ(s.cycle_ms, 0);    // no cycle
-    EXPECT_EQ(s.cw_sync_ms, 0);  // CW: 00 00 = no SYNC time (emulator-spec §5)
+    EXPECT_EQ(s.cw_sync_ms, 0);  // CW: 00 00 = no SYNC time (docs/communication-window.md)
 
     // The GSD's own view of the module is the gateway's.
     const CfgDecode d = decode_config(mod.config);

@@ -1,4 +1,4 @@
-// Issue 12: GSD revision 0 files (no GSD_Revision keyword, as real Siemens files of the 1990s) are
+// GSD revision 0 files (no GSD_Revision keyword, as real Siemens files of the 1990s) are
 // accepted; a file that is not a GSD at all is refused with one line.
 #include <gtest/gtest.h>
 

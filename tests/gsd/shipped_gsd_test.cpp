@@ -1,7 +1,8 @@
-// The shipped device description gsd/CDPS04A4.GSD (manual chapter 4 and 7, emulator-spec §1.1,
-// §2): it parses without a single diagnostic, check() has no findings, its parameter defaults
-// and named overrides encode to the Set_Prm user bytes of emulator-spec §1.1, and its module
-// catalogue matches the snapshot in snapshots/CDPS04A4.modules.txt.
+// The shipped device description gsd/CDPS04A4.GSD (manual chapter 4 and 7,
+// docs/dp-slave.md "User parameters", docs/slots.md "Chk_Cfg slots"): it parses without a single
+// diagnostic, check() has no findings, its parameter defaults and named overrides encode to the
+// Set_Prm user bytes of docs/dp-slave.md "User parameters", and its module catalogue matches the
+// snapshot in snapshots/CDPS04A4.modules.txt.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -56,20 +57,21 @@ TEST(ShippedGsd, KeywordsOfManualChapter4) {
   EXPECT_EQ(l.max_data_len, 300);
   EXPECT_EQ(l.max_user_prm_data_len, 9);
   EXPECT_EQ(l.user_prm_data_len, 9);
-  EXPECT_EQ(l.modul_offset, 0);  // emulator-spec §2: slot numbers are 0-based
+  EXPECT_EQ(l.modul_offset, 0);  // docs/slots.md "Chk_Cfg slots": slot numbers are 0-based
   EXPECT_EQ(l.min_slave_intervall, 6);
-  EXPECT_EQ(m.number("freeze_mode_supp"), 0);  // emulator-spec §1: FREEZE/SYNC not supported
+  EXPECT_EQ(m.number("freeze_mode_supp"), 0);  // docs/dp-slave.md: FREEZE/SYNC not supported
   EXPECT_EQ(m.number("SYNC_MODE_SUPP"), 0);
   EXPECT_EQ(m.number("Set_Slave_Add_supp"), 0);
   ASSERT_EQ(m.prm_texts.size(), 3u);
   ASSERT_NE(m.prm_text(1), nullptr);
   EXPECT_EQ(m.prm_text(1)->texts.size(), 14u);  // manual table 5.1.1: 14 bit rates
   EXPECT_EQ(*m.prm_text(1)->text_for(6), "125 kbit/s");
-  EXPECT_EQ(*m.prm_text(3)->text_for(0), "Yes");  // emulator-spec §1.1: RTR bit 0 = send
+  EXPECT_EQ(*m.prm_text(3)->text_for(0), "Yes");  // docs/dp-slave.md "User parameters": RTR bit 0 =
+                                                  // send
   EXPECT_EQ(m.ext_user_prm_data.size(), 13u);
 }
 
-// emulator-spec §1.1: offsets into the 9 user bytes (telegram bytes 7..15).
+// docs/dp-slave.md "User parameters": offsets into the 9 user bytes (telegram bytes 7..15).
 TEST(ShippedGsd, UserParameterLayoutOfEmulatorSpec11) {
   const Model& m = shipped().model;
   struct Expect {
@@ -89,7 +91,7 @@ TEST(ShippedGsd, UserParameterLayoutOfEmulatorSpec11) {
       {"ModuleID", 3, PrmType::Unsigned8, 0},
       {"CAN-Diagnosis", 4, PrmType::Bit, 0},
       {"Rx-Counter", 4, PrmType::Bit, 1},
-      {"Tx-Counter", 4, PrmType::Bit, 2},  // emulator-spec §1.1: added as Bit(2)
+      {"Tx-Counter", 4, PrmType::Bit, 2},  // docs/dp-slave.md "User parameters": added as Bit(2)
       {"WakeUp Time (0=Off, 255=Default)", 6, PrmType::Unsigned8, 0},
       {"Sync Time (0=Off, 65535=Default)", 7, PrmType::Unsigned16, 0},
   };
@@ -115,8 +117,8 @@ TEST(ShippedGsd, UserParameterLayoutOfEmulatorSpec11) {
 }
 
 // manual §4 / §5.1.2 defaults (bit rate 125 kbit/s = index 6, ModuleID 1, wake-up 255, SYNC
-// 65535 "keep") in the emulator-spec §1.1 layout: reserved 0, bitrate 6, flags 0, ModuleID 1,
-// diag 0, reserved 0, wake-up FF, SYNC FF FF (big-endian).
+// 65535 "keep") in the docs/dp-slave.md "User parameters" layout: reserved 0, bitrate 6, flags 0,
+// ModuleID 1, diag 0, reserved 0, wake-up FF, SYNC FF FF (big-endian).
 TEST(ShippedGsd, DefaultsEncodeToTheSpecifiedNineBytes) {
   EXPECT_EQ(encode_hex({}), "00 06 00 01 00 00 FF FF FF");
   // The legacy User_Prm_Data line says the same for masters without Ext_User_Prm_Data.
@@ -142,7 +144,7 @@ TEST(ShippedGsd, NamedOverridesEncodeIntoTheirBytesAndBits) {
       {{{"CAN-Diagnosis", 1}, {"Rx-Counter", 1}, {"Tx-Counter", 1}}, "00 06 00 01 07 00 FF FF FF"},
       {{{"Tx-Counter", 1}}, "00 06 00 01 04 00 FF FF FF"},
       {{{"WakeUp Time (0=Off, 255=Default)", 10}}, "00 06 00 01 00 00 0A FF FF"},
-      // emulator-spec §1.1: SYNC time big-endian, 1000 ms = 03 E8
+      // docs/dp-slave.md "User parameters": SYNC time big-endian, 1000 ms = 03 E8
       {{{"Sync Time (0=Off, 65535=Default)", 1000}}, "00 06 00 01 00 00 FF 03 E8"},
       {{{"Sync Time (0=Off, 65535=Default)", 0}}, "00 06 00 01 00 00 FF 00 00"},
       // The later override of the same name wins.

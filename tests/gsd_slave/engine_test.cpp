@@ -136,7 +136,7 @@ TEST_F(Simocode, WrongIdentAndZeroWatchdogFactorArePrmFaults) {
 TEST_F(Simocode, SyncAndFreezeRequestsAreNotSupported) {
   for (const StdPrmRequest r : {StdPrmRequest{.sync = true}, StdPrmRequest{.freeze = true}}) {
     EXPECT_FALSE(s->dp().set_prm(kMaster, set_prm(*m, basic2, r), now));
-    // Station_Not_Ready + Not_Supported, no Prm_Fault (emulator-spec §1's rule, docs/slaves.md).
+    // Station_Not_Ready + Not_Supported, no Prm_Fault (docs/dp-slave.md's rule, docs/slaves.md).
     EXPECT_EQ(hex(s->dp().diagnosis(now)), "12 05 00 FF 80 31");
   }
 }

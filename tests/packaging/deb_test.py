@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The Debian package of tools/setup.sh deb (packaging/deb/build-deb.sh), issue 11:
+"""The Debian package of tools/setup.sh deb (packaging/deb/build-deb.sh):
 
   - contents (dpkg-deb -c): the executables, GSD, examples, man pages, unit, configuration,
     copyright and changelog in Debian's places, owned by root; no tests, benchmarks, headers or

@@ -1,4 +1,4 @@
-// The simulated DP master (emulator-spec §8) against emulated gateways.
+// The simulated DP master (docs/modbus.md) against emulated gateways.
 #include "profibus_sim/master/dp_master.hpp"
 
 #include <gtest/gtest.h>
@@ -85,7 +85,7 @@ TEST_F(MasterFixture, OneImageSharedByTwoGatewaysLaterInputWins) {
   a.on_can_frame(F("181#11"), now);
   b.on_can_frame(F("182#22"), now);
   cycle();
-  EXPECT_EQ(master.image().inputs[0], 0x22);  // emulator-spec §8: later slot's bytes win
+  EXPECT_EQ(master.image().inputs[0], 0x22);  // docs/modbus.md: later slot's bytes win
 }
 
 TEST_F(MasterFixture, ReparameterizeOnRequest) {

@@ -63,7 +63,7 @@ TEST(DpWire, AnswersOfTheCapture) {
   const auto in = B("0A 0B 0C 0D 0E 0F");
   EXPECT_EQ(H(encode(*dp_answer(dx_req, dp::Service::DataExchange, {Status::Ok, in, false}))),
             "68 09 09 68 02 03 08 0A 0B 0C 0D 0E 0F 58 16");
-  // DH: the spec capture's answer (tests/sniff/make_capture.py).
+  // DH: the answer in the capture of tests/sniff/make_capture.py.
   EXPECT_EQ(H(encode(*dp_answer(dx_req, dp::Service::DataExchange, {Status::Ok, in, true}))),
             "68 09 09 68 02 03 0A 0A 0B 0C 0D 0E 0F 5A 16");
   // No inputs: SC; with diagnosis pending SD1 DH; refused: SD1 RS; nothing for no response.

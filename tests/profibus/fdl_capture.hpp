@@ -1,4 +1,4 @@
-// The telegrams of emulator-spec §10 "A real master's first telegrams" (an independent open-source
+// The telegrams of docs/profibus.md "A real master's first telegrams" (an independent open-source
 // class 1 master at address 2 parameterizing slave 3 at 19200 baud) and small helpers shared by
 // the FDL tests.
 #pragma once
@@ -46,7 +46,7 @@ inline std::string H(const std::vector<std::uint8_t>& b) {
   return hex_bytes(b);
 }
 
-// emulator-spec §10 capture, bytes as on the wire.
+// the capture in docs/profibus.md "A real master's first telegrams", bytes as on the wire.
 inline constexpr const char* kCapFdlStatus = "10 03 02 49 4E 16";
 inline constexpr const char* kCapSlaveDiag1 = "68 05 05 68 83 82 6D 3C 3E EC 16";  // FCB=1 FCV=0
 inline constexpr const char* kCapSetPrm =

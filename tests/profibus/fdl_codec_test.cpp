@@ -1,5 +1,5 @@
-// Golden tests of the FDL codec and stream parser (emulator-spec §10), against the capture in
-// emulator-spec §10 and public references: pyprofibus (github.com/mbuesch/pyprofibus
+// Golden tests of the FDL codec and stream parser (docs/profibus.md), against the capture in
+// docs/profibus.md and public references: pyprofibus (github.com/mbuesch/pyprofibus
 // pyprofibus/fdl.py at e7c98158) and profirust (github.com/Rahix/profirust src/fdl/telegram.rs
 // tests at 860b938e), which publish the IEC 61158-4-3 / EN 50170 telegram facts.
 #include <gtest/gtest.h>
@@ -16,10 +16,11 @@ Telegram decoded(const char* hex) {
   return r.telegram.value_or(Telegram{});
 }
 
-// ---- the emulator-spec §10 capture: decode reads it, encode reproduces it ----------------------
+// ---- the capture in docs/profibus.md "A real master's first telegrams": decode reads it, encode
+// reproduces it ---
 
 TEST(FdlCodec, CaptureFdlStatusRequest) {
-  // emulator-spec §10: SD1, FC 0x49 = request, FDL_Status (0x9), FCB=0, FCV=0.
+  // docs/profibus.md: SD1, FC 0x49 = request, FDL_Status (0x9), FCB=0, FCV=0.
   const auto t = decoded(kCapFdlStatus);
   EXPECT_EQ(t.kind, Kind::SD1);
   EXPECT_EQ(t.da, 3);
@@ -43,7 +44,7 @@ TEST(FdlCodec, ProfirustFdlStatusRequestAndResponse) {
 }
 
 TEST(FdlCodec, CaptureSlaveDiagRequestWithSaps) {
-  // emulator-spec §10: DA 0x83 = 3 + SAP follows, SA 0x82 = 2 + SAP; DSAP 60, SSAP 62; FC 0x6D =
+  // docs/profibus.md: DA 0x83 = 3 + SAP follows, SA 0x82 = 2 + SAP; DSAP 60, SSAP 62; FC 0x6D =
   // SRD high with FCB=1, FCV=0 (the first request after FDL_Status).
   const auto t = decoded(kCapSlaveDiag1);
   EXPECT_EQ(t.kind, Kind::SD2);
@@ -66,7 +67,7 @@ TEST(FdlCodec, CaptureSlaveDiagRequestWithSaps) {
 }
 
 TEST(FdlCodec, CaptureSetPrm) {
-  // emulator-spec §10: Set_Prm, DSAP 61, WD on (Station_Status 0x88), WD 30 x 1 x 10 ms = 300 ms,
+  // docs/profibus.md: Set_Prm, DSAP 61, WD on (Station_Status 0x88), WD 30 x 1 x 10 ms = 300 ms,
   // Ident 04 A4, user bytes 00 02 00 01 00 00 FF FF FF; LE 0x15 = 3 + 2 SAPs + 16.
   const auto t = decoded(kCapSetPrm);
   EXPECT_EQ(t.dsap, kSapSetPrm);
@@ -85,7 +86,7 @@ TEST(FdlCodec, CaptureChkCfg) {
 }
 
 TEST(FdlCodec, CaptureDataExchangeFcbAlternating) {
-  // emulator-spec §10: Data_Exchange is an SRD without SAPs to the default SAP.
+  // docs/profibus.md: Data_Exchange is an SRD without SAPs to the default SAP.
   const auto a = decoded(kCapDataExch1);
   const auto b = decoded(kCapDataExch2);
   EXPECT_FALSE(a.dsap);
@@ -113,8 +114,8 @@ TEST(FdlCodec, ShortAcknowledgeAndToken) {
 }
 
 TEST(FdlCodec, SlaveDiagResponseSwapsSaps) {
-  // emulator-spec §10: SD2, DSAP 62 / SSAP 60, FC DL (0x08). FCS = sum of 82 83 08 3E 3C + 11
-  // diagnosis bytes (emulator-spec §3 layout: 02 05 00 FF 04 A4 05 04 00 00 00).
+  // docs/profibus.md: SD2, DSAP 62 / SSAP 60, FC DL (0x08). FCS = sum of 82 83 08 3E 3C + 11
+  // diagnosis bytes (docs/dp-slave.md "Diagnosis" layout: 02 05 00 FF 04 A4 05 04 00 00 00).
   const auto diag = B("02 05 00 FF 04 A4 05 04 00 00 00");
   const auto bytes =
       encode(Telegram::with_data(2, 3, response_fc(kFcDl), kSapChkCfg, kSapSlaveDiag, diag));
@@ -173,7 +174,7 @@ TEST(FdlCodec, DecodeErrorsAreTyped) {
 
 TEST(FdlCodec, Sd2WithLe3IsAcceptedOnReceive) {
   // pyprofibus fdl.py and profirust telegram.rs both accept LE >= 3 (an SD2 without data); the
-  // codec is liberal in what it receives and never sends it (docs/decisions.md "FDL LE").
+  // codec is liberal in what it receives and never sends it (docs/decisions.md "FDL on the wire").
   const auto r = decode(B("68 03 03 68 02 03 08 0D 16"));
   ASSERT_EQ(r.error, Error::None);
   EXPECT_TRUE(r.telegram->du.empty());
@@ -319,7 +320,7 @@ TEST(FdlStream, TruncatedTelegramEndsAtTheGap) {
 }
 
 TEST(FdlStream, ParityErrorDiscardsTheTelegram) {
-  // emulator-spec §10: a parity error: the telegram is ignored.
+  // docs/profibus.md: a parity error: the telegram is ignored.
   StreamParser p;
   const auto t = B(kCapDataExch1);
   p.feed(std::span(t).first(7));

@@ -1,5 +1,5 @@
-// The telegram describer (profibus_sim/fdl/fdl_describe.hpp) on the emulator-spec §10 capture and
-// the responses of the slave front end.
+// The telegram describer (profibus_sim/fdl/fdl_describe.hpp) on the capture in
+// docs/profibus.md "A real master's first telegrams" and the responses of the slave front end.
 #include "profibus_sim/fdl/fdl_describe.hpp"
 
 #include <gtest/gtest.h>

@@ -1,5 +1,6 @@
-// The FDL master station (emulator-spec §10): exact bytes against the §10 capture, FCB per
-// station, slot time, retries, corrupted and foreign answers.
+// The FDL master station (docs/profibus.md): exact bytes against the capture in
+// docs/profibus.md "A real master's first telegrams", FCB per station, slot time, retries,
+// corrupted and foreign answers.
 #include "profibus_sim/fdl/fdl_master.hpp"
 
 #include <gtest/gtest.h>
@@ -53,7 +54,7 @@ struct LoneMaster : ::testing::Test {
 TEST_F(LoneMaster, FdlStatusFirstThenFcbOneFcvZeroThenToggled) {
   request(dp::Service::SlaveDiag);
   status_ok();
-  EXPECT_EQ(sent.back(), kCapSlaveDiag1);  // emulator-spec §10: FCB=1 FCV=0
+  EXPECT_EQ(sent.back(), kCapSlaveDiag1);  // docs/profibus.md: FCB=1 FCV=0
   answer("68 10 10 68 82 83 08 3E 3C 02 05 00 FF 04 A4 00 00 00 00 00 35 16");
   ASSERT_EQ(done.size(), 1u);
   EXPECT_EQ(done[0].status, Response::Status::Ok);
@@ -78,7 +79,7 @@ TEST_F(LoneMaster, SlotTimeRunsFromTheRequestsLastCharacterAndARetryRepeatsTheFc
   EXPECT_EQ(sent.size(), 2u);
   run_to(deadline);
   ASSERT_EQ(sent.size(), 3u);
-  EXPECT_EQ(sent.back(), kCapSlaveDiag1);  // the same FCB (emulator-spec §10)
+  EXPECT_EQ(sent.back(), kCapSlaveDiag1);  // the same FCB (docs/profibus.md)
   EXPECT_EQ(line.stats(3)->retries, 1u);
   EXPECT_EQ(line.stats(3)->timeouts, 1u);
   run_to(now + milliseconds(20));  // max_retry_limit 1: the station is lost
@@ -117,7 +118,8 @@ TEST_F(LoneMaster, NegativeAnswersAreRefusals) {
 }
 
 // The simulated master over FDL against a real gateway behind the slave front end produces the
-// telegrams of the emulator-spec §10 capture byte for byte (master 2, slave 3, 19200 baud).
+// telegrams of the capture in docs/profibus.md "A real master's first telegrams" byte for byte
+// (master 2, slave 3, 19200 baud).
 TEST(FdlMasterCapture, FirstTelegramsMatchTheCapture) {
   Time now{0};
   gw::test::Recorder rec;

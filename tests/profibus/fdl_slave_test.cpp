@@ -1,6 +1,7 @@
-// The FDL slave front end (emulator-spec §10) with real gw::Gateway objects as the DP slaves:
-// the emulator-spec §10 capture, the manual §5.1.4 round trip through FDL bytes, FCB repetition,
-// DH, min_TSDR, the master address filter, broadcasts and several stations on one line.
+// The FDL slave front end (docs/profibus.md) with real gw::Gateway objects as the DP slaves:
+// the capture in docs/profibus.md "A real master's first telegrams", the manual §5.1.4 round trip
+// through FDL bytes, FCB repetition, DH, min_TSDR, the master address filter, broadcasts and
+// several stations on one line.
 #include "profibus_sim/fdl/fdl_slave.hpp"
 
 #include <gtest/gtest.h>
@@ -16,7 +17,7 @@ using gw::test::Recorder;
 
 constexpr std::uint8_t kMaster = 2;
 
-// Requests as an FDL master (address 2, SSAP 62) builds them (emulator-spec §10 table).
+// Requests as an FDL master (address 2, SSAP 62) builds them (the table in docs/profibus.md).
 std::vector<std::uint8_t> srd(std::uint8_t da, std::optional<std::uint8_t> dsap, bool fcb, bool fcv,
                               std::vector<std::uint8_t> du, std::uint8_t sa = kMaster) {
   const std::optional<std::uint8_t> ssap =
@@ -64,13 +65,13 @@ struct FdlSlaveFixture : ::testing::Test {
 
 TEST_F(FdlSlaveFixture, CaptureParameterizesTheGatewayWithExactResponses) {
   auto& gw = add_gateway(3);
-  // emulator-spec §10: FDL_Status -> SD1 FC 0x00 (slave, OK); cf. profirust's 10 02 22 00 24 16.
+  // docs/profibus.md: FDL_Status -> SD1 FC 0x00 (slave, OK); cf. profirust's 10 02 22 00 24 16.
   EXPECT_EQ(send(kCapFdlStatus), "10 02 03 00 05 16");
-  // Slave_Diag -> SD2, DSAP 62 / SSAP 60 swapped, FC DL; emulator-spec §3 bytes in Wait_Prm:
-  // Station_Not_Ready, Prm_Req + always-1, master FF, ident 04 A4, 05 04, 00 00 00.
+  // Slave_Diag -> SD2, DSAP 62 / SSAP 60 swapped, FC DL; docs/dp-slave.md "Diagnosis" bytes in
+  // Wait_Prm: Station_Not_Ready, Prm_Req + always-1, master FF, ident 04 A4, 05 04, 00 00 00.
   EXPECT_EQ(send(kCapSlaveDiag1),
             "68 10 10 68 82 83 08 3E 3C 02 05 00 FF 04 A4 05 04 00 00 00 3E 16");
-  EXPECT_EQ(send(kCapSetPrm), "E5");  // emulator-spec §10: Set_Prm -> SC
+  EXPECT_EQ(send(kCapSetPrm), "E5");  // docs/profibus.md: Set_Prm -> SC
   EXPECT_EQ(gw.dp().state(), dp::SlaveState::WaitCfg);
   EXPECT_EQ(send(kCapChkCfg), "E5");  // Chk_Cfg -> SC
   EXPECT_EQ(gw.dp().state(), dp::SlaveState::DataExch);
@@ -150,7 +151,7 @@ TEST_F(FdlSlaveFixture, DataExchangeBeforeParameterizationIsRs) {
 TEST_F(FdlSlaveFixture, UnsupportedSapsAreRs) {
   add_gateway(3);
   send(kCapFdlStatus);
-  // Set_Slave_Add (SAP 55) is not supported (emulator-spec §1); SAP 20 is not a DP SAP.
+  // Set_Slave_Add (SAP 55) is not supported (docs/dp-slave.md); SAP 20 is not a DP SAP.
   EXPECT_EQ(send(srd(3, kSapSetSlaveAdd, true, false, B("05 04 A4 00"))), "10 02 03 03 08 16");
   EXPECT_EQ(send(srd(3, 20, false, true, B("00"))), "10 02 03 03 08 16");
 }
@@ -175,7 +176,7 @@ TEST_F(FdlSlaveFixture, DhWhenTheCanBusStateChanges) {
   auto& gw = add_gateway(3);
   send(kCapFdlStatus);
   send(kCapSlaveDiag1);
-  // User bytes with CAN-Diagnosis on (byte 11 bit 0, emulator-spec §1.1).
+  // User bytes with CAN-Diagnosis on (byte 11 bit 0, docs/dp-slave.md "User parameters").
   auto prm = decode(B(kCapSetPrm)).telegram.value();
   prm.du[gw::kPrmDiagFlags] = gw::kDiagCanDiagnosis;
   prm.fc = request_fc(kFcSrdHigh, false, true);
@@ -204,7 +205,7 @@ TEST_F(FdlSlaveFixture, EightInputBytesGoAsSd3AndNoInputsAsSc) {
   const std::string r3 = send(srd(3, std::nullopt, true, true, B("00")));
   EXPECT_EQ(r3.substr(0, 2), "A2");  // SD3
   EXPECT_EQ(decode(B(r3)).telegram->du.size(), 8u);
-  // Station 4: outputs only -> SC (emulator-spec §10), SD1 FC DH while diagnosis is pending.
+  // Station 4: outputs only -> SC (docs/profibus.md), SD1 FC DH while diagnosis is pending.
   prm.da = 4;
   send(encode(Telegram::no_data(4, kMaster, request_fc(kFcFdlStatus))));
   prm.fc = request_fc(kFcSrdHigh, true, false);
@@ -241,7 +242,7 @@ TEST_F(FdlSlaveFixture, BroadcastIsNeverAnswered) {
                                             kSapGlobalControl, kSapChkCfg, B("08 00")))),
             "");
   EXPECT_EQ(send(encode(Telegram::no_data(kBroadcast, kMaster, request_fc(kFcFdlStatus)))), "");
-  // Global_Control to the station itself (SDN): no answer either (emulator-spec §10).
+  // Global_Control to the station itself (SDN): no answer either (docs/profibus.md).
   EXPECT_EQ(send(encode(Telegram::with_data(3, kMaster, request_fc(kFcSdnHigh), kSapGlobalControl,
                                             kSapChkCfg, B("08 00")))),
             "");
@@ -263,7 +264,7 @@ TEST_F(FdlSlaveFixture, MinTsdrDelaysTheResponse) {
   now = milliseconds(5);
   send(kCapFdlStatus);
   ASSERT_TRUE(last);
-  // emulator-spec §10: default 11 bit times; at 19200 bit/s 11 / 19200 s = 572.9 µs -> 573 µs.
+  // docs/profibus.md: default 11 bit times; at 19200 bit/s 11 / 19200 s = 572.9 µs -> 573 µs.
   EXPECT_EQ(last->not_before, now + microseconds(573));
   EXPECT_EQ(last->station, 3);
   // Set_Prm byte 3 = 0x40: 64 bit times = 3333.3 µs -> 3334 µs, from the Set_Prm's SC on.
@@ -285,7 +286,7 @@ TEST_F(FdlSlaveFixture, NoisyLineStillAnswersAndCountsErrors) {
   const auto req = B(kCapFdlStatus);
   bytes.insert(bytes.end(), req.begin(), req.end());
   EXPECT_EQ(send(bytes), "10 02 03 00 05 16");
-  // A wrong FCS: no answer (emulator-spec §10: the master retries).
+  // A wrong FCS: no answer (docs/profibus.md: the master retries).
   EXPECT_EQ(send("10 03 02 49 4F 16"), "");
   EXPECT_EQ(fe->line_stats().fcs_errors, 1u);
   EXPECT_GT(fe->line_stats().garbage_bytes, 0u);

@@ -1,5 +1,6 @@
 // One contract for the DP master/slave behaviour over every link (STYLE.md lesson 7): the
-// in-process link and FDL on a byte pipe (emulator-spec §8, §10). Each test runs on both rigs.
+// in-process link and FDL on a byte pipe (docs/modbus.md, docs/profibus.md). Each test runs on both
+// rigs.
 #include <gtest/gtest.h>
 
 #include "fixture.hpp"
@@ -135,7 +136,7 @@ TYPED_TEST(LinkContract, WatchdogExpiresWhenTheMasterStopsAndRecovers) {
   this->run_for(milliseconds(100));
   ASSERT_EQ(g.dp().state(), SlaveState::DataExch);
   this->cycling = false;
-  this->run_for(milliseconds(100));  // > 50 ms watchdog (emulator-spec §1)
+  this->run_for(milliseconds(100));  // > 50 ms watchdog (docs/dp-slave.md)
   EXPECT_EQ(g.dp().state(), SlaveState::WaitPrm);
   this->cycling = true;
   this->run_for(milliseconds(30));

@@ -2,7 +2,7 @@
 // same master/slave behaviour over every dp::SlaveLink.
 //  - InProcessRig: dp::InProcessLink straight into the gateway's DpSlave;
 //  - FdlRig: fdl::FdlMaster ↔ an in-memory byte pipe (virtual time, configurable delay, optional
-//    byte loss/corruption) ↔ fdl::SlaveFrontEnd ↔ the gateway's DpSlave (emulator-spec §10).
+//    byte loss/corruption) ↔ fdl::SlaveFrontEnd ↔ the gateway's DpSlave (docs/profibus.md).
 // Both can "pull the cable" of a station (it stops answering) to show Station_Non_Existent.
 #pragma once
 
@@ -90,7 +90,7 @@ struct BytePipe {
 
 struct FdlRig {
   static constexpr const char* kName = "fdl";
-  static constexpr std::uint32_t kBaud = 187500;  // emulator-spec §10 bit rates
+  static constexpr std::uint32_t kBaud = 187500;  // docs/profibus.md bit rates
 
   explicit FdlRig(std::uint32_t baud = kBaud)
       : line({.address = 2, .baud = baud, .slot_time_bits = 100, .retries = 1},

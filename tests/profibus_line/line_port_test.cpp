@@ -114,7 +114,8 @@ TEST(MasterLatencyAllowance, PtyAndSlowAdaptersGetMoreThanALowLatencyPort) {
 }
 
 TEST_F(MasterLineFixture, SilentStationIsAskedTwiceThenShowsStationNonExistent) {
-  // emulator-spec §10 capture: the master's first telegram is FDL_Status 10 03 02 49 4E 16.
+  // the capture in docs/profibus.md "A real master's first telegrams": the master's first telegram
+  // is FDL_Status 10 03 02 49 4E 16.
   const std::vector<std::uint8_t> fdl_status = {0x10, 0x03, 0x02, 0x49, 0x4E, 0x16};
   const Time t0 = loop.now();
   auto got = read_peer(6);
@@ -151,7 +152,7 @@ TEST_F(MasterLineFixture, SilentStationIsAskedTwiceThenShowsStationNonExistent) 
 TEST_F(MasterLineFixture, AnsweredFdlStatusIsFollowedBySlaveDiagAndTimed) {
   const std::vector<std::uint8_t> fdl_status = {0x10, 0x03, 0x02, 0x49, 0x4E, 0x16};
   ASSERT_EQ(read_peer(6), fdl_status);
-  // emulator-spec §10: FDL_Status answer SD1, FC 0x00 (slave, OK), DA 2 SA 3, FCS 05.
+  // docs/profibus.md: FDL_Status answer SD1, FC 0x00 (slave, OK), DA 2 SA 3, FCS 05.
   const std::uint8_t answer[] = {0x10, 0x02, 0x03, 0x00, 0x05, 0x16};
   ASSERT_EQ(::write(peer, answer, sizeof answer), static_cast<ssize_t>(sizeof answer));
   // Then Slave_Diag with FCB=1 FCV=0, byte for byte as in the capture.

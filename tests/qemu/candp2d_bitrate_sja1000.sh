@@ -50,7 +50,8 @@ stop() {
 }
 rate_is() { $IP -details link show can0 | grep -q "bitrate $1 "; }
 
-# 1. apply: 500 -> 250 kbit/s (emulator-spec §1.1 byte 8 index 4 = 250k = 0x0003D090 bit/s).
+# 1. apply: 500 -> 250 kbit/s (docs/dp-slave.md "User parameters" byte 8 index 4 = 250k = 0x0003D090
+# bit/s).
 config apply 250k >/tmp/apply250.json
 run apply250
 rate_is 250000 || fail "apply: can0 not at 250 kbit/s: $($IP -details link show can0)"

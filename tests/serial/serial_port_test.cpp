@@ -1,4 +1,4 @@
-// The serial PHY of emulator-spec §10 on pseudo-terminal pairs (no hardware needed): 8E1 raw
+// The serial PHY of docs/profibus.md on pseudo-terminal pairs (no hardware needed): 8E1 raw
 // settings read back, bit rates (standard and termios2), bytes both ways, the pty:PATH link, echo
 // suppression and PARMRK unescaping.
 #include "serial/serial_port.hpp"
@@ -78,7 +78,7 @@ std::vector<RxByte> plain(std::initializer_list<std::uint8_t> bytes) {
 }
 
 TEST(SerialBaud, SupportedRatesOfSpec10) {
-  // emulator-spec §10: 9.6k, 19.2k, 45.45k, 93.75k, 187.5k, 500k, 1.5M
+  // docs/profibus.md: 9.6k, 19.2k, 45.45k, 93.75k, 187.5k, 500k, 1.5M
   for (std::uint32_t b : {9600u, 19200u, 45450u, 93750u, 187500u, 500000u, 1500000u})
     EXPECT_TRUE(is_supported_baud(b)) << b;
   EXPECT_FALSE(is_supported_baud(115200));
@@ -87,7 +87,7 @@ TEST(SerialBaud, SupportedRatesOfSpec10) {
 }
 
 TEST(SerialBaud, CharTimeIs11Bits) {
-  // emulator-spec §10: 11 bits per character; 19200 baud: 572.9 µs -> 573 µs
+  // docs/profibus.md: 11 bits per character; 19200 baud: 572.9 µs -> 573 µs
   EXPECT_EQ(char_time(19200), Duration(573));
   EXPECT_EQ(char_time(1500000, 2), Duration(15));  // 22 bits / 1.5 Mbit/s = 14.7 µs
   EXPECT_EQ(char_time(12000000), Duration(1));
@@ -345,7 +345,7 @@ TEST(SerialPortPty, EchoSuppression) {
   ASSERT_TRUE(port) << error;
   const int peer = open_peer(link);
   ASSERT_GE(peer, 0);
-  const std::uint8_t req[] = {0x10, 0x03, 0x02, 0x49, 0x4E, 0x16};  // emulator-spec §10
+  const std::uint8_t req[] = {0x10, 0x03, 0x02, 0x49, 0x4E, 0x16};  // docs/profibus.md
   ASSERT_TRUE(port->write(req, sizeof req, Time(0), &error)) << error;
   auto echoed = read_peer(peer, sizeof req);
   ASSERT_EQ(echoed.size(), sizeof req);

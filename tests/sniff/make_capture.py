@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Writes spec10.bin: the emulator-spec §10 capture (an open-source class 1 master at address 2
+"""Writes spec10.bin: the capture in docs/profibus.md "A real master's first telegrams" (an
+open-source class 1 master at address 2
 parameterizing CAN-DP/2 slave 3, §5.1.4 slots), the slave's responses as candp2's FDL front end
 sends them (tests/profibus/fdl_slave_test.cpp), and some line noise: garbage bytes, a token, a
 telegram with a wrong FCS. Run: /usr/bin/python3 tests/sniff/make_capture.py tests/sniff/spec10.bin

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """`candp2 sniff pty:PATH` end to end (docs/sniff.md): the sniffer opens a pseudo-terminal, this
-test opens PATH like a master's serial port and writes three telegrams of the emulator-spec §10
+test opens PATH like a master's serial port and writes three telegrams of the docs/profibus.md
 capture (whole telegrams per write: characters inside a telegram have no gaps); the sniffer must
 print one decoded line each with a time stamp, exit after -n 3 and remove PATH."""
 import argparse

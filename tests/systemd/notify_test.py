@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""candp2d under systemd's notify protocol and journal, with this test in systemd's place (issue 11):
+"""candp2d under systemd's notify protocol and journal, with this test in systemd's place:
 the test owns the NOTIFY_SOCKET (an AF_UNIX datagram socket, sd_notify(3)) and the JOURNAL_STREAM.
 
   1. READY=1 arrives only once Modbus accepts connections: the test connects the moment READY=1

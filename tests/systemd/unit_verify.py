@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""packaging/systemd/candp2d.service passes `systemd-analyze verify` (issue 11).
+"""packaging/systemd/candp2d.service passes `systemd-analyze verify`.
 
 verify checks the unit's syntax, every key and value, and that ExecStart's binary exists and is
 executable. /usr/bin/candp2d is not installed on a build machine, so the test verifies a copy whose

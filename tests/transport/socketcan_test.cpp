@@ -129,7 +129,8 @@ TEST(SocketCanErrors, ControllerStatesMapToBusState) {
 }
 
 TEST(SocketCanErrors, ControllerRxOverflowCountsALostFrame) {
-  // emulator-spec §3: IRQ_LOST counts SO_RXQ_OVFL drops and controller RX-overflow error frames.
+  // docs/dp-slave.md "Diagnosis": IRQ_LOST counts SO_RXQ_OVFL drops and controller RX-overflow
+  // error frames.
   const auto e = socketcan::decode_error(error_frame(CAN_ERR_CRTL, CAN_ERR_CRTL_RX_OVERFLOW));
   EXPECT_EQ(e.rx_lost, 1u);
   EXPECT_FALSE(e.state);

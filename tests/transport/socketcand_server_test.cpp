@@ -300,7 +300,7 @@ TEST(SocketcandServerLimits, SlowClientIsDroppedWithoutBlockingTheLoop) {
 }
 
 TEST(SocketcandServerLimits, ANewClientEvictsTheIdlestOneAtTheLimit) {
-  // Issue 12: idle clients cannot lock others out; clients not in raw mode go first.
+  // Idle clients cannot lock others out; clients not in raw mode go first.
   auto options = ServerRig::default_options();
   options.max_clients = 2;
   ServerRig rig(options);

@@ -1,9 +1,9 @@
-// The shipped GSD's user parameters against the gateway core (issue 7): every ExtUserPrmData set
+// The shipped GSD's user parameters against the gateway core: every ExtUserPrmData set
 // to each allowed value (ranges: min, max, default and a middle value) encodes through
 // gsd::encode_user_prm to bytes gw::decode_user_prm accepts and decodes back to the same named
 // value; flag combinations manual table 5.1.2 forbids give the Prm fault the gateway itself
 // reports; and the GSD encoding of `candp2 validate --gsd` equals the built-in encoding of
-// config::set_prm_bytes byte for byte (emulator-spec §1.1).
+// config::set_prm_bytes byte for byte (docs/dp-slave.md "User parameters").
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -53,7 +53,7 @@ std::vector<std::int64_t> values_of(const gsd::ExtUserPrmData& d) {
   return {lo, hi, d.default_value, lo + (hi - lo) / 2};
 }
 
-// The gateway's answer to a telegram, through its DP service (emulator-spec §1.1).
+// The gateway's answer to a telegram, through its DP service (docs/dp-slave.md "User parameters").
 std::optional<dp::PrmFault> gateway_prm_fault(const std::vector<std::uint8_t>& t) {
   struct Discard final : can::FrameSink {
     void send(const can::Frame&) override {}
@@ -106,8 +106,9 @@ TEST(PrmRoundTrip, EveryValueOfEveryParameterDecodesBack) {
   EXPECT_GE(checked, 40u);
 }
 
-// manual table 5.1.2 / emulator-spec §1.1: never CANopen-Slave and -Master together; Page-Mode only
-// without either. All 64 combinations of the six flag parameters of byte 9.
+// manual table 5.1.2 / docs/dp-slave.md "User parameters": never CANopen-Slave and -Master
+// together; Page-Mode only without either. All 64 combinations of the six flag parameters of byte
+// 9.
 TEST(PrmRoundTrip, FlagCombinationsOfManualTable512) {
   const char* const flags[] = {"Communication Window", "RTR-Frames",  "CANopen-Slave",
                                "CANopen-Master",       "Start-Frame", "Page-Mode"};
@@ -135,7 +136,7 @@ TEST(PrmRoundTrip, FlagCombinationsOfManualTable512) {
     const dp::PrmFault f = std::get<dp::PrmFault>(decoded);
     // The fault the gateway reports on its DP face is the decoder's.
     EXPECT_EQ(gateway_prm_fault(t), f);
-    // emulator-spec §1.1: byte 9, the flags with the offending bit(s) cleared.
+    // docs/dp-slave.md "User parameters": byte 9, the flags with the offending bit(s) cleared.
     const std::uint8_t byte = t[gw::kPrmFlags];
     const std::uint8_t offending =
         (slave && master) ? (gw::kFlagCanopenSlave | gw::kFlagCanopenMaster) : gw::kFlagPageMode;
@@ -182,8 +183,8 @@ TEST(PrmRoundTrip, GsdEncodingEqualsTheBuiltInEncoding) {
   }
 }
 
-// The GSD printed in manual §4 has no Tx-Counter (emulator-spec §1.1): the default needs no
-// entry, the counter switched on cannot be encoded through it.
+// The GSD printed in manual §4 has no Tx-Counter (docs/dp-slave.md "User parameters"): the default
+// needs no entry, the counter switched on cannot be encoded through it.
 TEST(PrmRoundTrip, AParameterTheGsdLacks) {
   const gsd::ParseResult printed =
       gsd::parse_file(CANDP2_SOURCE_DIR "/tests/validate/configs/printed-manual.gsd");
@@ -209,7 +210,7 @@ TEST(PrmRoundTrip, TheIdentNumberComesFromTheGsd) {
   const GsdSetPrm r = encode_set_prm(other.model, {}, 0);
   ASSERT_TRUE(r.errors.empty());
   EXPECT_EQ(hex_bytes(std::span(r.telegram).subspan(4, 2)), "04 A5");
-  // emulator-spec §1.1: the gateway names byte 5 with the correct value 0xA4.
+  // docs/dp-slave.md "User parameters": the gateway names byte 5 with the correct value 0xA4.
   EXPECT_EQ(gateway_prm_fault(r.telegram), (dp::PrmFault{5, 0xA4}));
 }
 

@@ -1,5 +1,5 @@
 // candp2_validate: the report is the answer of a real gw::Gateway (Set_Prm, Chk_Cfg, Slave_Diag),
-// plus the warnings of manual §2.1, §5.2.1 and emulator-spec §2, §8.
+// plus the warnings of manual §2.1, §5.2.1 and docs/slots.md "Chk_Cfg slots", docs/modbus.md.
 #include "validate/validate.hpp"
 
 #include <gtest/gtest.h>
@@ -54,7 +54,8 @@ TEST(Validate, AcceptedConfigurationShowsTheGatewaysSlots) {
   const GatewayReport r = check_gateway(make(kManual, {}, 5, 200));
   EXPECT_TRUE(r.valid());
   EXPECT_EQ(r.state, dp::SlaveState::DataExch);
-  // emulator-spec §3: Station_Status_2 = always-1 | WD_On, master 1, ident 04 A4, 05 04, 0 0 0.
+  // docs/dp-slave.md "Diagnosis": Station_Status_2 = always-1 | WD_On, master 1, ident 04 A4, 05
+  // 04, 0 0 0.
   EXPECT_EQ(hex_bytes(r.diag), "00 0C 00 01 04 A4 05 04 00 00 00");
   ASSERT_EQ(r.slots.size(), 2u);
   ASSERT_TRUE(r.slots[0].slot && r.slots[1].slot);
@@ -84,7 +85,8 @@ TEST(Validate, CfgFaultIsTheGatewaysDiagnosis) {
   const GatewayReport r = check_gateway(std::move(in));
   EXPECT_FALSE(r.valid());
   EXPECT_EQ(r.diag, expected);
-  // emulator-spec §2 code 3: 9 bytes without the Rx-Counter; diagnosis 3E, slot 0, code 3.
+  // docs/slots.md "Chk_Cfg slots" code 3: 9 bytes without the Rx-Counter; diagnosis 3E, slot 0,
+  // code 3.
   EXPECT_EQ(hex_bytes(r.diag), "0E 05 00 01 04 A4 05 04 3E 00 03");
   EXPECT_EQ(r.cfg_fault, (dp::CfgFault{0, 3}));
   ASSERT_EQ(r.slots.size(), 2u);
@@ -98,7 +100,8 @@ TEST(Validate, CfgFaultIsTheGatewaysDiagnosis) {
 
 TEST(Validate, PrmFaultLeavesChkCfgUnevaluated) {
   GatewayInput in = make(kManual);
-  in.params.prm[gw::kPrmModuleId] = 0;  // emulator-spec §1.1: ModuleID 1..127, correct value 1
+  in.params.prm[gw::kPrmModuleId] = 0;  // docs/dp-slave.md "User parameters": ModuleID 1..127,
+                                        // correct value 1
   const GatewayReport r = check_gateway(std::move(in));
   EXPECT_FALSE(r.prm_accepted);
   EXPECT_FALSE(r.cfg_accepted);
@@ -120,7 +123,7 @@ TEST(Validate, PrmLengthAndNotSupported) {
             std::string::npos);
 
   in = make(kManual);
-  in.params.prm[0] = dp::kPrmFreezeReq;  // emulator-spec §1: FREEZE not supported
+  in.params.prm[0] = dp::kPrmFreezeReq;  // docs/dp-slave.md: FREEZE not supported
   r = check_gateway(std::move(in));
   EXPECT_TRUE(r.not_supported);
   EXPECT_FALSE(r.prm_fault);
@@ -156,7 +159,8 @@ TEST(Validate, DuplicateTxButNotTheDummy) {
             std::string::npos);
 }
 
-// emulator-spec §2: cycle bytes on an input are ignored; cycle 0 means none and is not reported.
+// docs/slots.md "Chk_Cfg slots": cycle bytes on an input are ignored; cycle 0 means none and is not
+// reported.
 TEST(Validate, CycleOnAnInputSlot) {
   const GatewayReport r = check_gateway(make({{true, 2, {0x01, 0x81, 0x00, 0x03, 0xE8}, 0},
                                               {true, 2, {0x01, 0x82, 0x00, 0x00, 0x00}, 2},
@@ -179,7 +183,7 @@ TEST(Validate, DpAddressClamping) {
   }
 }
 
-// emulator-spec §8: one PLC image for all gateways; overlaps within a direction only.
+// docs/modbus.md: one PLC image for all gateways; overlaps within a direction only.
 TEST(Validate, OverlapsAcrossGateways) {
   std::vector<GatewayReport> reports;
   reports.push_back(

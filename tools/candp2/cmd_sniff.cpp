@@ -1,12 +1,12 @@
 // candp2 sniff PORT|FILE: FDL/DP telegrams of a PROFIBUS line, one readable line each, like
-// can-utils' candump for CAN (issue 10, emulator-spec §10). FILE is a raw capture (bytes exactly as
+// can-utils' candump for CAN (docs/profibus.md). FILE is a raw capture (bytes exactly as
 // on the wire; the line shows the byte offset of each telegram); PORT is a serial device or
 // "pty:PATH" opened 8E1 at --baud (the line shows seconds since the first byte). On top of the
 // generic DP decoding (profibus_sim/fdl/fdl_describe.hpp) the CAN-DP/2 payloads are decoded with
-// the gateway's own decoders: Set_Prm user parameters (emulator-spec §1.1), Chk_Cfg slots with
-// their comment bytes (emulator-spec §2) and the extended diagnosis bytes (emulator-spec §3). Exit
-// status: 0 at end of file / after --count telegrams / on SIGINT, 2 when the source cannot be
-// opened or read.
+// the gateway's own decoders: Set_Prm user parameters (docs/dp-slave.md "User parameters"), Chk_Cfg
+// slots with their comment bytes (docs/slots.md "Chk_Cfg slots") and the extended diagnosis bytes
+// (docs/dp-slave.md "Diagnosis"). Exit status: 0 at end of file / after --count telegrams / on
+// SIGINT, 2 when the source cannot be opened or read.
 #include <poll.h>
 #include <signal.h>
 #include <sys/stat.h>
@@ -58,7 +58,7 @@ std::string hex2(std::uint8_t b) {
   return hex_bytes(std::array{b});
 }
 
-// emulator-spec §1.1 user parameters, through gw::decode_user_prm.
+// docs/dp-slave.md "User parameters" user parameters, through gw::decode_user_prm.
 std::string describe_user_prm(const gw::UserPrm& p) {
   std::string s =
       "CAN " + gw::bitrate_text(p.bitrate_index) + ", ModuleID " + std::to_string(p.module_id);
@@ -81,7 +81,7 @@ std::string describe_user_prm(const gw::UserPrm& p) {
   return s;
 }
 
-// emulator-spec §2 slots, through gw::decode_slots.
+// docs/slots.md "Chk_Cfg slots" slots, through gw::decode_slots.
 std::string describe_slots(const gw::SlotConfig& c) {
   std::string s;
   for (const auto& slot : c.slots) {
@@ -142,7 +142,7 @@ class CanDp2Decoder {
       case fdl::Service::SlaveDiag: {
         if (req || t.du.size() < 11 || foreign_[station]) return {};
         if (t.du[4] != (gw::kIdentNumber >> 8) || t.du[5] != (gw::kIdentNumber & 0xFF)) return {};
-        // emulator-spec §3 bytes 8..10.
+        // docs/dp-slave.md "Diagnosis" bytes 8..10.
         const auto b = std::span(t.du).subspan(8, 3);
         if (b[0] == dp::kExtDiagPrmSap)
           return "Prm fault: byte " + std::to_string(b[1]) + ", correct value " + hex2(b[2]);
@@ -310,7 +310,7 @@ int sniff_port(const SniffArgs& a, capture::PcapngTap* capture) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   auto now = [&] { return std::chrono::duration_cast<Time>(Clock::now() - start); };
-  // emulator-spec §10: idle ≥ TSYN (33 bit times) ends a telegram.
+  // docs/profibus.md: idle ≥ TSYN (33 bit times) ends a telegram.
   const auto tsyn = std::chrono::microseconds(
       static_cast<long long>(std::ceil(33.0 * 1e6 / static_cast<double>(a.baud))));
   fdl::StreamParser parser;
