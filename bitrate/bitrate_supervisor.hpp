@@ -1,7 +1,8 @@
 // The CAN bit rate of one SocketCAN interface versus the gateways on it (docs/transports.md, "Bit
-// rate"). The real CAN-DP/2 sets its controller from Set_Prm byte 8 (manual §5.1.2, emulator-spec
-// §1.1); candp2d either checks the interface against it ("bitrate": "check") or sets it ("apply",
-// CAP_NET_ADMIN: down, bit rate, restart-ms, up, through can::CanLink).
+// rate"). The real CAN-DP/2 sets its controller from Set_Prm byte 8 (manual §5.1.2,
+// docs/dp-slave.md "User parameters"); candp2d either checks the interface against it ("bitrate":
+// "check") or sets it ("apply", CAP_NET_ADMIN: down, bit rate, restart-ms, up, through
+// can::CanLink).
 //
 // The daemon calls update() after every master cycle with each gateway's accepted bit rate (a pure
 // accessor of the gateway, Gateway::user_prm()); netlink is touched only when a gateway's bit rate

@@ -160,7 +160,7 @@ DriveConfig parse_drive(const json& j, const std::string& path, const std::strin
   return d;
 }
 
-// emulator-spec §10: "profibus": {"port": ..., "baud": ..., "role": "slaves" | "master", ...}.
+// docs/profibus.md: "profibus": {"port": ..., "baud": ..., "role": "slaves" | "master", ...}.
 ProfibusConfig parse_profibus(const json& j, const std::string& path, const std::string& file) {
   const Object o(j, path,
                  {"port", "baud", "role", "master_address", "slot_time_bits", "retries",

@@ -56,7 +56,8 @@ TEST(CanFaultLayer, DropBudgetCountsInIrqLost) {
   EXPECT_FALSE(f.pass_rx());
   EXPECT_FALSE(f.pass_rx());
   EXPECT_EQ(f.drop_remaining(), 1u);
-  EXPECT_EQ(f.rx_lost(10), 12u);  // emulator-spec §3: IRQ_LOST = channel losses + dropped
+  EXPECT_EQ(f.rx_lost(10), 12u);  // docs/dp-slave.md "Diagnosis": IRQ_LOST = channel losses +
+                                  // dropped
   EXPECT_FALSE(f.pass_rx());
   EXPECT_TRUE(f.pass_rx());
   EXPECT_EQ(f.rx_dropped(), 3u);

@@ -105,9 +105,10 @@ TEST(Daemon, Manual514RoundTripOverModbusAndSocketcand) {
   ASSERT_TRUE(d.in_data_exchange());
   SocketcandClient observer(d.socketcand(), "can0");
   ModbusClient plc(d.modbus(), 5);
-  // Q 172..177 = holding registers 86..88 (emulator-spec §8).
+  // Q 172..177 = holding registers 86..88 (docs/modbus.md).
   ASSERT_EQ(plc.write(86, {0x0A0B, 0x0C0D, 0x0E0F}), 0);
-  // form B8 on 6 bytes: a b c d e f → b a f e d c (emulator-spec §4, manual §5.2.2).
+  // form B8 on 6 bytes: a b c d e f → b a f e d c (docs/slots.md "Data exchange in normal mode",
+  // manual §5.2.2).
   EXPECT_EQ(observer.frame(), "309#0B0A0F0E0D0C");
   // The same bytes coming back on the input slot's identifier, swapped back.
   observer.send(F("289#0B0A0F0E0D0C"));
@@ -255,7 +256,7 @@ void raise_nofile(rlim_t want) {
   }
 }
 
-// Issue 12: 300 idle Modbus connections must not lock a new client out. At modbus.max_clients the
+// 300 idle Modbus connections must not lock a new client out. At modbus.max_clients the
 // new connection evicts the one idle longest; the new client is answered at once.
 TEST(Daemon, HundredsOfIdleModbusConnectionsDoNotLockOthersOut) {
   raise_nofile(4096);
@@ -371,7 +372,8 @@ TEST(Daemon, StoredSyncTimeSurvivesARestartThroughTheStateFile) {
   TempDir tmp;
   json j = manual_514();
   j["state_file"] = tmp.file("state.json");
-  // CANopen master: Set_Prm SYNC time 250 ms is stored (emulator-spec §1.1, manual table 5.1.4).
+  // CANopen master: Set_Prm SYNC time 250 ms is stored (docs/dp-slave.md "User parameters", manual
+  // table 5.1.4).
   j["gateways"][0]["parameters"] = {{"canopen", "master"}, {"wakeup_s", 0}, {"sync_ms", 250}};
   {
     Running d(load(j));
@@ -549,7 +551,7 @@ TEST(Daemon, GatewaysOnARemoteSocketcandBus) {
   EXPECT_EQ(count(" far 289#020106050403\n"), 1u) << text;
 }
 
-// Issue 12: the socketcand server behind a `socketcand` bus restarts; the client reconnects with
+// The socketcand server behind a `socketcand` bus restarts; the client reconnects with
 // backoff, shows bus-off while disconnected (status block, LED C 'O'), and traffic resumes.
 TEST(Daemon, SocketcandBusReconnectsAfterTheServerRestarts) {
   EventLoop remote_loop;

@@ -87,7 +87,8 @@ TEST(SlotStats, CountsPerConfiguredSlot) {
   Sink sink;
   std::array<std::uint8_t, 2> out{1, 2}, in{};
   e.on_release(Time{1000}, sink);
-  e.on_outputs(out, sink, Time{2000});  // first data: sent (emulator-spec §4)
+  e.on_outputs(out, sink, Time{2000});  // first data: sent
+                                        // (docs/slots.md "Data exchange in normal mode")
   e.on_outputs(out, sink, Time{3000});  // unchanged: not sent
   out[1] = 3;
   e.on_outputs(out, sink, Time{4000});  // changed: sent

@@ -1,4 +1,4 @@
-// The eviction and idle-timeout policy both servers use (common/idle_clients.hpp, issue 12).
+// The eviction and idle-timeout policy both servers use (common/idle_clients.hpp).
 #include "common/idle_clients.hpp"
 
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
 // libFuzzer target: arbitrary TCP byte streams through the Modbus/TCP framing, the request decoder
-// and the emulator-spec §8 map. Whatever the bytes, nothing crashes, every framed request gets
+// and the docs/modbus.md map. Whatever the bytes, nothing crashes, every framed request gets
 // either an answer or one of the four exceptions, and a refused request changes no image byte.
 #include <cstdint>
 #include <cstdlib>

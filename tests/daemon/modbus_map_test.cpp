@@ -1,4 +1,4 @@
-// The Modbus/TCP map of emulator-spec §8 without sockets: MBAP framing, request decoding with the
+// The Modbus/TCP map of docs/modbus.md without sockets: MBAP framing, request decoding with the
 // MB spec's exceptions (boundary values 0 and max+1 for every function code), and the process
 // image / status block / control register rules.
 #include "modbus/modbus_map.hpp"
@@ -239,7 +239,7 @@ struct MapFixture : ::testing::Test {
 };
 
 TEST_F(MapFixture, HoldingRegistersAreTheOutputImageBigEndian) {
-  // Manual §5.1.4 output slot at Q 172..177 = holding registers 86..88 (emulator-spec §8).
+  // Manual §5.1.4 output slot at Q 172..177 = holding registers 86..88 (docs/modbus.md).
   ASSERT_EQ(run(5, write_regs(86, {0x0A0B, 0x0C0D, 0x0E0F})), std::nullopt);
   EXPECT_EQ(image.outputs[172], 0x0A);
   EXPECT_EQ(image.outputs[173], 0x0B);
@@ -260,7 +260,7 @@ TEST_F(MapFixture, InputRegistersAreTheInputImage) {
 }
 
 TEST_F(MapFixture, CoilsAndDiscreteInputsAreImageBits) {
-  // Bit b = byte b/8, bit b%8 (emulator-spec §8).
+  // Bit b = byte b/8, bit b%8 (docs/modbus.md).
   ASSERT_EQ(run(5, {0x05, hi(1377), lo(1377), 0xFF, 0x00}), std::nullopt);
   EXPECT_EQ(image.outputs[172], 0x02);
   ASSERT_EQ(run(5, {0x0F, hi(1380), lo(1380), 0, 10, 2, 0xFF, 0x01}), std::nullopt);
@@ -301,7 +301,7 @@ TEST_F(MapFixture, AddressBoundaries) {
 }
 
 TEST_F(MapFixture, RoleSlavesOutputImageIsReadOnly) {
-  // emulator-spec §10 role slaves: the output image is what the external master sent; writes to
+  // docs/profibus.md role slaves: the output image is what the external master sent; writes to
   // it get exception 0x04, reads, the status block and the control register still work.
   image.outputs[172] = 0x11;
   map.set_outputs_read_only(true);
@@ -319,7 +319,7 @@ TEST_F(MapFixture, RoleSlavesOutputImageIsReadOnly) {
 }
 
 TEST_F(MapFixture, RefusedControlCommandIsException04AndNotExecuted) {
-  // emulator-spec §10 role master: a power cycle cannot reach a remote station (docs/modbus.md):
+  // docs/profibus.md role master: a power cycle cannot reach a remote station (docs/modbus.md):
   // exception 0x04, the command is not carried out and the register keeps its last value.
   gw5.refused = Control::PowerCycle;
   ASSERT_EQ(run(5, write_regs(8192, {2})), std::nullopt);
@@ -339,7 +339,7 @@ TEST_F(MapFixture, UnitIdsSelectTheGatewayOfStatusAndControl) {
   ASSERT_EQ(run(6, pdu(0x04, 8192, 2)), std::nullopt);
   EXPECT_EQ(out.registers[0], 600);
   EXPECT_EQ(out.registers[1], 601);
-  // emulator-spec §8: unit IDs 0 and 255 address the first configured gateway.
+  // docs/modbus.md: unit IDs 0 and 255 address the first configured gateway.
   for (std::uint8_t unit : {0, 255}) {
     ASSERT_EQ(run(unit, pdu(0x04, 8192, 1)), std::nullopt);
     EXPECT_EQ(out.registers[0], 500);

@@ -75,7 +75,7 @@ TEST_F(ServerFixture, WritesAndReadsThroughLibmodbus) {
   EXPECT_EQ(std::get<0>(s)[0], 5);
   std::uint8_t bits[16];
   ASSERT_EQ(modbus_read_bits(c.ctx(), 1376, 16, bits), 16);
-  // Byte 172 = 0x0A = 0000 1010: bits 1 and 3 (emulator-spec §8: bit b = byte b/8, bit b%8).
+  // Byte 172 = 0x0A = 0000 1010: bits 1 and 3 (docs/modbus.md: bit b = byte b/8, bit b%8).
   EXPECT_EQ(std::vector<std::uint8_t>(bits, bits + 8),
             (std::vector<std::uint8_t>{0, 1, 0, 1, 0, 0, 0, 0}));
   ASSERT_EQ(modbus_write_bit(c.ctx(), 1376, 1), 1);
@@ -92,7 +92,7 @@ TEST_F(ServerFixture, WritesAndReadsThroughLibmodbus) {
 
 TEST_F(ServerFixture, ExceptionsOnTheWireAndTheServerServesOn) {
   ModbusClient c(port, 5);
-  // emulator-spec §8: outside the tables → 0x02; unknown unit → 0x0B.
+  // docs/modbus.md: outside the tables → 0x02; unknown unit → 0x0B.
   EXPECT_EQ(std::get<int>(c.read_holding(4096, 1)), EMBXILADD);
   EXPECT_EQ(std::get<int>(c.read_input(kDiagnosisBase + kDiagnosisRegisters, 1)), EMBXILADD);
   EXPECT_EQ(c.write_one(8192, 9), EMBXILVAL);
@@ -189,7 +189,7 @@ TEST_F(ServerFixture, ManyClientsAtOnce) {
 }
 
 TEST_F(ServerFixture, ClientLimitEvictsTheClientIdleLongest) {
-  // Issue 12: at max_clients a new connection evicts the client idle longest.
+  // At max_clients a new connection evicts the client idle longest.
   std::vector<std::unique_ptr<ModbusClient>> clients;
   for (int i = 0; i < 4; ++i) clients.push_back(std::make_unique<ModbusClient>(port, 5));
   for (auto& c : clients)  // client 0 had its last request first: it is idle longest
