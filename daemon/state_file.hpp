@@ -1,5 +1,5 @@
 // The daemon's state file (docs/configuration.md `state_file`): the gateways' stored wake-up and
-// SYNC values across restarts of candp2d (docs/decisions.md "Stored values"):
+// SYNC values across restarts of candp2d (docs/dp-slave.md "User parameters"):
 //   {"gateways": {"5": {"wakeup_s": 0, "sync_ms": 100}}}
 #pragma once
 

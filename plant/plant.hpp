@@ -47,7 +47,7 @@ class MasterLine;
 class SlaveLine;
 class Plant;
 
-// A gateway's stored wake-up and SYNC values (docs/decisions.md "Stored values": they survive a
+// A gateway's stored wake-up and SYNC values (docs/dp-slave.md "User parameters": they survive a
 // restart of the daemon when a state file is configured).
 struct StoredValues {
   std::uint8_t wakeup_s = 0;

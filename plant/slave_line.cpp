@@ -90,7 +90,7 @@ void SlaveLine::sent(const fdl::Reply& reply, Time now) {
 }
 
 void SlaveLine::mirror(Station& st) {
-  // docs/profibus.md "Role slaves": the Modbus image shows what travels on the wire.
+  // docs/profibus.md "The line inside candp2d": the Modbus image shows what travels on the wire.
   const auto out = st.slave->outputs();
   const auto in = st.slave->inputs();
   for (const auto& m : st.map.out)

@@ -8,7 +8,7 @@
 //
 // After every answered request the station's process data are copied into the master's PLC image
 // at the configured addresses (outputs as received, inputs as sent), so the Modbus face shows what
-// travels on the wire (docs/profibus.md "Role slaves").
+// travels on the wire (docs/profibus.md "The line inside candp2d").
 #pragma once
 
 #include <cstdint>
@@ -28,7 +28,7 @@
 
 namespace candp2::plant {
 
-// The line figures the Modbus status block shows for one station (docs/modbus.md "line group").
+// The line figures the Modbus status block shows for one station (docs/modbus.md "Status block").
 struct LineStatus {
   std::uint16_t role = 0;  // 1 role slaves, 2 role master
   std::uint32_t telegrams = 0, fcs_errors = 0, other_errors = 0;

@@ -249,7 +249,7 @@ bool is_driver_step(Action a) {
          a == Action::SetTx || a == Action::ExpectRx || a == Action::ExpectRetValue;
 }
 
-// Steps about one gateway name it with "gateway" (docs/replay-format.md "Several gateways").
+// Steps about one gateway name it with "gateway" (docs/replay-format.md "Version 2").
 bool concerns_gateway(Action a) {
   return a != Action::Note && a != Action::Advance && a != Action::Cycles && a != Action::Inject &&
          !is_drive_step(a) && !is_driver_step(a) && !is_slave_step(a);
