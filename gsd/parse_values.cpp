@@ -73,7 +73,11 @@ void Parser::setting(const Stmt& st) {
       break;
   }
   std::string id = detail::lower(st.key);
-  if (st.index) id += "(" + std::to_string(*st.index) + ")";
+  if (st.index) {
+    id += '(';  // chars, not `"(" + ...`: GCC 12 -O3 false -Wrestrict
+    id += std::to_string(*st.index);
+    id += ')';
+  }
   auto [it, fresh] = seen_.emplace(id, st.line);
   if (!fresh)
     warn(st.line, "duplicate keyword " + quote(st.key) + " (first at line " +

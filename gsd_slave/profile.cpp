@@ -33,7 +33,10 @@ std::string Profile::name() const {
   char ident[8];
   std::snprintf(ident, sizeof ident, "0x%04X", static_cast<unsigned>(ident_number));
   std::string s = trim(vendor);
-  if (!trim(model).empty()) s += (s.empty() ? "" : " ") + trim(model);
+  if (const std::string m = trim(model); !m.empty()) {
+    if (!s.empty()) s += ' ';  // chars, not `" " + m`: GCC 12 -O3 false -Wrestrict
+    s += m;
+  }
   return s + ", Ident_Number " + ident;
 }
 

@@ -122,7 +122,10 @@ std::string Step::describe_action() const {
       return s + " Q" + std::to_string(address) + ": " + hex_bytes(bytes);
     case Action::Inject: {
       std::string f;
-      for (const auto& fr : frames) f += (f.empty() ? "" : " ") + can::format_candump(fr);
+      for (const auto& fr : frames) {
+        if (!f.empty()) f += ' ';  // not `" " + ...`: GCC 12 -O3 false -Wrestrict
+        f += can::format_candump(fr);
+      }
       return s + " " + f;
     }
     case Action::ExpectFrame:
@@ -186,7 +189,9 @@ std::string Step::describe_action() const {
     case Action::SlaveCfgFault:
       return s + (on ? " true" : " false");
     case Action::SlaveAlarm:
-      return s + (bytes.empty() ? " cleared" : " " + hex_bytes(bytes));
+      if (bytes.empty()) return s + " cleared";
+      s += ' ';  // not `" " + ...`: GCC 12 -O3 false -Wrestrict
+      return s + hex_bytes(bytes);
     case Action::FieldWrite:
       return s + " +" + std::to_string(offset) + ": " + hex_bytes(bytes);
     case Action::ExpectField:
