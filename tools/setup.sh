@@ -151,8 +151,15 @@ run_fuzzers() {
   [ "$ran" -gt 0 ] && [ "$failed" -eq 0 ]
 }
 
+# The names of the tests ctest recorded as failed in build directory $1, on one line.
+ctest_failed() {
+  local log=$1/Testing/Temporary/LastTestsFailed.log
+  if [ -f "$log" ]; then cut -d: -f2- "$log" | tr '\n' ' '; else echo "(no list)"; fi
+}
+
 run_tests() {
   local status=0
+  local failures=()  # one line per failed stage, repeated at the very end (CI shows the tail)
   local t=$SECONDS
   echo "== the run command's build (Release) and its smoke test"
   # A user's build must be warning-free too, though warnings do not stop it there:
@@ -162,33 +169,46 @@ run_tests() {
   if build_release 2>&1 | tee "$release_log"; then
     if grep -q "warning:" "$release_log"; then
       echo "setup: the Release build printed compiler warnings (see above)"
+      failures+=("Release build: compiler warnings: $(grep -m3 'warning:' "$release_log" | tr '\n' ' ')")
       status=1
     fi
   else
+    failures+=("Release build failed")
     status=1
   fi
-  /usr/bin/python3 tests/e2e/run_smoke.py --candp2d "$release_dir/bin/candp2d" || status=1
+  /usr/bin/python3 tests/e2e/run_smoke.py --candp2d "$release_dir/bin/candp2d" ||
+    { failures+=("smoke test of the Release candp2d"); status=1; }
   echo "setup: Release build and smoke test took $((SECONDS - t)) s"
 
   t=$SECONDS
   echo "== the Debian package (dist/), tested by ctest's deb_package"
-  packaging/deb/build-deb.sh "$release_dir" dist || status=1
+  packaging/deb/build-deb.sh "$release_dir" dist || { failures+=("Debian package build"); status=1; }
   echo "setup: Debian package took $((SECONDS - t)) s"
 
   echo "== build and all tests (unit, e2e, replay, systemd, package, qemu)"
   configure_build build -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCANDP2_WERROR=ON
-  ctest --test-dir build --output-on-failure -j "$jobs" --timeout 600 || status=1
+  if ! ctest --test-dir build --output-on-failure -j "$jobs" --timeout 600; then
+    failures+=("ctest (build): $(ctest_failed build)")
+    status=1
+  fi
 
   echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer"
   configure_build build-asan -DCMAKE_BUILD_TYPE=Debug -DCANDP2_SANITIZE=ON -DCANDP2_BENCH=OFF \
     -DCANDP2_APPS=OFF -DCANDP2_WERROR=ON
   ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
-    ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit --timeout 600 || status=1
+    ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit --timeout 600 ||
+    { failures+=("ctest under sanitizers (build-asan): $(ctest_failed build-asan)"); status=1; }
 
   echo "== libFuzzer targets, ${fuzz_seconds}s each"
-  run_fuzzers || status=1
+  run_fuzzers || { failures+=("fuzzers (see fuzz: lines above)"); status=1; }
 
-  if [ $status -eq 0 ]; then echo "setup: ALL TESTS PASSED"; else echo "setup: SOME TESTS FAILED"; fi
+  if [ $status -eq 0 ]; then
+    echo "setup: ALL TESTS PASSED"
+  else
+    local f
+    for f in "${failures[@]}"; do echo "setup: FAILED: $f"; done
+    echo "setup: SOME TESTS FAILED"
+  fi
   return $status
 }
 
