@@ -181,7 +181,9 @@ inline constexpr std::uint16_t kRxSuppressed = 60;  // 60-61 not received in a f
 inline constexpr std::uint16_t kRxDropRemaining = 62;  // holding register 8194 (saturates 0xFFFF)
 inline constexpr std::uint16_t kAddressed = 63;   // 1 = the master addresses it, 0 = stopped (3)
 inline constexpr std::uint16_t kReconnects = 64;  // 64-65 socketcand client reconnections
-inline constexpr std::uint16_t kCount = 66;
+// The DP master's cycle (docs/daemon.md "Cycle timing"): the same value in every gateway's block.
+inline constexpr std::uint16_t kCyclesMissed = 66;  // 66-67 grid points without a master cycle
+inline constexpr std::uint16_t kCount = 68;
 }  // namespace status
 
 // LED codes in the status block (manual §3.3, table 3.3.1).
@@ -254,6 +256,7 @@ struct StatusInputs {
   std::uint32_t rx_suppressed = 0;
   std::uint32_t rx_drop_remaining = 0;
   std::uint32_t reconnects = 0;
+  std::uint64_t cycles_missed = 0;  // the master's (saturates at 2^32 - 1)
 };
 StatusBlock encode_status(const StatusInputs& in);
 
