@@ -363,8 +363,8 @@ StatusBlock encode_status(const StatusInputs& in) {
       static_cast<std::uint16_t>(std::min<std::uint32_t>(in.rx_drop_remaining, 0xFFFF));
   b[kAddressed] = in.addressed ? 1 : 0;
   put32(kReconnects, in.reconnects);
-  put32(kCyclesMissed, static_cast<std::uint32_t>(std::min<std::uint64_t>(in.cycles_missed,
-                                                                          0xFFFFFFFFu)));
+  put32(kCyclesMissed,
+        static_cast<std::uint32_t>(std::min<std::uint64_t>(in.cycles_missed, 0xFFFFFFFFu)));
   return b;
 }
 

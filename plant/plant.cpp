@@ -244,6 +244,12 @@ void Plant::advance(Time now) {
 }
 
 void Plant::run_cycle(Time now) {
+  // The grid starts with the first cycle: the time between building the plant and its driver's
+  // first turn (candp2d opening its listeners) is no lateness.
+  if (!grid_started_) {
+    grid_started_ = true;
+    next_cycle_ = std::max(next_cycle_, now);
+  }
   // A cycle whose grid point is more than one period past is not caught up: the grid points in
   // between are missed (counted, docs/daemon.md "Cycle timing"), and this cycle is as late as
   // its own grid point says.
@@ -268,8 +274,9 @@ void Plant::run_cycle(Time now) {
 // One line when a run of missed cycles starts and one when it ends: after a second without a
 // miss, with the count (docs/daemon.md "Cycle timing").
 void Plant::log_misses(Time due, Time now, std::uint64_t missed) {
-  auto ms = [](Duration d) { return std::to_string(d.count() / 1000) + "." +
-                                    std::to_string(d.count() % 1000 / 100) + " ms"; };
+  auto ms = [](Duration d) {
+    return std::to_string(d.count() / 1000) + "." + std::to_string(d.count() % 1000 / 100) + " ms";
+  };
   if (missed > 0) {
     if (!miss_run_) {
       miss_run_ = MissRun{now, now, 0};

@@ -259,6 +259,7 @@ class Plant {
   bool master_cycles_ = true;
   Duration period_{0};
   Time next_cycle_{0};
+  bool grid_started_ = false;  // the first cycle ran (it anchors the grid)
   std::uint64_t cycles_ = 0;
   CycleStats cycle_stats_;
   struct MissRun {

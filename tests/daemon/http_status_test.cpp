@@ -30,7 +30,7 @@ TEST(CycleStats, LatenessAgainstTheGrid) {
   EXPECT_EQ(sum.samples, 5u);
   EXPECT_EQ(sum.max_us, 25'000u);
   EXPECT_EQ(sum.max_ever_us, 25'000u);
-  EXPECT_EQ(sum.p50_us, 150u);  // 0 30 150 2000 25000
+  EXPECT_EQ(sum.p50_us, 150u);   // 0 30 150 2000 25000
   EXPECT_EQ(sum.p99_us, 2000u);  // index floor(0.99 * 4) = 3
 }
 
@@ -171,6 +171,27 @@ TEST(HttpConfig, ListenKey) {
   auto clash = parse_with(R"("http": {"listen": "127.0.0.1:1502"},)");
   ASSERT_TRUE(std::holds_alternative<config::ConfigError>(clash));
   EXPECT_NE(std::get<config::ConfigError>(clash).message.find("already used"), std::string::npos);
+}
+
+TEST(HttpConfig, ClientLimits) {
+  auto dflt = parse_with(R"("http": {"listen": "127.0.0.1:8080"},)");
+  ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(dflt));
+  EXPECT_EQ(std::get<config::DaemonConfig>(dflt).http_max_clients, 64u);
+  EXPECT_EQ(std::get<config::DaemonConfig>(dflt).http_idle_timeout_s, 60u);
+
+  auto set = parse_with(
+      R"("http": {"listen": "127.0.0.1:8080", "max_clients": 1100, "idle_timeout_s": 0},)");
+  ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(set));
+  EXPECT_EQ(std::get<config::DaemonConfig>(set).http_max_clients, 1100u);
+  EXPECT_EQ(std::get<config::DaemonConfig>(set).http_idle_timeout_s, 0u);
+
+  for (const auto* bad : {R"("http": {"listen": "127.0.0.1:8080", "max_clients": 0},)",
+                          R"("http": {"listen": "127.0.0.1:8080", "max_clients": 10001},)",
+                          R"("http": {"listen": "127.0.0.1:8080", "idle_timeout_s": -1},)"}) {
+    auto r = parse_with(bad);
+    ASSERT_TRUE(std::holds_alternative<config::ConfigError>(r)) << bad;
+    EXPECT_EQ(std::get<config::ConfigError>(r).json_path.rfind("$.http.", 0), 0u) << bad;
+  }
 }
 
 }  // namespace

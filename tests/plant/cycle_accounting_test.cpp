@@ -82,6 +82,15 @@ TEST_F(Fixture, AnOverrunCountsAsLatenessAndMissedGridPoints) {
   EXPECT_EQ(s.cycles + s.missed, 140u);  // every grid point 10 ms .. 1400 ms, run or missed
 }
 
+TEST_F(Fixture, TheGridStartsWithTheFirstCycle) {
+  // The driver's first turn comes 35 ms after the plant was built (candp2d opening its
+  // listeners): no miss, and the grid runs from there.
+  plant->advance(Time{35'000});
+  EXPECT_EQ(plant->cycle_stats().missed(), 0u);
+  EXPECT_EQ(plant->cycle_stats().summary().max_us, 0u);
+  EXPECT_EQ(plant->next_cycle(), Time{45'000});
+}
+
 TEST_F(Fixture, OnePeriodLateIsOneMiss) {
   run_until(Time{100'000});
   plant->advance(Time{120'000});  // due 110 ms, run at 120 ms: 120 ms is missed
