@@ -34,13 +34,15 @@ class ClientTable {
 
   struct Admission {
     Id id = 0;
-    std::optional<Id> evict;  // close this one first (already removed from the table)
+    std::optional<Id> evict;         // close this one first (already removed from the table)
+    bool evict_was_waiting = false;  // else it was the oldest busy connection
   };
   // A connection accepted at `now`: it waits for its first request.
   Admission admit(Time now) {
     Admission a;
     if (size() >= max_) {
       a.evict = waiting_.longest_idle();
+      a.evict_was_waiting = a.evict.has_value();
       if (!a.evict && !busy_.empty()) a.evict = busy_.begin()->second;
       if (a.evict) remove(*a.evict);
     }

@@ -237,7 +237,9 @@ class HttpServerImpl final : public HttpServer {
       ++counters.clients_evicted;
       close_conn(*a.evict,
                  "evicted for a new connection (http.max_clients " +
-                     std::to_string(options_.max_clients) + ", waiting longest)",
+                     std::to_string(options_.max_clients) + ", " +
+                     (a.evict_was_waiting ? "waited longest for a request)"
+                                          : "every connection busy, oldest request)"),
                  evicted_log_);
     }
     auto owned = std::make_unique<Conn>();
@@ -245,15 +247,17 @@ class HttpServerImpl final : public HttpServer {
     c->id = a.id;
     c->fd = fd;
     c->peer = net::peer_name(peer);
+    const std::string name = c->peer;  // c is gone when libmicrohttpd refuses after STARTED
     conns_[a.id] = std::move(owned);
     adding_ = c;
     const auto ok = MHD_add_connection(daemon_, fd, reinterpret_cast<const sockaddr*>(&peer),
                                        sizeof peer);  // closes fd on failure
+    const int add_errno = errno;
     adding_ = nullptr;
     if (ok != MHD_YES) {
       ++counters.clients_refused;
       note(refused_log_,
-           "connection from " + c->peer + " refused by libmicrohttpd: " + std::strerror(errno),
+           "connection from " + name + " refused by libmicrohttpd: " + std::strerror(add_errno),
            LogLevel::Warn);
       if (conns_.count(a.id)) forget(a.id);  // no CLOSED notification came
       return;

@@ -41,7 +41,9 @@ class HttpServer {
     Duration push_interval = milliseconds(200);  // live-view rounds at most this often
     std::size_t max_clients = 64;                // http.max_clients
     Duration idle_timeout = seconds(60);         // http.idle_timeout_s; 0 = never
-    int backlog = 128;  // connection bursts queue instead of retrying SYNs after 1 s
+    // A burst of a thousand connections queues in the kernel instead of SYNs being dropped and
+    // retried a second later (candp2d accepts 64 a loop turn); Linux caps it at somaxconn.
+    int backlog = 1024;
     // The master's cycle: snapshot work gets a quarter of it per loop turn (100 µs .. 2 ms).
     Duration cycle = milliseconds(10);
     // When the next master cycle is due; snapshot work outside after_cycle() runs only when it is

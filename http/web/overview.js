@@ -67,6 +67,7 @@ function closePanel() {
 function renderPanel(s) {
   if (!open || s.open !== open.addr) return;
   if (s.panel) open.head = s.panel;
+  if (s.full && open.bus) { open.bus.lastSeq = 0; open.bus.frames = []; }  // a new stream: new numbering
   for (const row of s.slots || []) open.rows[row.slot] = row;
   if (!open.head) return;
   if (!open.panel) open.panel = makePanel(open.head);

@@ -29,6 +29,7 @@ TEST(ClientTable, AtTheLimitTheConnectionWaitingLongestGoes) {
   const auto d = t.admit(Time{3000});
   ASSERT_TRUE(d.evict);
   EXPECT_EQ(*d.evict, b);  // waiting since 1000
+  EXPECT_TRUE(d.evict_was_waiting);
   EXPECT_FALSE(t.contains(b));
   EXPECT_EQ(t.size(), 3u);
   // c finishes a request later than d was accepted: d now waits longest.
@@ -48,6 +49,7 @@ TEST(ClientTable, WhenEveryConnectionIsBusyTheOldestRequestGoes) {
   const auto c = t.admit(Time{10});
   ASSERT_TRUE(c.evict);
   EXPECT_EQ(*c.evict, b);
+  EXPECT_FALSE(c.evict_was_waiting);
   EXPECT_EQ(t.busy(), 1u);
 }
 
