@@ -82,9 +82,10 @@ struct StreamContext {
 class Throttle {
  public:
   // True when this occurrence is to be logged; *more = suppressed ones since the last line.
-  bool pass(Time now, std::uint64_t* more) {
+  bool pass(Time now, const std::string& line, std::uint64_t* more) {
     if (last_ != Time{0} && now - last_ < seconds(1)) {
       ++suppressed_;
+      last_line_ = line;
       return false;
     }
     last_ = now;
@@ -92,11 +93,20 @@ class Throttle {
     suppressed_ = 0;
     return true;
   }
+  // The suppressed count and the last suppressed line, cleared (the timer's summary).
+  std::uint64_t flush(Time now, std::string* line) {
+    const auto n = suppressed_;
+    suppressed_ = 0;
+    last_ = now;
+    *line = std::move(last_line_);
+    return n;
+  }
   std::uint64_t suppressed() const { return suppressed_; }
 
  private:
   Time last_{0};
   std::uint64_t suppressed_ = 0;
+  std::string last_line_;
 };
 
 class HttpServerImpl final : public HttpServer {
@@ -119,7 +129,7 @@ class HttpServerImpl final : public HttpServer {
       // MHD: suspended connections must be resumed before MHD_stop_daemon; the streams end.
       closing_ = true;
       for (auto& [s, stream] : streams_)
-        if (stream->suspended) {
+        if (stream->suspended && stream->conn) {
           stream->suspended = false;
           MHD_resume_connection(stream->conn->mhd);
         }
@@ -294,17 +304,19 @@ class HttpServerImpl final : public HttpServer {
   }
 
   void note(Throttle& throttle, const std::string& line, LogLevel level = LogLevel::Info) {
+    if (closing_) return;
     std::uint64_t more = 0;
-    if (throttle.pass(loop_.now(), &more)) {
-      log_.log(level, more ? line + " (and " + std::to_string(more) + " more like it)" : line);
+    if (throttle.pass(loop_.now(), line, &more)) {
+      log_.log(level, more ? line + " (and " + std::to_string(more) + " more like it before)"
+                           : line);
     } else if (!log_timer_) {
       log_timer_ = loop_.add_timer(seconds(1), [this] {
         log_timer_ = 0;
         for (auto* t : {&evicted_log_, &idle_log_, &refused_log_, &mhd_log_})
           if (t->suppressed()) {
-            std::uint64_t more = 0;
-            t->pass(loop_.now(), &more);
-            log_.info(std::to_string(more) + " more like the last line in the last second");
+            std::string last;
+            const auto n = t->flush(loop_.now(), &last);
+            log_.info(std::to_string(n) + " more in the last second, the last: " + last);
           }
       });
     }
@@ -386,6 +398,7 @@ class HttpServerImpl final : public HttpServer {
       *req_cls = nullptr;
       self.pending_.remove_if([p](const Pending& x) { return &x == p; });
     }
+    if (self.closing_) return;  // MHD_stop_daemon: no timers any more
     if (Conn* c = conn_of(connection); c && !c->closing) {
       self.table_.request_done(c->id, self.loop_.now());
       self.arm_idle_timer();
