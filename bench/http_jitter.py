@@ -10,7 +10,9 @@ the 10 ms grid point: p50, p99, max) from GET /api/v1/status:
 
   phase "none":    no HTTP clients;
   phase "clients": --sse plain SSE clients reading /api/v1/events, plus one headless chromium
-                   showing the page (--no-chromium to leave it out).
+                   showing the page, the overview (--no-chromium to leave it out).
+
+bench/http_load.py (issue 18) measures missed cycles, 122 x 48 slots and 1/2/10 ms as well.
 
 Usage: bench/http_jitter.py --candp2d build/bin/candp2d [--gateways 122] [--seconds 45] [--fifo]
 """
@@ -133,7 +135,7 @@ def main():
                    "loadavg": os.getloadavg()[0]}
             if browser:
                 row["chromium_shows_gateways"] = browser.evaluate(
-                    "document.querySelectorAll('article.gw').length")
+                    "document.querySelectorAll('#tiles .tile').length")
                 browser.close()
             for r in readers:
                 r.stop = True

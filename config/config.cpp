@@ -242,8 +242,10 @@ void parse_settings(const Object& top, const std::string& file, DaemonConfig& c)
     c.modbus_idle_timeout_s = get_uint<std::uint32_t>(o, "idle_timeout_s", 60, 0, 86400, "s");
   }
   if (const json* h = top.find("http")) {
-    const Object o(*h, top.path("http"), {"listen"});
+    const Object o(*h, top.path("http"), {"listen", "max_clients", "idle_timeout_s"});
     if (const json* l = o.find("listen")) c.http_listen = get_endpoint(*l, o.path("listen"));
+    c.http_max_clients = get_uint<std::uint32_t>(o, "max_clients", 64, 1, 10000);
+    c.http_idle_timeout_s = get_uint<std::uint32_t>(o, "idle_timeout_s", 60, 0, 86400, "s");
   }
   if (const json* m = top.find("master")) {
     const Object o(*m, top.path("master"), {"address", "cycle_ms", "retry_ms"});

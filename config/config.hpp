@@ -129,6 +129,8 @@ struct DaemonConfig {
   std::string file;  // where it was loaded from
   Endpoint modbus_listen{"127.0.0.1", 1502};
   std::optional<Endpoint> http_listen;       // status page, JSON API, /metrics (absent = off)
+  std::uint32_t http_max_clients = 64;       // at the limit the connection waiting longest goes
+  std::uint32_t http_idle_timeout_s = 60;    // close connections without a request; 0 = never
   std::uint32_t modbus_max_clients = 64;     // at the limit the client idle longest is evicted
   std::uint32_t modbus_idle_timeout_s = 60;  // close clients silent this long; 0 = never
   std::uint8_t master_address = 1;

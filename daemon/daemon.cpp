@@ -377,8 +377,13 @@ bool DaemonImpl::start_http(std::string* error) {
   status_model_ = std::make_unique<http::StatusModel>(std::move(src));
   std::string e;
   http_ = http::HttpServer::listen(
-      {.host = at.host, .port = at.port, .status_after_cycle = config_.cycle_ms <= 100}, loop_,
-      *status_model_, log_sink_, &e);
+      {.host = at.host,
+       .port = at.port,
+       .max_clients = config_.http_max_clients,
+       .idle_timeout = seconds(config_.http_idle_timeout_s),
+       .cycle = milliseconds(config_.cycle_ms),
+       .next_cycle = [this]() -> std::optional<Time> { return plant_->next_cycle(); }},
+      loop_, *status_model_, log_sink_, &e);
   if (!http_) {
     *error = "HTTP ($.http.listen): " + e;
     return false;

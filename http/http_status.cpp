@@ -1,9 +1,11 @@
 #include "http/http_status.hpp"
 
+#include <array>
+#include <cmath>
 #include <cstdio>
-#include <sstream>
 
 #include "drive_sim/unitek_drive.hpp"
+#include "http/documents.hpp"
 
 namespace candp2::http {
 
@@ -41,6 +43,25 @@ double ms_since(Time now, Time then) {
   return static_cast<double>((now - then).count()) / 1000.0;
 }
 
+// The one line a tile shows when something is wrong, from the status block (docs/modbus.md):
+// the diagnosis' Prm/Cfg fault (manual §3.4), a CAN controller state other than ok, a master that
+// stopped addressing the gateway. Empty when all is well.
+std::string fault_text(const modbus::StatusBlock& b) {
+  using namespace modbus::status;
+  const auto d = [&](int i) { return b[kDiag + i]; };
+  if (d(8) == 0x3D)
+    return "Prm fault: byte " + std::to_string(d(9)) + ", expected 0x" +
+           hex_bytes(std::array{static_cast<std::uint8_t>(d(10))});
+  if (d(8) == 0x3E)
+    return "Cfg fault: slot " + std::to_string(d(9)) + ", code " + std::to_string(d(10));
+  if (d(0) & 0x04) return "Cfg fault";
+  if (d(0) & 0x40) return "Prm fault";
+  static constexpr const char* kBus[] = {"", "CAN warning", "CAN error-passive", "CAN bus-off"};
+  if (b[kBusState] >= 1 && b[kBusState] <= 3) return kBus[b[kBusState]];
+  if (b[kAddressed] == 0) return "not addressed by the master";
+  return "";
+}
+
 }  // namespace
 
 std::uint32_t frame_bits_stuffed(const can::Frame& f) {
@@ -59,7 +80,7 @@ void BusMonitor::on_frame(const can::Frame& f, Time now) {
 }
 
 StatusModel::StatusModel(StatusSources sources)
-    : src_(std::move(sources)), load_(src_.buses.size()) {
+    : src_(std::move(sources)), rates_(src_.gateways.size()), load_(src_.buses.size()) {
   for (const auto& g : src_.gateways)
     addresses_.push_back(config::slave_parameters(*g.cfg).addresses);
 }
@@ -84,7 +105,7 @@ void StatusModel::update_load(Time now) {
   }
 }
 
-json StatusModel::gateway_json(std::size_t index, Time now) const {
+json StatusModel::gateway_head(std::size_t index, Time now) const {
   const GatewaySource& g = src_.gateways[index];
   using namespace modbus::status;
   const auto block = g.face->status(now);
@@ -145,213 +166,208 @@ json StatusModel::gateway_json(std::size_t index, Time now) const {
       {"state", cfg && cfg->page_mode ? std::string(gw::to_string(g.gateway->page_mode().state()))
                                       : std::string()},
       {"pages_processed", g.gateway->page_mode().pages_processed()}};
-
-  json slots = json::array();
-  if (cfg && src_.master) {
-    const auto& addresses = addresses_[index];
-    const auto& stats = g.gateway->slot_engine().slot_stats();
-    const auto& image = src_.master->image();
-    for (std::size_t i = 0; i < cfg->slots.size(); ++i) {
-      const gw::Slot& s = cfg->slots[i];
-      json e;
-      e["slot"] = s.index;
-      e["kind"] = std::string(gw::to_string(s.kind));
-      e["dir"] = std::string(direction(s.kind));
-      if (s.id) {
-        e["id"] = s.id->id;
-        e["extended"] = s.id->extended;
-      } else {
-        e["id"] = nullptr;
-        e["extended"] = false;
-      }
-      e["form"] = s.form;
-      e["cycle_ms"] = s.cycle_ms;
-      e["length"] = s.length;
-      e["counter"] = s.counter;
-      std::optional<std::uint16_t> plc;
-      if (s.index < addresses.size())
-        plc = s.is_input() ? addresses[s.index].input : addresses[s.index].output;
-      if (plc && *plc + s.length <= dp::kImageSize) {
-        e["plc"] = std::string(s.is_input() ? "I" : "Q") + std::to_string(*plc);
-        const auto* base = s.is_input() ? image.inputs.data() : image.outputs.data();
-        e["bytes"] = hex_bytes({base + *plc, s.length});
-      } else {
-        e["plc"] = nullptr;
-        e["bytes"] = "";
-      }
-      const auto stat = i < stats.size() ? stats[i] : gw::SlotEngine::SlotStats{};
-      e["frames"] = stat.frames;
-      if (stat.last)
-        e["age_ms"] = ms_since(now, *stat.last);
-      else
-        e["age_ms"] = nullptr;
-      slots.push_back(std::move(e));
-    }
-  }
-  j["slots"] = std::move(slots);
+  j["slot_count"] = slot_count(index);
   return j;
 }
 
-json StatusModel::status(Time now) {
-  update_load(now);
+std::size_t StatusModel::slot_count(std::size_t index) const {
+  const auto& cfg = src_.gateways[index].gateway->slot_config();
+  return cfg && src_.master ? cfg->slots.size() : 0;
+}
+
+json StatusModel::slot_json(std::size_t index, std::size_t i, Time now, bool age) const {
+  const GatewaySource& g = src_.gateways[index];
+  const auto& cfg = g.gateway->slot_config();
+  if (!cfg || !src_.master || i >= cfg->slots.size()) return nullptr;
+  const auto& addresses = addresses_[index];
+  const auto& stats = g.gateway->slot_engine().slot_stats();
+  const auto& image = src_.master->image();
+  const gw::Slot& s = cfg->slots[i];
+  json e;
+  e["slot"] = s.index;
+  e["kind"] = std::string(gw::to_string(s.kind));
+  e["dir"] = std::string(direction(s.kind));
+  if (s.id) {
+    e["id"] = s.id->id;
+    e["extended"] = s.id->extended;
+  } else {
+    e["id"] = nullptr;
+    e["extended"] = false;
+  }
+  e["form"] = s.form;
+  e["cycle_ms"] = s.cycle_ms;
+  e["length"] = s.length;
+  e["counter"] = s.counter;
+  std::optional<std::uint16_t> plc;
+  if (s.index < addresses.size())
+    plc = s.is_input() ? addresses[s.index].input : addresses[s.index].output;
+  if (plc && *plc + s.length <= dp::kImageSize) {
+    e["plc"] = std::string(s.is_input() ? "I" : "Q") + std::to_string(*plc);
+    const auto* base = s.is_input() ? image.inputs.data() : image.outputs.data();
+    e["bytes"] = hex_bytes({base + *plc, s.length});
+  } else {
+    e["plc"] = nullptr;
+    e["bytes"] = "";
+  }
+  const auto stat = i < stats.size() ? stats[i] : gw::SlotEngine::SlotStats{};
+  e["frames"] = stat.frames;
+  if (age)
+    e["age_ms"] = stat.last ? json(ms_since(now, *stat.last)) : json(nullptr);
+  else
+    e["last_ms"] =
+        stat.last ? json(static_cast<double>(stat.last->count()) / 1000.0) : json(nullptr);
+  return e;
+}
+
+json StatusModel::tile(std::size_t index, Time now) {
+  const GatewaySource& g = src_.gateways[index];
+  using namespace modbus::status;
+  const auto block = g.face->status(now);
+  Rate& r = rates_[index];
+  const std::uint32_t rx = get32(block, kRxFrames), tx = get32(block, kTxFrames);
+  if (r.start == Time{0} || rx < r.rx || tx < r.tx) {  // first look, or a power cycle
+    r = {now, rx, tx, 0, 0};
+  } else if (now - r.start >= seconds(1)) {
+    const double s = static_cast<double>((now - r.start).count()) / 1e6;
+    r = {now, rx, tx, (rx - r.rx) / s, (tx - r.tx) / s};
+  }
   json j;
-  j["version"] = 1;
-  j["time_ms"] = static_cast<double>(now.count()) / 1000.0;
+  j["dp_address"] = block[kDpAddress];
+  j["name"] = g.cfg->name;
+  j["bus"] = g.cfg->bus;
+  j["leds"] = {{"P", block[kLedP]}, {"D", block[kLedD]}, {"E", block[kLedE]}, {"C", block[kLedC]}};
+  j["dp_state"] = std::string(dp::to_string(static_cast<dp::SlaveState>(block[kDpState])));
+  j["fault"] = fault_text(block);
+  // Whole frames/s: a tile changes only when something a viewer can see changes.
+  j["fps"] = {{"rx", std::lround(r.rx_fps)}, {"tx", std::lround(r.tx_fps)}};
+  return j;
+}
+
+json StatusModel::cycle_json() const {
   json cycle = {{"period_ms", src_.cycle_ms}};
   if (src_.cycle) {
     const auto s = src_.cycle->summary();
     cycle["cycles"] = s.cycles;
+    cycle["missed"] = s.missed;
     cycle["lateness_us"] = {{"samples", s.samples},
                             {"p50", s.p50_us},
                             {"p99", s.p99_us},
                             {"max", s.max_us},
                             {"max_ever", s.max_ever_us}};
   }
-  j["cycle"] = std::move(cycle);
-  if (src_.modbus) {
-    const auto& ms = src_.modbus->stats();
-    j["modbus"] = {{"requests", ms.requests},
-                   {"exceptions", ms.exceptions},
-                   {"clients", src_.modbus->client_count()},
-                   {"clients_accepted", ms.clients_accepted}};
-  }
-  j["http"] = {{"requests", http_.requests},
-               {"sse_clients", http_.sse_clients},
-               {"snapshots", http_.snapshots},
-               {"snapshots_dropped", http_.snapshots_dropped},
-               {"last_build_us", http_.last_build_us}};
-  json buses = json::array();
-  for (std::size_t i = 0; i < src_.buses.size(); ++i) {
-    const auto& b = src_.buses[i];
-    json e = {{"name", b.cfg->name},
-              {"type", std::string(config::to_string(b.cfg->type))},
-              {"bitrate", b.bitrate}};
-    if (b.monitor) {
-      e["frames"] = b.monitor->frames();
-      e["bits"] = b.monitor->bits();
-      e["load_pct"] = load_[i].load * 100.0;
-      e["frames_per_s"] = load_[i].fps;
-      json trace = json::array();
-      for (const auto& t : b.monitor->trace())
-        trace.push_back({{"seq", t.seq},
-                         {"t_ms", static_cast<double>(t.time.count()) / 1000.0},
-                         {"id", t.frame.id},
-                         {"ext", t.frame.extended},
-                         {"rtr", t.frame.remote},
-                         {"dlc", t.frame.dlc},
-                         {"data", hex_bytes(t.frame.payload())}});
-      e["trace"] = std::move(trace);
+  return cycle;
+}
+
+json StatusModel::modbus_json() const {
+  if (!src_.modbus) return nullptr;
+  const auto& ms = src_.modbus->stats();
+  return {{"requests", ms.requests},
+          {"exceptions", ms.exceptions},
+          {"clients", src_.modbus->client_count()},
+          {"clients_accepted", ms.clients_accepted}};
+}
+
+json StatusModel::http_json() const {
+  return {{"requests", http_.requests},
+          {"connections", http_.connections},
+          {"clients_accepted", http_.clients_accepted},
+          {"clients_evicted", http_.clients_evicted},
+          {"clients_timed_out", http_.clients_timed_out},
+          {"clients_refused", http_.clients_refused},
+          {"sse_clients", http_.sse_clients},
+          {"snapshots", http_.snapshots},
+          {"snapshots_dropped", http_.snapshots_dropped},
+          {"events", http_.events},
+          {"event_bytes", http_.event_bytes},
+          {"last_build_us", http_.last_build_us},
+          {"work_us_max", http_.work_us_max}};
+}
+
+json StatusModel::trace_frame(const BusMonitor::Traced& t) const {
+  return {{"seq", t.seq},
+          {"t_ms", static_cast<double>(t.time.count()) / 1000.0},
+          {"id", t.frame.id},
+          {"ext", t.frame.extended},
+          {"rtr", t.frame.remote},
+          {"dlc", t.frame.dlc},
+          {"data", hex_bytes(t.frame.payload())}};
+}
+
+json StatusModel::bus_json(std::size_t i, Time now, bool trace) {
+  update_load(now);
+  const auto& b = src_.buses[i];
+  json e = {{"name", b.cfg->name},
+            {"type", std::string(config::to_string(b.cfg->type))},
+            {"bitrate", b.bitrate}};
+  if (b.monitor) {
+    e["frames"] = b.monitor->frames();
+    e["bits"] = b.monitor->bits();
+    e["load_pct"] = load_[i].load * 100.0;
+    e["frames_per_s"] = load_[i].fps;
+    if (trace) {
+      json frames = json::array();
+      for (const auto& t : b.monitor->trace()) frames.push_back(trace_frame(t));
+      e["trace"] = std::move(frames);
     }
-    buses.push_back(std::move(e));
   }
+  return e;
+}
+
+json StatusModel::drive_json(std::size_t i) const {
+  const auto& d = src_.drives[i];
+  return {{"name", d.cfg->name},
+          {"bus", d.cfg->bus},
+          {"enabled", d.drive->enabled()},
+          {"mode", std::string(drive::to_string(d.drive->control_mode()))},
+          {"speed", d.drive->speed_actual()},
+          {"position", d.drive->position_actual()},
+          {"status", d.drive->status()}};
+}
+
+std::optional<std::size_t> StatusModel::bus_of(std::size_t gateway) const {
+  for (std::size_t b = 0; b < src_.buses.size(); ++b)
+    if (src_.buses[b].cfg->name == src_.gateways[gateway].cfg->bus && src_.buses[b].monitor)
+      return b;
+  return std::nullopt;
+}
+
+json StatusModel::status_head(Time now, bool parts) {
+  update_load(now);
+  json j;
+  j["version"] = 1;
+  j["time_ms"] = static_cast<double>(now.count()) / 1000.0;
+  j["cycle"] = cycle_json();
+  if (src_.modbus) j["modbus"] = modbus_json();
+  j["http"] = http_json();
+  if (!parts) return j;
+  json buses = json::array();
+  for (std::size_t i = 0; i < src_.buses.size(); ++i) buses.push_back(bus_json(i, now, true));
   j["buses"] = std::move(buses);
-  json gateways = json::array();
-  for (std::size_t i = 0; i < src_.gateways.size(); ++i) gateways.push_back(gateway_json(i, now));
-  j["gateways"] = std::move(gateways);
   json drives = json::array();
-  for (const auto& d : src_.drives)
-    drives.push_back({{"name", d.cfg->name},
-                      {"bus", d.cfg->bus},
-                      {"enabled", d.drive->enabled()},
-                      {"mode", std::string(drive::to_string(d.drive->control_mode()))},
-                      {"speed", d.drive->speed_actual()},
-                      {"position", d.drive->position_actual()},
-                      {"status", d.drive->status()}});
+  for (std::size_t i = 0; i < src_.drives.size(); ++i) drives.push_back(drive_json(i));
   j["drives"] = std::move(drives);
   return j;
 }
 
+json StatusModel::status(Time now) {
+  json j = status_head(now);
+  json gateways = json::array();
+  for (std::size_t i = 0; i < src_.gateways.size(); ++i) {
+    json g = gateway_head(i, now);
+    json slots = json::array();
+    for (std::size_t k = 0; k < slot_count(i); ++k) slots.push_back(slot_json(i, k, now, true));
+    g["slots"] = std::move(slots);
+    gateways.push_back(std::move(g));
+  }
+  j["gateways"] = std::move(gateways);
+  return j;
+}
+
 std::string StatusModel::metrics(Time now) {
-  update_load(now);
-  std::ostringstream out;
-  auto family = [&](std::string_view name, std::string_view type, std::string_view help) {
-    out << "# HELP " << name << ' ' << help << "\n# TYPE " << name << ' ' << type << '\n';
-  };
-  struct Row {
-    std::string labels;
-    modbus::StatusBlock block;
-  };
-  std::vector<Row> rows;
-  for (const auto& g : src_.gateways)
-    rows.push_back({"gateway=\"" + std::to_string(g.gateway->address()) + "\",bus=\"" + g.cfg->bus +
-                        "\",name=\"" + g.cfg->name + "\"",
-                    g.face->status(now)});
-  using namespace modbus::status;
-  auto per_gateway = [&](std::string_view name, std::string_view type, std::string_view help,
-                         auto value) {
-    family(name, type, help);
-    for (const auto& r : rows) out << name << '{' << r.labels << "} " << value(r.block) << '\n';
-  };
-  per_gateway("candp2_gateway_can_frames_received_total", "counter",
-              "CAN frames the gateway received since power-on",
-              [](const auto& b) { return get32(b, kRxFrames); });
-  per_gateway("candp2_gateway_can_frames_sent_total", "counter",
-              "CAN frames the gateway sent since power-on",
-              [](const auto& b) { return get32(b, kTxFrames); });
-  family("candp2_gateway_can_frames_lost_total", "counter",
-         "CAN frames lost: irq = before the gateway saw them (IRQ_LOST), fifo = dropped at the "
-         "full Communication Window FIFO (MSG_LOST), emulator-spec §3");
-  for (const auto& r : rows) {
-    out << "candp2_gateway_can_frames_lost_total{" << r.labels << ",reason=\"irq\"} "
-        << get32(r.block, kIrqLost) << '\n';
-    out << "candp2_gateway_can_frames_lost_total{" << r.labels << ",reason=\"fifo\"} "
-        << get32(r.block, kMsgLost) << '\n';
+  MetricsBuild build(*this, 0);
+  while (!build.step(now)) {
   }
-  per_gateway("candp2_gateway_data_exchanges_total", "counter",
-              "Data_Exchange telegrams the gateway answered",
-              [](const auto& b) { return get32(b, kDataExchanges); });
-  per_gateway("candp2_gateway_parameterizations_total", "counter",
-              "Set_Prm telegrams the master sent to the gateway",
-              [](const auto& b) { return get32(b, kParameterizations); });
-  per_gateway("candp2_gateway_fifo_level", "gauge",
-              "frames waiting in the Communication Window FIFO (manual §5.3)",
-              [](const auto& b) { return b[kFifoLevel]; });
-  per_gateway("candp2_gateway_fifo_high_water", "gauge", "highest FIFO level since power-on",
-              [](const auto& b) { return b[kFifoHighWater]; });
-  per_gateway("candp2_gateway_dp_state", "gauge",
-              "DP slave state: 0 Wait_Prm, 1 Wait_Cfg, 2 Data_Exch",
-              [](const auto& b) { return b[kDpState]; });
-  per_gateway("candp2_gateway_can_bus_state", "gauge",
-              "CAN controller: 0 ok, 1 warning, 2 error-passive, 3 bus-off",
-              [](const auto& b) { return b[kBusState]; });
-
-  family("candp2_bus_frames_total", "counter", "CAN frames seen on the bus");
-  for (const auto& b : src_.buses)
-    if (b.monitor)
-      out << "candp2_bus_frames_total{bus=\"" << b.cfg->name << "\"} " << b.monitor->frames()
-          << '\n';
-  family("candp2_bus_load_ratio", "gauge",
-         "bus load over the last second: estimated bits (stuff bits worst case) / bit rate");
-  for (std::size_t i = 0; i < src_.buses.size(); ++i)
-    if (src_.buses[i].monitor)
-      out << "candp2_bus_load_ratio{bus=\"" << src_.buses[i].cfg->name << "\"} " << load_[i].load
-          << '\n';
-
-  if (src_.modbus) {
-    family("candp2_modbus_requests_total", "counter",
-           "Modbus/TCP requests answered (normal and exception answers)");
-    out << "candp2_modbus_requests_total{result=\"ok\"} " << src_.modbus->stats().requests << '\n';
-    out << "candp2_modbus_requests_total{result=\"exception\"} " << src_.modbus->stats().exceptions
-        << '\n';
-    family("candp2_modbus_clients", "gauge", "Modbus/TCP clients connected");
-    out << "candp2_modbus_clients " << src_.modbus->client_count() << '\n';
-  }
-  family("candp2_http_sse_clients", "gauge", "Server-Sent Events streams open");
-  out << "candp2_http_sse_clients " << http_.sse_clients << '\n';
-  family("candp2_http_snapshots_dropped_total", "counter",
-         "SSE snapshots replaced by a newer one before a slow client started writing them");
-  out << "candp2_http_snapshots_dropped_total " << http_.snapshots_dropped << '\n';
-  if (src_.cycle) {
-    const auto s = src_.cycle->summary();
-    family("candp2_master_cycles_total", "counter", "DP master cycles started");
-    out << "candp2_master_cycles_total " << s.cycles << '\n';
-    family("candp2_master_cycle_lateness_seconds", "gauge",
-           "how late the master cycle started against its grid, over the last cycles");
-    out << "candp2_master_cycle_lateness_seconds{quantile=\"0.5\"} " << s.p50_us / 1e6 << '\n';
-    out << "candp2_master_cycle_lateness_seconds{quantile=\"0.99\"} " << s.p99_us / 1e6 << '\n';
-    out << "candp2_master_cycle_lateness_seconds{quantile=\"1\"} " << s.max_us / 1e6 << '\n';
-  }
-  return out.str();
+  return build.take();
 }
 
 }  // namespace candp2::http

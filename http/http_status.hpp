@@ -2,10 +2,12 @@
 // /api/v1/status, GET /metrics and the page's Server-Sent Events show, built from the daemon's live
 // objects.
 //
-// Read-only: it never changes a gateway, the master or a bus. It is built on the event loop's
-// thread between two callbacks, so every value in one snapshot belongs to the same instant
-// (between two master cycles). LED codes come from the Modbus status block (modbus::encode_status,
-// manual table 3.3.1), so the page, Modbus and /metrics can never disagree.
+// Read-only: it never changes a gateway, the master or a bus. Every function runs on the event
+// loop's thread between two callbacks, so each piece it returns (one gateway, one slot row, the
+// head of the status) belongs to one instant between two master cycles. The HTTP face builds a
+// large status from such pieces over several loop turns (http/snapshot_jobs.hpp). LED codes come
+// from the Modbus status block (modbus::encode_status, manual table 3.3.1), so the page, Modbus
+// and /metrics can never disagree.
 #pragma once
 
 #include <cstdint>
@@ -73,10 +75,18 @@ struct DriveSource {
 // The HTTP face's own counters (filled by HttpServer, shown in the status JSON and /metrics).
 struct HttpCounters {
   std::uint64_t requests = 0;
+  std::uint64_t connections = 0;        // open now
+  std::uint64_t clients_accepted = 0;   // connections accepted since start
+  std::uint64_t clients_evicted = 0;    // closed at max_clients for a new one
+  std::uint64_t clients_timed_out = 0;  // closed after idle_timeout without a complete request
+  std::uint64_t clients_refused = 0;    // not served (libmicrohttpd or the descriptor limit)
   std::uint64_t sse_clients = 0;
-  std::uint64_t snapshots = 0;          // SSE snapshots built (one per push for all clients)
-  std::uint64_t snapshots_dropped = 0;  // replaced before a slow client started writing them
-  std::uint64_t last_build_us = 0;      // time the last snapshot took to build and serialize
+  std::uint64_t snapshots = 0;          // rounds published (the live view's pieces refreshed)
+  std::uint64_t snapshots_dropped = 0;  // rounds a stream skipped because it was still writing
+  std::uint64_t events = 0;             // SSE events written (full and changes)
+  std::uint64_t event_bytes = 0;        // their bytes
+  std::uint64_t last_build_us = 0;      // the last round: first piece to publication (wall time)
+  std::uint64_t work_us_max = 0;        // the longest slice of snapshot work in one loop turn
 };
 
 struct StatusSources {
@@ -93,22 +103,55 @@ class StatusModel {
  public:
   explicit StatusModel(StatusSources sources);
 
-  // GET /api/v1/status and every SSE push: the whole state as JSON (docs/daemon.md lists the
-  // fields). `now` is the loop's CLOCK_MONOTONIC time; ages in the JSON are relative to it.
+  // GET /api/v1/status: the whole state as JSON in one piece (docs/daemon.md lists the fields).
+  // `now` is the loop's CLOCK_MONOTONIC time; ages in the JSON are relative to it. The HTTP face
+  // assembles the same document from the pieces below (status_head, gateway_head, slot_json).
   nlohmann::json status(Time now);
-  // GET /metrics: Prometheus text exposition format 0.0.4.
+  // Everything of status() but "gateways"; `parts` false: without "buses" and "drives" too.
+  nlohmann::json status_head(Time now, bool parts = true);
+  // One gateway of status() without its "slots"; slot_count() rows go there (slot_json).
+  nlohmann::json gateway_head(std::size_t gateway, Time now) const;
+  std::size_t slot_count(std::size_t gateway) const;
+  // Slot row k of a gateway. `age` true: "age_ms" relative to now (status); false: "last_ms", the
+  // loop time of the slot's last frame, which changes only with a frame (the live view).
+  nlohmann::json slot_json(std::size_t gateway, std::size_t k, Time now, bool age) const;
+
+  // The live view's pieces (docs/daemon.md "Server-Sent Events"): a gateway's overview tile
+  // (address, name, LEDs, DP state, fault, frames/s over the last second), the cycle, Modbus and
+  // HTTP figures, a bus without or with its trace, a drive.
+  nlohmann::json tile(std::size_t gateway, Time now);
+  nlohmann::json cycle_json() const;
+  nlohmann::json modbus_json() const;
+  nlohmann::json http_json() const;
+  nlohmann::json bus_json(std::size_t bus, Time now, bool trace);
+  nlohmann::json trace_frame(const BusMonitor::Traced& t) const;
+  nlohmann::json drive_json(std::size_t drive) const;
+  // The bus a gateway is on (index into sources().buses), if it has a monitor there.
+  std::optional<std::size_t> bus_of(std::size_t gateway) const;
+
+  // GET /metrics: Prometheus text exposition format 0.0.4 (in one piece; the HTTP face builds it
+  // in steps, http/documents.hpp).
   std::string metrics(Time now);
+  // Bus load over the last window (fraction of the bit rate), after refresh_load().
+  void refresh_load(Time now) { update_load(now); }
+  double bus_load(std::size_t bus) const { return load_[bus].load; }
 
   const StatusSources& sources() const { return src_; }
   // The server's counters live here so the model can show them.
   HttpCounters& http_counters() { return http_; }
 
  private:
-  nlohmann::json gateway_json(std::size_t index, Time now) const;
   void update_load(Time now);
 
   StatusSources src_;
   HttpCounters http_;
+  // Frames/s of a gateway's tile over the last completed window of >= 1 s.
+  struct Rate {
+    Time start{0};
+    std::uint32_t rx = 0, tx = 0;
+    double rx_fps = 0, tx_fps = 0;
+  };
+  std::vector<Rate> rates_;
   // Bus load over the last completed window of >= 1 s: bits at the window's start.
   struct LoadWindow {
     Time start{0};

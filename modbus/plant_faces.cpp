@@ -48,6 +48,7 @@ StatusBlock PlantGatewayFace::status(Time now) {
   in.rx_suppressed = f.rx_suppressed();
   in.rx_drop_remaining = f.drop_remaining();
   in.reconnects = unit_.reconnects();
+  in.cycles_missed = plant_.cycle_stats().missed();
   return encode_status(in);
 }
 
@@ -111,6 +112,7 @@ StatusBlock RemoteStationFace::status(Time) {
     in.addressed = v->addressed;
   }
   if (auto* line = plant_.master_line()) in.line = line_inputs(line->status(address_, master));
+  in.cycles_missed = plant_.cycle_stats().missed();
   return encode_status(in);
 }
 
@@ -161,6 +163,7 @@ StatusBlock GenericSlaveFace::status(Time now) {
   }
   if (auto* line = plant_.slave_line())
     if (auto l = line->status(in.dp_address)) in.line = line_inputs(*l);
+  in.cycles_missed = plant_.cycle_stats().missed();
   return encode_status(in);
 }
 

@@ -65,6 +65,9 @@ std::span<const StatusField> status_fields() {
        "holding register 8194: received frames still to drop (each counts in IRQ_LOST)"},
       {kAddressed, 1, "addressed", "1 the master addresses the gateway, 0 stopped (control 3)"},
       {kReconnects, 2, "reconnects", "socketcand client: connections re-established"},
+      {kCyclesMissed, 2, "master_cycles_missed",
+       "DP master cycles missed since start: grid points (every cycle_ms) that passed without a "
+       "cycle because the previous one started more than a period late; the same in every block"},
   };
   return kFields;
 }
@@ -165,6 +168,8 @@ StatusBlock encode_status(const StatusInputs& in) {
       static_cast<std::uint16_t>(std::min<std::uint32_t>(in.rx_drop_remaining, 0xFFFF));
   b[kAddressed] = in.addressed ? 1 : 0;
   put32(kReconnects, in.reconnects);
+  put32(kCyclesMissed,
+        static_cast<std::uint32_t>(std::min<std::uint64_t>(in.cycles_missed, 0xFFFFFFFFu)));
   return b;
 }
 

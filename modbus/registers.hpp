@@ -88,16 +88,18 @@ inline constexpr std::uint16_t kRxSuppressed = 60;  // 60-61 not received in a f
 inline constexpr std::uint16_t kRxDropRemaining = 62;  // holding register 8194 (saturates 0xFFFF)
 inline constexpr std::uint16_t kAddressed = 63;   // 1 = the master addresses it, 0 = stopped (3)
 inline constexpr std::uint16_t kReconnects = 64;  // 64-65 socketcand client reconnections
-inline constexpr std::uint16_t kCount = 66;
+// The DP master's cycle (docs/daemon.md "Cycle timing"): the same value in every gateway's block.
+inline constexpr std::uint16_t kCyclesMissed = 66;  // 66-67 grid points without a master cycle
+inline constexpr std::uint16_t kCount = 68;
 }  // namespace status
 
 // A station's whole Slave_Diag answer (docs/modbus.md "Whole diagnosis"), input registers of its
-// unit after the status block: 8258 = its length n (0: none yet), 8259.. = the bytes, 2i (high)
-// and 2i+1 (low) in register 8259 + i, up to the 244 bytes IEC 61158-6-3 allows. The status
+// unit after the status block: 8260 = its length n (0: none yet), 8261.. = the bytes, 2i (high)
+// and 2i+1 (low) in register 8261 + i, up to the 244 bytes IEC 61158-6-3 allows. The status
 // block's `diag` field holds only the first 11 (the CAN-DP/2's whole diagnosis); a generic slave's
 // Ext_Diag_Data may run longer.
-inline constexpr std::uint16_t kDiagnosisBase = kStatusBase + status::kCount;  // 8258
-inline constexpr std::uint16_t kDiagnosisRegisters = 1 + dp::kDiagMaxLen / 2;  // 8258..8380
+inline constexpr std::uint16_t kDiagnosisBase = kStatusBase + status::kCount;  // 8260
+inline constexpr std::uint16_t kDiagnosisRegisters = 1 + dp::kDiagMaxLen / 2;  // 8260..8382
 
 // LED codes in the status block (manual §3.3, table 3.3.1).
 namespace led {
@@ -172,6 +174,7 @@ struct StatusInputs {
   std::uint32_t rx_suppressed = 0;
   std::uint32_t rx_drop_remaining = 0;
   std::uint32_t reconnects = 0;
+  std::uint64_t cycles_missed = 0;  // the master's (saturates at 2^32 - 1)
 };
 StatusBlock encode_status(const StatusInputs& in);
 

@@ -48,21 +48,25 @@ int TcpListener::release() {
   return fd;
 }
 
-bool TcpListener::accept_all(const OnClient& on_client, std::string* error) {
-  for (;;) {
+bool TcpListener::accept_all(const OnClient& on_client, std::string* error, std::size_t max) {
+  for (std::size_t n = 0; n < max;) {
     sockaddr_in peer{};
     socklen_t len = sizeof peer;
     const int fd =
         ::accept4(fd_, reinterpret_cast<sockaddr*>(&peer), &len, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd >= 0) {
       on_client(fd, peer);
+      ++n;
       continue;
     }
     if (errno == EINTR || errno == ECONNABORTED) continue;
     if (errno == EAGAIN || errno == EWOULDBLOCK) return true;
-    *error = std::string("accept failed: ") + std::strerror(errno);
+    const int e = errno;
+    *error = std::string("accept failed: ") + std::strerror(e);
+    errno = e;
     return false;
   }
+  return true;
 }
 
 std::string peer_name(const sockaddr_in& peer) {

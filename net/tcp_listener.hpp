@@ -7,6 +7,7 @@
 
 #include <netinet/in.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -28,11 +29,12 @@ class TcpListener {
   // Hands the descriptor over (to a library that serves the socket itself); fd() is -1 after.
   int release();
 
-  // Accepts every pending connection (non-blocking, close-on-exec) and hands each to
+  // Accepts pending connections (non-blocking, close-on-exec), at most `max`, and hands each to
   // `on_client(fd, peer)`, which owns the descriptor from then on. Returns false after an accept
-  // error other than "nothing pending" (*error tells it); the listener stays usable.
+  // error other than "nothing pending" (*error tells it, errno is accept's: EMFILE when the
+  // process is out of descriptors); the listener stays usable.
   using OnClient = std::function<void(int fd, const sockaddr_in& peer)>;
-  bool accept_all(const OnClient& on_client, std::string* error);
+  bool accept_all(const OnClient& on_client, std::string* error, std::size_t max = SIZE_MAX);
 
  private:
   TcpListener(int fd, std::uint16_t port) : fd_(fd), port_(port) {}

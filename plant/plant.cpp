@@ -97,7 +97,7 @@ bool Plant::build_parts(std::string* error) {
   for (const auto& dc : config_.drives)
     if (!add_drive(dc, error)) return false;
   next_cycle_ = options_.first_cycle_at_start ? now_ : now_ + period_;
-  cycle_stats_.start(next_cycle_, period_);
+  cycle_stats_.start(period_);
   return true;
 }
 
@@ -310,18 +310,54 @@ void Plant::advance(Time now) {
 }
 
 void Plant::run_cycle(Time now) {
-  // A cycle whose grid point is more than one period past is not caught up: the ticks in
-  // between are skipped, as the event loop's periodic timer skips them.
-  while (next_cycle_ + period_ <= now) next_cycle_ += period_;
+  // The grid starts with the first cycle: the time between building the plant and its driver's
+  // first turn (candp2d opening its listeners) is no lateness.
+  if (!grid_started_) {
+    grid_started_ = true;
+    next_cycle_ = std::max(next_cycle_, now);
+  }
+  // A cycle whose grid point is more than one period past is not caught up: the grid points in
+  // between are missed (counted, docs/daemon.md "Cycle timing"), and this cycle is as late as
+  // its own grid point says.
+  const Time due = next_cycle_;
+  std::uint64_t missed = 0;
+  if (period_.count() > 0 && next_cycle_ + period_ <= now) {
+    missed = static_cast<std::uint64_t>((now - next_cycle_) / period_);
+    next_cycle_ += period_ * static_cast<std::int64_t>(missed);
+  }
   next_cycle_ += period_;
   if (master_cycles_) {
-    cycle_stats_.record(now);
+    cycle_stats_.record(due, now, missed);
+    log_misses(due, now, missed);
     master_->cycle(now);
     ++cycles_;
     if (master_line_) master_line_->check_presence(*master_);
   }
   if (slave_line_) slave_line_->check_presence(now);
   for (const auto& hook : cycle_hooks_) hook(now);
+}
+
+// One line when a run of missed cycles starts and one when it ends: after a second without a
+// miss, with the count (docs/daemon.md "Cycle timing").
+void Plant::log_misses(Time due, Time now, std::uint64_t missed) {
+  auto ms = [](Duration d) {
+    return std::to_string(d.count() / 1000) + "." + std::to_string(d.count() % 1000 / 100) + " ms";
+  };
+  if (missed > 0) {
+    if (!miss_run_) {
+      miss_run_ = MissRun{now, now, 0};
+      log_.warn("master cycle: " + std::to_string(missed) + " cycle(s) missed, started " +
+                ms(now - due) + " late (cycle " + std::to_string(period_.count() / 1000) +
+                " ms); counting until the cycle keeps its grid for 1 s");
+    }
+    miss_run_->count += missed;
+    miss_run_->last = now;
+  } else if (miss_run_ && now - miss_run_->last >= seconds(1)) {
+    log_.info("master cycle back on its grid: " + std::to_string(miss_run_->count) +
+              " cycle(s) missed within " + ms(miss_run_->last - miss_run_->first) + " (" +
+              std::to_string(cycle_stats_.missed()) + " since start)");
+    miss_run_.reset();
+  }
 }
 
 bool Plant::deliver(Time now) {

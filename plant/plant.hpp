@@ -186,7 +186,8 @@ class Plant {
   // The earliest time something is due: the next master cycle, a gateway's or drive's timer.
   std::optional<Time> next_deadline() const;
   // Runs everything due at or before `now`. A master cycle whose time passed more than one period
-  // ago is not run late a second time: it counts as missed (cycle_stats()).
+  // ago is not run late a second time: it counts as missed (cycle_stats(), logged when a run of
+  // misses starts and ends).
   void advance(Time now);
   // Delivers frames queued between in-process endpoints until none is left (a drive answers a
   // gateway at once). True when something was delivered. candp2d calls it after every event.
@@ -276,6 +277,7 @@ class Plant {
   bool add_remote_stations(std::string* error);
   void run_timers(Time now);
   void run_cycle(Time now);
+  void log_misses(Time due, Time now, std::uint64_t missed);
   void tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender, Time time);
   void tap_note(std::string text, Time now);
   void tap_line(std::span<const std::uint8_t> telegram, bool from_emulation, Time time);
@@ -300,8 +302,14 @@ class Plant {
   bool master_cycles_ = true;
   Duration period_{0};
   Time next_cycle_{0};
+  bool grid_started_ = false;  // the first cycle ran (it anchors the grid)
   std::uint64_t cycles_ = 0;
   CycleStats cycle_stats_;
+  struct MissRun {
+    Time first, last;  // the first and the latest cycle that found missed grid points
+    std::uint64_t count = 0;
+  };
+  std::optional<MissRun> miss_run_;  // a run of missed cycles being logged
 };
 
 }  // namespace candp2::plant

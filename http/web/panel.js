@@ -1,4 +1,6 @@
-// candp2 live front panel: one EventSource (/api/v1/events), one panel per gateway.
+// candp2 live front panel: the full panel of one gateway (front plate with LEDs, diagnosis,
+// parameters, slot table, frames/s plot), its bus (load, live trace) and the drives on that bus.
+// overview.js holds the overview of every gateway, the routing (#gw=17) and the stream.
 // Plain JavaScript, no libraries, no build step, nothing from the network (docs/daemon.md).
 'use strict';
 
@@ -115,8 +117,7 @@ function plot(canvas, series, opts) {
   }
 }
 
-// ---- gateway panels ----------------------------------------------------------------------------
-const panels = new Map();  // dp_address -> {root, refs..., history}
+// ---- the gateway panel -------------------------------------------------------------------------
 const LEDS = [['P', 'green', 'power'], ['D', 'green', 'data exchange'], ['E', 'red', 'DP status'], ['C', 'green', 'CAN']];
 
 function makePanel(g) {
@@ -178,8 +179,8 @@ function makePanel(g) {
 
   p.title = el('h2');
   p.root = el('article', { class: 'gw', id: 'gw-' + g.dp_address }, plate, diag, prm, slots, busplot);
-  const wrap = el('div', {}, p.title, p.root);
-  document.getElementById('gateways').append(wrap);
+  p.wrap = el('div', {}, p.title, p.root);
+  document.getElementById('panel').append(p.wrap);
   return p;
 }
 
@@ -190,7 +191,8 @@ function kvSet(dl, pairs) {
   pairs.forEach(([, v], i) => setText(dl.children[2 * i + 1], v));
 }
 
-function updatePanel(p, g, nowMs) {
+// g: the gateway (the stream's "panel"); rows: its slot rows by index; nowMs: the event's time.
+function updatePanel(p, g, rows, nowMs) {
   setText(p.title, 'Gateway ' + g.name + ' — DP address ' + g.dp_address);
   for (const [name] of LEDS) {
     const L = p.leds[name];
@@ -240,11 +242,12 @@ function updatePanel(p, g, nowMs) {
   setText(p.page, g.page_mode.enabled ? g.page_mode.state + ' · ' + g.page_mode.pages_processed + ' pages' : 'off');
 
   // slot table
-  const rows = p.slotBody.rows;
-  if (rows.length && rows[0].cells.length === 1) p.slotBody.deleteRow(0);
-  while (rows.length > g.slots.length) p.slotBody.deleteRow(-1);
-  g.slots.forEach((s, i) => {
-    let r = rows[i];
+  const slots = rows.slice(0, g.slot_count).filter(Boolean);
+  const trs = p.slotBody.rows;
+  if (trs.length && trs[0].cells.length === 1) p.slotBody.deleteRow(0);
+  while (trs.length > slots.length) p.slotBody.deleteRow(-1);
+  slots.forEach((s, i) => {
+    let r = trs[i];
     if (!r) {
       r = p.slotBody.insertRow();
       for (let k = 0; k < 11; k++) r.insertCell();
@@ -263,9 +266,9 @@ function updatePanel(p, g, nowMs) {
     setText(c[7], s.plc || '—');
     setText(c[8], s.bytes);
     setText(c[9], s.frames);
-    setText(c[10], age(s.age_ms));
+    setText(c[10], age(s.last_ms === null ? null : Math.max(0, nowMs - s.last_ms)));
   });
-  if (!g.slots.length) {
+  if (!slots.length) {
     // No slot configuration accepted yet (Chk_Cfg pending or rejected: see the diagnosis).
     const r = p.slotBody.insertRow();
     const c = r.insertCell();
@@ -294,8 +297,7 @@ function updatePanel(p, g, nowMs) {
   ]);
 }
 
-// ---- buses: load and the live trace ------------------------------------------------------------
-const buses = new Map();
+// ---- the panel's bus: load and the live trace ---------------------------------------------------
 function makeBus(b) {
   const x = { frames: [], lastSeq: 0, paused: false };
   x.load = el('div'); x.loadText = el('div', { class: 'hw' }); x.info = el('dl', { class: 'kv' });
@@ -308,7 +310,7 @@ function makeBus(b) {
     el('div', {}, el('h2', { text: 'Bus ' + b.name }), el('h3', { text: 'Bus load' }), el('div', { class: 'meter' }, x.load), x.loadText, x.info),
     el('div', {}, el('div', { class: 'tracebar' }, el('h3', { text: 'Live trace', style: 'margin:0' }), x.filter, x.pause),
       el('div', { class: 'trace' }, el('table', {}, el('thead', {}, el('tr', {}, ...['time', 'identifier', 'dlc', 'data'].map(t => el('th', { text: t })))), x.body))));
-  document.getElementById('buses').append(x.root);
+  document.getElementById('panel').append(x.root);
   return x;
 }
 function renderTrace(x) {
@@ -325,22 +327,23 @@ function updateBus(x, b) {
   x.load.style.width = Math.min(100, pct) + '%';
   setText(x.loadText, pct.toFixed(1) + ' % of ' + (b.bitrate / 1000) + ' kbit/s');
   kvSet(x.info, [['type', b.type], ['frames', b.frames], ['frames/s', Math.round(b.frames_per_s || 0)]]);
-  if (x.paused) return;
+}
+// New frames of the trace (each event carries only the frames since the last one).
+function addTrace(x, frames) {
   let added = false;
-  for (const f of b.trace || []) if (f.seq > x.lastSeq) { x.frames.push(f); x.lastSeq = f.seq; added = true; }
+  for (const f of frames) if (f.seq > x.lastSeq) { x.frames.push(f); x.lastSeq = f.seq; added = true; }
   if (x.frames.length > 400) x.frames.splice(0, x.frames.length - 400);
-  if (added) renderTrace(x);
+  if (added && !x.paused) renderTrace(x);
 }
 
-// ---- drives: state and speed -------------------------------------------------------------------
-const drives = new Map();
+// ---- drives on the panel's bus: state and speed ---------------------------------------------------
 function makeDrive(d) {
   const x = { speed: [] };
   x.info = el('dl', { class: 'kv' }); x.canvas = el('canvas');
   x.root = el('div', { class: 'card drive', id: 'drive-' + d.name },
     el('div', {}, el('h2', { text: 'Drive ' + d.name }), x.info),
     el('div', {}, el('h3', { text: 'speed (actual), last minute' }), x.canvas));
-  document.getElementById('drives').append(x.root);
+  document.getElementById('panel').append(x.root);
   return x;
 }
 function updateDrive(x, d) {
@@ -351,46 +354,3 @@ function updateDrive(x, d) {
   plot(x.canvas, [{ data: x.speed, color: '#ffb62e' }], { points: 300, label: '60 s', min: Math.min(0, ...x.speed) });
 }
 
-// ---- the stream --------------------------------------------------------------------------------
-function render(s) {
-  const nowMs = s.time_ms;
-  for (const g of s.gateways) {
-    if (!panels.has(g.dp_address)) panels.set(g.dp_address, makePanel(g));
-    updatePanel(panels.get(g.dp_address), g, nowMs);
-  }
-  for (const b of s.buses) {
-    if (!buses.has(b.name)) buses.set(b.name, makeBus(b));
-    updateBus(buses.get(b.name), b);
-  }
-  for (const d of s.drives) {
-    if (!drives.has(d.name)) drives.set(d.name, makeDrive(d));
-    updateDrive(drives.get(d.name), d);
-  }
-  const c = s.cycle || {};
-  const lat = c.lateness_us;
-  setText(document.getElementById('cycle'), c.period_ms + ' ms' + (lat ? ' · late p50 ' + lat.p50 + ' µs, p99 ' + lat.p99 + ' µs' : ''));
-  if (s.modbus) setText(document.getElementById('modbus'), s.modbus.requests + ' req · ' + s.modbus.clients + ' client(s)');
-  document.body.dataset.snapshot = String(nowMs);
-}
-
-function animateLeds() {
-  const t = performance.now();
-  for (const p of panels.values())
-    for (const L of Object.values(p.leds)) {
-      const cls = 'led ' + L.color + (ledLit(L.code, t) ? ' on' : '');
-      if (L.led.className !== cls) L.led.className = cls;
-    }
-}
-setInterval(animateLeds, 40);
-
-function connect() {
-  const conn = document.getElementById('conn');
-  const es = new EventSource('/api/v1/events');
-  es.addEventListener('status', ev => {
-    setText(conn, 'live'); setClass(conn, 'conn on');
-    render(JSON.parse(ev.data));
-    animateLeds();
-  });
-  es.onerror = () => { setText(conn, 'reconnecting…'); setClass(conn, 'conn off'); };
-}
-connect();

@@ -40,7 +40,8 @@ class DaemonError(Candp2Error):
         super().__init__(text)
 
 
-# "candp2d: error: FILE: $.gateways[0].bus: unknown bus ..." (docs/configuration.md "General rules").
+# "candp2d: error: FILE: $.gateways[0].bus: unknown bus ..."
+# (docs/configuration.md "General rules").
 # `candp2 replay` says "candp2 replay: FILE: PATH: ..." (docs/replay-format.md).
 _CONFIG_ERROR = re.compile(
     r"^(?:candp2d: error|candp2 replay): (?P<file>.+?): (?:(?P<path>\$[^ ]*?): )?"

@@ -151,7 +151,7 @@ class Counters:
     """The gateway's counters from the status block (docs/modbus.md): CAN frames received and
     sent, frames lost (IRQ_LOST, MSG_LOST), Communication Window FIFO level and high water,
     Data_Exchanges answered, Set_Prm telegrams received, frames suppressed by a forced bus-off,
-    socketcand reconnections."""
+    socketcand reconnections, and the DP master's missed cycles (the same for every gateway)."""
 
     rx_frames: int
     tx_frames: int
@@ -164,6 +164,7 @@ class Counters:
     tx_suppressed: int
     rx_suppressed: int
     reconnects: int
+    master_cycles_missed: int
 
     @classmethod
     def from_status(cls, status: Mapping[str, StatusValue]) -> Counters:

@@ -15,27 +15,38 @@ namespace {
 
 TEST(CycleStats, LatenessAgainstTheGrid) {
   plant::CycleStats s;
-  s.start(Time{10'000}, milliseconds(10));
-  // Cycles at +0, +150, +30, +2000 µs after their grid points; one tick skipped (k = 4 → 5).
-  for (const auto t : {10'000, 20'150, 30'030, 42'000, 60'000}) s.record(Time{t});
+  s.start(milliseconds(10));
+  // Cycles +0, +150, +30 µs after their grid points, then one 2 ms late, then one whose grid point
+  // lies 25 ms back: it runs 25 ms late (the overrun counts) and the two grid points it overran
+  // are missed.
+  s.record(Time{10'000}, Time{10'000}, 0);
+  s.record(Time{20'000}, Time{20'150}, 0);
+  s.record(Time{30'000}, Time{30'030}, 0);
+  s.record(Time{40'000}, Time{42'000}, 0);
+  s.record(Time{50'000}, Time{75'000}, 2);
   const auto sum = s.summary();
   EXPECT_EQ(sum.cycles, 5u);
+  EXPECT_EQ(sum.missed, 2u);
   EXPECT_EQ(sum.samples, 5u);
-  EXPECT_EQ(sum.max_us, 2000u);
-  EXPECT_EQ(sum.max_ever_us, 2000u);
-  EXPECT_EQ(sum.p50_us, 30u);  // sorted 0 0 30 150 2000
+  EXPECT_EQ(sum.max_us, 25'000u);
+  EXPECT_EQ(sum.max_ever_us, 25'000u);
+  EXPECT_EQ(sum.p50_us, 150u);   // 0 30 150 2000 25000
+  EXPECT_EQ(sum.p99_us, 2000u);  // index floor(0.99 * 4) = 3
 }
 
 TEST(CycleStats, WindowKeepsTheLastSamples) {
   plant::CycleStats s;
-  s.start(Time{0}, milliseconds(10));
-  s.record(Time{5'000});  // 5 ms late, then pushed out of the window
-  for (std::size_t k = 1; k <= plant::CycleStats::kSamples; ++k)
-    s.record(Time{static_cast<std::int64_t>(k) * 10'000 + 100});
+  s.start(milliseconds(10));
+  s.record(Time{0}, Time{5'000}, 0);  // 5 ms late, then pushed out of the window
+  for (std::size_t k = 1; k <= plant::CycleStats::kSamples; ++k) {
+    const Time due{static_cast<std::int64_t>(k) * 10'000};
+    s.record(due, due + microseconds(100), 0);
+  }
   const auto sum = s.summary();
   EXPECT_EQ(sum.samples, plant::CycleStats::kSamples);
   EXPECT_EQ(sum.max_us, 100u);
   EXPECT_EQ(sum.max_ever_us, 5000u);
+  EXPECT_EQ(sum.missed, 0u);
 }
 
 TEST(BusMonitor, StuffedBitsUpperBound) {
@@ -161,6 +172,27 @@ TEST(HttpConfig, ListenKey) {
   auto clash = parse_with(R"("http": {"listen": "127.0.0.1:1502"},)");
   ASSERT_TRUE(std::holds_alternative<config::ConfigError>(clash));
   EXPECT_NE(std::get<config::ConfigError>(clash).message.find("already used"), std::string::npos);
+}
+
+TEST(HttpConfig, ClientLimits) {
+  auto dflt = parse_with(R"("http": {"listen": "127.0.0.1:8080"},)");
+  ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(dflt));
+  EXPECT_EQ(std::get<config::DaemonConfig>(dflt).http_max_clients, 64u);
+  EXPECT_EQ(std::get<config::DaemonConfig>(dflt).http_idle_timeout_s, 60u);
+
+  auto set = parse_with(
+      R"("http": {"listen": "127.0.0.1:8080", "max_clients": 1100, "idle_timeout_s": 0},)");
+  ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(set));
+  EXPECT_EQ(std::get<config::DaemonConfig>(set).http_max_clients, 1100u);
+  EXPECT_EQ(std::get<config::DaemonConfig>(set).http_idle_timeout_s, 0u);
+
+  for (const auto* bad : {R"("http": {"listen": "127.0.0.1:8080", "max_clients": 0},)",
+                          R"("http": {"listen": "127.0.0.1:8080", "max_clients": 10001},)",
+                          R"("http": {"listen": "127.0.0.1:8080", "idle_timeout_s": -1},)"}) {
+    auto r = parse_with(bad);
+    ASSERT_TRUE(std::holds_alternative<config::ConfigError>(r)) << bad;
+    EXPECT_EQ(std::get<config::ConfigError>(r).json_path.rfind("$.http.", 0), 0u) << bad;
+  }
 }
 
 }  // namespace

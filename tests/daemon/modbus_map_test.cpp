@@ -396,7 +396,7 @@ TEST_F(MapFixture, FaultRegisters) {
 }
 
 TEST_F(MapFixture, WholeDiagnosisAfterTheStatusBlock) {
-  // docs/modbus.md "Whole diagnosis": 8258 = length, 8259.. = two bytes a register, high first.
+  // docs/modbus.md "Whole diagnosis": 8260 = length, 8261.. = two bytes a register, high first.
   // By default a station's diagnosis is the status block's 11 diagnosis bytes.
   ASSERT_EQ(run(5, pdu(0x04, kDiagnosisBase, 7)), std::nullopt);
   EXPECT_EQ(out.registers[0], dp::DpSlave::kDiagLen);

@@ -1,11 +1,13 @@
 #!/usr/bin/python3
 """The live front panel in headless Chromium: Debian's chromium loads the page from a
-running candp2d (the demo configuration plus a gateway gw5 whose Chk_Cfg it rejects); after Modbus
-writes of Q 0..4 (enable axis1, read its speed every 100 ms, 30 % speed: the Unitek commands of
-config/demo.json) the page must show the last written bytes in gateway 3's slot table, LED D on
-(manual table 3.3.1: Data Exchange), the drive's replies in slot I0, the frame in the trace, and for
-gw5 LED D off, LED E flashing three times (waiting for Set_Prm after the Cfg fault) and the
-Cfg_Fault bit set — asserted on the DOM through the DevTools protocol (cdp.py). A screenshot is kept
+running candp2d (the demo configuration plus a gateway gw5 whose Chk_Cfg it rejects). With two
+gateways the page opens on the overview: both tiles, gw5's marked faulty; a click on gateway 3's
+tile opens its panel. After Modbus writes of Q 0..4 (enable axis1, read its speed every 100 ms,
+30 % speed: the Unitek commands of config/demo.json) the panel must show the last written bytes in
+gateway 3's slot table, LED D on (manual table 3.3.1: Data Exchange), the drive's replies in slot
+I0, the frame in the trace; the deep link #gw=5 then shows gw5 with LED D off, LED E flashing
+three times (waiting for Set_Prm after the Cfg fault) and the Cfg_Fault bit set — asserted on the
+DOM through the DevTools protocol (cdp.py). A screenshot is kept
 as $CANDP2_TEST_OUTPUT/front-panel.png (ctest: build/test-output/; else pytest's tmp_path).
 Bounded: every wait has a deadline; chromium is killed at the end. pytest on the candp2 package
 (ctest e2e_http_chromium); $CHROMIUM names the browser (default /usr/bin/chromium).
@@ -30,12 +32,13 @@ SLOT_BYTES = """(() => {
   return row ? row.cells[8].textContent : null; })()"""
 LED_D = """(() => { const l = document.getElementById('gw-3-led-D');
   return l && l.dataset.code === '1' && l.classList.contains('on'); })()"""
-# gw5's LED E: code 3 and, within one 6 s sequence, seen lit and dark (it flashes).
+# gw5's LED E: code 3 and, within one 6 s sequence (its period), seen lit and dark (it flashes).
 LED_E5 = """new Promise(done => {
   const l = document.getElementById('gw-5-led-E'); let lit = false, dark = false;
   const t = setInterval(() => {
-    if (l.classList.contains('on')) lit = true; else dark = true; }, 20);
-  setTimeout(() => { clearInterval(t); done(l.dataset.code === '3' && lit && dark); }, 2000); })"""
+    if (l.classList.contains('on')) lit = true; else dark = true;
+    if (lit && dark) { clearInterval(t); done(l.dataset.code === '3'); } }, 20);
+  setTimeout(() => { clearInterval(t); done(false); }, 6500); })"""
 
 
 def write(d, gw, cmd):
@@ -66,7 +69,13 @@ def test_front_panel(candp2_binary, tmp_path):
         browser = Browser(chromium, width=1400, height=1000)
         browser.call("Page.enable")
         browser.call("Page.navigate", url=d.base + "/")
+        browser.wait_for("the overview's two tiles, gw5 faulty",
+                         "document.querySelectorAll('#tiles .tile').length === 2 && "
+                         "document.getElementById('tile-5').classList.contains('faulty')")
+        browser.evaluate("document.getElementById('tile-3').click()")
         browser.wait_for("gateway 3's panel", "!!document.getElementById('gw-3')")
+        assert browser.evaluate("location.hash") == "#gw=3"
+        assert browser.evaluate("document.getElementById('overview').hidden") is True
         before = browser.wait_for("slot Q0", SLOT_BYTES % "Q0")
         want = " ".join("%02X" % b for b in COMMANDS[-1])
         assert before != want, before
@@ -89,15 +98,6 @@ def test_front_panel(candp2_binary, tmp_path):
         assert state == "Data_Exch", state
         browser.wait_for("axis1 turning", "(() => { const dd = document.querySelectorAll("
                          "'#drive-axis1 dd'); return dd.length > 3 && +dd[3].textContent > 0; })()")
-        # gw5: rejected Chk_Cfg → LED D off, LED E 3 flashes, Cfg_Fault bit (diagnosis byte 0).
-        browser.wait_for("gw5's LED D off", "document.getElementById('gw-5-led-D')"
-                         ".dataset.code === '0'")
-        r = browser.call("Runtime.evaluate", expression=LED_E5, awaitPromise=True,
-                         returnByValue=True)
-        assert r["result"].get("value") is True, r
-        browser.wait_for("gw5's Cfg_Fault bit",
-                         "Array.from(document.querySelectorAll('#gw-5 .bit.set'))"
-                         ".some(b => b.textContent === 'Cfg_Fault')")
         # Let the frames/s plot collect three one-second points, then keep the picture.
         browser.wait_for("a frames/s plot", "(() => { const p = document.querySelector("
                          "'#gw-3 canvas'); return p && +p.dataset.points >= 3; })()", timeout=15)
@@ -110,6 +110,20 @@ def test_front_panel(candp2_binary, tmp_path):
         browser.screenshot(path)
         assert os.path.getsize(path) > 10000, os.path.getsize(path)
         print("screenshot: " + path)
+        browser.call("Emulation.clearDeviceMetricsOverride")
+        # The deep link to gw5: its panel replaces gateway 3's.
+        browser.evaluate("location.hash = '#gw=5'")
+        browser.wait_for("gw5's panel alone", "!!document.getElementById('gw-5') && "
+                         "!document.getElementById('gw-3')")
+        # gw5: rejected Chk_Cfg → LED D off, LED E 3 flashes, Cfg_Fault bit (diagnosis byte 0).
+        browser.wait_for("gw5's LED D off", "document.getElementById('gw-5-led-D')"
+                         ".dataset.code === '0'")
+        r = browser.call("Runtime.evaluate", expression=LED_E5, awaitPromise=True,
+                         returnByValue=True)
+        assert r["result"].get("value") is True, r
+        browser.wait_for("gw5's Cfg_Fault bit",
+                         "Array.from(document.querySelectorAll('#gw-5 .bit.set'))"
+                         ".some(b => b.textContent === 'Cfg_Fault')")
     finally:
         if browser:
             browser.close()

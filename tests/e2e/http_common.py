@@ -1,5 +1,5 @@
-"""Shared by the HTTP face's end-to-end tests (http_api_e2e.py, http_chromium_e2e.py) and
-bench/http_jitter.py: a candp2.Daemon (python/: every listener on a free loopback port, learnt
+"""Shared by the HTTP face's end-to-end tests (http_*_e2e.py) and bench/http_jitter.py,
+bench/line_load.py: a candp2.Daemon (python/: every listener on a free loopback port, learnt
 from READY=1) with helpers for its HTTP face.
 """
 
@@ -19,6 +19,39 @@ def demo_config():
     """config/demo.json (the Daemon moves its listeners to free ports)."""
     with open(os.path.join(ROOT, "config", "demo.json")) as f:
         return json.load(f)
+
+
+LINE_GATEWAYS = 122  # DP addresses 3..124: the largest line the product allows
+LINE_SLOTS = 24      # outputs and as many inputs per gateway, 6 bytes each
+SLOT_LEN = 6
+
+
+def line_slot_address(gateway, k):
+    """PLC byte address of output (and input) slot k of the gateway at DP address `gateway` in
+    line_config(): the 8192-byte image is shared, so the gateways' slots overlap (allowed,
+    docs/modbus.md) and one Modbus write reaches them all."""
+    return (k * SLOT_LEN + (gateway - 3) * 8) % 8000
+
+
+def line_config(cycle_ms=10, gateways=LINE_GATEWAYS):
+    """122 gateways x 48 six-byte slots (24 outputs, 24 inputs: 288 of the 300 bytes a gateway
+    allows), each on its own virtual bus (bench/line_load.py, tests/e2e/http_scale_e2e.py)."""
+    gws, buses = [], {}
+    for i in range(gateways):
+        a = 3 + i
+        bus = "can%d" % a
+        buses[bus] = {"type": "virtual"}
+        slots = []
+        for io, base in (("output", 0x100), ("input", 0x300)):
+            for k in range(LINE_SLOTS):
+                ident = base + k
+                slots.append({"io": io, "address": line_slot_address(a, k), "length": SLOT_LEN,
+                              "comment": "%02X,%02X,00" % (ident >> 8, ident & 0xFF)})
+        gws.append({"name": "gw%d" % a, "address": a, "bus": bus,
+                    "parameters": {"can_bitrate": "1000k"}, "slots": slots})
+    return {"modbus": {"listen": "127.0.0.1:0"}, "http": {"listen": "127.0.0.1:0"},
+            "master": {"address": 1, "cycle_ms": cycle_ms}, "buses": buses, "gateways": gws,
+            "log": {"level": "info"}}
 
 
 class Daemon(candp2.Daemon):

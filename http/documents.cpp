@@ -1,0 +1,244 @@
+#include "http/documents.hpp"
+
+#include <charconv>
+
+namespace candp2::http {
+
+namespace {
+
+constexpr std::size_t kRowsPerStep = 8;       // status: slot rows per step
+constexpr std::size_t kGatewaysPerStep = 16;  // metrics: status blocks read per step
+
+// Appends an object's text without its closing brace, so members can follow.
+void open_object(std::string& out, const std::string& object) {
+  out.append(object, 0, object.empty() ? 0 : object.size() - 1);
+}
+
+std::uint32_t get32(const modbus::StatusBlock& b, std::uint16_t at) {
+  return (static_cast<std::uint32_t>(b[at]) << 16) | b[at + 1];
+}
+
+void put(std::string& out, double v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  out.append(buf, r.ptr);
+}
+void put(std::string& out, std::uint64_t v) {
+  out += std::to_string(v);
+}
+
+// The per-gateway families (docs/daemon.md "Metrics"), one step each.
+struct PerGateway {
+  const char* name;
+  const char* type;
+  const char* help;
+  const char* reason;  // a second label, or nullptr
+  std::uint32_t (*value)(const modbus::StatusBlock&);
+};
+using namespace modbus::status;
+constexpr PerGateway kPerGateway[] = {
+    {"candp2_gateway_can_frames_received_total", "counter",
+     "CAN frames the gateway received since power-on", nullptr,
+     [](const modbus::StatusBlock& b) { return get32(b, kRxFrames); }},
+    {"candp2_gateway_can_frames_sent_total", "counter",
+     "CAN frames the gateway sent since power-on", nullptr,
+     [](const modbus::StatusBlock& b) { return get32(b, kTxFrames); }},
+    {"candp2_gateway_can_frames_lost_total", "counter",
+     "CAN frames lost: irq = before the gateway saw them (IRQ_LOST), fifo = dropped at the full "
+     "Communication Window FIFO (MSG_LOST), emulator-spec §3",
+     "irq", [](const modbus::StatusBlock& b) { return get32(b, kIrqLost); }},
+    {"candp2_gateway_can_frames_lost_total", nullptr, nullptr, "fifo",
+     [](const modbus::StatusBlock& b) { return get32(b, kMsgLost); }},
+    {"candp2_gateway_data_exchanges_total", "counter",
+     "Data_Exchange telegrams the gateway answered", nullptr,
+     [](const modbus::StatusBlock& b) { return get32(b, kDataExchanges); }},
+    {"candp2_gateway_parameterizations_total", "counter",
+     "Set_Prm telegrams the master sent to the gateway", nullptr,
+     [](const modbus::StatusBlock& b) { return get32(b, kParameterizations); }},
+    {"candp2_gateway_fifo_level", "gauge",
+     "frames waiting in the Communication Window FIFO (manual §5.3)", nullptr,
+     [](const modbus::StatusBlock& b) { return std::uint32_t{b[kFifoLevel]}; }},
+    {"candp2_gateway_fifo_high_water", "gauge", "highest FIFO level since power-on", nullptr,
+     [](const modbus::StatusBlock& b) { return std::uint32_t{b[kFifoHighWater]}; }},
+    {"candp2_gateway_dp_state", "gauge", "DP slave state: 0 Wait_Prm, 1 Wait_Cfg, 2 Data_Exch",
+     nullptr, [](const modbus::StatusBlock& b) { return std::uint32_t{b[kDpState]}; }},
+    {"candp2_gateway_can_bus_state", "gauge",
+     "CAN controller: 0 ok, 1 warning, 2 error-passive, 3 bus-off", nullptr,
+     [](const modbus::StatusBlock& b) { return std::uint32_t{b[kBusState]}; }},
+};
+constexpr std::size_t kFamilies = std::size(kPerGateway);
+
+}  // namespace
+
+// ------------------------------------------------------------------------ GET /api/v1/status
+
+bool StatusBuild::step(Time now) {
+  if (done_) return true;
+  const std::size_t gateways = model_.sources().gateways.size();
+  const std::size_t buses = model_.sources().buses.size();
+  if (!started_) {
+    started_ = true;
+    open_object(out_, model_.status_head(now, false).dump());
+    out_ += ",\"buses\":[";
+  } else if (bus_ < buses) {
+    if (bus_ > 0) out_ += ',';
+    out_ += model_.bus_json(bus_++, now, true).dump();
+  } else if (!drives_) {
+    drives_ = true;
+    nlohmann::json drives = nlohmann::json::array();
+    for (std::size_t i = 0; i < model_.sources().drives.size(); ++i)
+      drives.push_back(model_.drive_json(i));
+    out_ += "],\"drives\":" + drives.dump() + ",\"gateways\":[";
+  } else if (!in_gateway_) {
+    if (gateway_ > 0) out_ += ',';
+    open_object(out_, model_.gateway_head(gateway_, now).dump());
+    out_ += ",\"slots\":[";
+    rows_ = model_.slot_count(gateway_);
+    row_ = 0;
+    in_gateway_ = true;
+  } else {
+    for (std::size_t k = 0; k < kRowsPerStep && row_ < rows_; ++k, ++row_) {
+      if (row_ > 0) out_ += ',';
+      out_ += model_.slot_json(gateway_, row_, now, true).dump();
+    }
+  }
+  if (in_gateway_ && row_ >= rows_) {
+    out_ += "]}";
+    in_gateway_ = false;
+    ++gateway_;
+  }
+  if (drives_ && !in_gateway_ && gateway_ >= gateways) {
+    out_ += "]}\n";
+    done_ = true;
+  }
+  return done_;
+}
+
+// ---------------------------------------------------------------------------- GET /metrics
+
+void MetricsBuild::family(std::string_view name, std::string_view type, std::string_view help) {
+  out_ += "# HELP ";
+  out_ += name;
+  out_ += ' ';
+  out_ += help;
+  out_ += "\n# TYPE ";
+  out_ += name;
+  out_ += ' ';
+  out_ += type;
+  out_ += '\n';
+}
+
+void MetricsBuild::per_gateway(std::size_t k) {
+  const PerGateway& f = kPerGateway[k];
+  if (f.type) family(f.name, f.type, f.help);
+  for (const auto& r : rows_) {
+    out_ += f.name;
+    out_ += '{';
+    out_ += r.labels;
+    if (f.reason) {
+      out_ += ",reason=\"";
+      out_ += f.reason;
+      out_ += '"';
+    }
+    out_ += "} ";
+    put(out_, std::uint64_t{f.value(r.block)});
+    out_ += '\n';
+  }
+}
+
+bool MetricsBuild::step(Time now) {
+  if (done_) return true;
+  started_ = true;
+  const auto& gateways = model_.sources().gateways;
+  if (rows_.size() < gateways.size()) {
+    for (std::size_t n = 0; n < kGatewaysPerStep && rows_.size() < gateways.size(); ++n) {
+      const auto& g = gateways[rows_.size()];
+      rows_.push_back({"gateway=\"" + std::to_string(g.gateway->address()) + "\",bus=\"" +
+                           g.cfg->bus + "\",name=\"" + g.cfg->name + "\"",
+                       g.face->status(now)});
+    }
+    return false;
+  }
+  if (family_ < kFamilies) {
+    per_gateway(family_++);
+    return false;
+  }
+  model_.refresh_load(now);
+  tail();
+  done_ = true;
+  return true;
+}
+
+void MetricsBuild::tail() {
+  const auto& src = model_.sources();
+  family("candp2_bus_frames_total", "counter", "CAN frames seen on the bus");
+  for (const auto& b : src.buses)
+    if (b.monitor) {
+      out_ += "candp2_bus_frames_total{bus=\"" + b.cfg->name + "\"} ";
+      put(out_, b.monitor->frames());
+      out_ += '\n';
+    }
+  family("candp2_bus_load_ratio", "gauge",
+         "bus load over the last second: estimated bits (stuff bits worst case) / bit rate");
+  for (std::size_t i = 0; i < src.buses.size(); ++i)
+    if (src.buses[i].monitor) {
+      out_ += "candp2_bus_load_ratio{bus=\"" + src.buses[i].cfg->name + "\"} ";
+      put(out_, model_.bus_load(i));
+      out_ += '\n';
+    }
+  auto one = [&](std::string_view name, std::string_view labels, std::uint64_t v) {
+    out_ += name;
+    if (!labels.empty()) {
+      out_ += '{';
+      out_ += labels;
+      out_ += '}';
+    }
+    out_ += ' ';
+    put(out_, v);
+    out_ += '\n';
+  };
+  if (src.modbus) {
+    family("candp2_modbus_requests_total", "counter",
+           "Modbus/TCP requests answered (normal and exception answers)");
+    one("candp2_modbus_requests_total", "result=\"ok\"", src.modbus->stats().requests);
+    one("candp2_modbus_requests_total", "result=\"exception\"", src.modbus->stats().exceptions);
+    family("candp2_modbus_clients", "gauge", "Modbus/TCP clients connected");
+    one("candp2_modbus_clients", "", src.modbus->client_count());
+  }
+  const auto& h = model_.http_counters();
+  family("candp2_http_connections", "gauge", "HTTP connections open");
+  one("candp2_http_connections", "", h.connections);
+  family("candp2_http_connections_closed_total", "counter",
+         "HTTP connections the daemon closed: evicted at http.max_clients for a new one, timed "
+         "out after http.idle_timeout_s without a complete request");
+  one("candp2_http_connections_closed_total", "reason=\"evicted\"", h.clients_evicted);
+  one("candp2_http_connections_closed_total", "reason=\"idle\"", h.clients_timed_out);
+  family("candp2_http_sse_clients", "gauge", "Server-Sent Events streams open");
+  one("candp2_http_sse_clients", "", h.sse_clients);
+  family("candp2_http_snapshots_dropped_total", "counter",
+         "live-view rounds a stream skipped because it was still writing an earlier event");
+  one("candp2_http_snapshots_dropped_total", "", h.snapshots_dropped);
+  family("candp2_http_event_bytes_total", "counter", "bytes of Server-Sent Events written");
+  one("candp2_http_event_bytes_total", "", h.event_bytes);
+  if (src.cycle) {
+    const auto s = src.cycle->summary();
+    family("candp2_master_cycles_total", "counter", "DP master cycles started");
+    one("candp2_master_cycles_total", "", s.cycles);
+    family("candp2_master_cycles_missed_total", "counter",
+           "DP master cycles missed: grid points that passed without a cycle because the one "
+           "before started more than a period late");
+    one("candp2_master_cycles_missed_total", "", s.missed);
+    family("candp2_master_cycle_lateness_seconds", "gauge",
+           "how late the master cycle started against its grid point (overruns included), over "
+           "the last cycles");
+    for (const auto& [q, us] : {std::pair{"0.5", s.p50_us}, {"0.99", s.p99_us}, {"1", s.max_us}}) {
+      out_ += "candp2_master_cycle_lateness_seconds{quantile=\"";
+      out_ += q;
+      out_ += "\"} ";
+      put(out_, us / 1e6);
+      out_ += '\n';
+    }
+  }
+}
+
+}  // namespace candp2::http

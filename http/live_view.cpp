@@ -1,0 +1,229 @@
+#include "http/live_view.hpp"
+
+#include <algorithm>
+
+namespace candp2::http {
+
+namespace {
+
+// Slot rows refreshed in one step: a 48-slot gateway takes six steps.
+constexpr std::size_t kRowsPerStep = 8;
+
+// `{"a":1,"b":2}` → `"a":1,"b":2`: members of an object to splice into another.
+std::string_view members(const std::string& object) {
+  if (object.size() < 2) return {};
+  return std::string_view(object).substr(1, object.size() - 2);
+}
+
+}  // namespace
+
+LiveView::LiveView(StatusModel& model)
+    : model_(model),
+      tiles_(model.sources().gateways.size()),
+      panels_(model.sources().gateways.size()),
+      rows_(model.sources().gateways.size()),
+      buses_(model.sources().buses.size()),
+      traces_(model.sources().buses.size()),
+      drives_(model.sources().drives.size()),
+      panel_round_(model.sources().gateways.size(), 0) {}
+
+void LiveView::start_round(Time now, std::vector<std::size_t> open) {
+  Round r;
+  r.number = next_round_++;
+  r.started = now;
+  std::sort(open.begin(), open.end());
+  open.erase(std::unique(open.begin(), open.end()), open.end());
+  std::erase_if(open, [&](std::size_t g) { return g >= tiles_.size(); });
+  for (const auto g : open)
+    if (const auto b = model_.bus_of(g)) r.buses.push_back(*b);
+  std::sort(r.buses.begin(), r.buses.end());
+  r.buses.erase(std::unique(r.buses.begin(), r.buses.end()), r.buses.end());
+  r.open = std::move(open);
+  round_ = std::move(r);
+}
+
+bool LiveView::in_round(std::size_t gateway) const {
+  return round_ && std::binary_search(round_->open.begin(), round_->open.end(), gateway);
+}
+
+std::uint64_t LiveView::first_round_for(std::optional<std::size_t> gateway) const {
+  if (!round_) return next_round_;
+  // The running round serves it if it refreshes its panel (every round refreshes the tiles).
+  return !gateway || in_round(*gateway) ? round_->number : round_->number + 1;
+}
+
+void LiveView::stage(Piece& p, std::string json) {
+  if (p.round != 0 && p.json == json) return;
+  round_->changed.emplace_back(&p, std::move(json));
+}
+
+bool LiveView::step(Time now) {
+  if (!round_) return false;
+  Round& r = *round_;
+  // Each call refreshes one piece (or a few slot rows); moving on to the next phase is free.
+  for (;;) switch (r.phase) {
+      case Phase::Header: {
+        nlohmann::json h;
+        h["time_ms"] = static_cast<double>(now.count()) / 1000.0;
+        h["cycle"] = model_.cycle_json();
+        if (const auto m = model_.modbus_json(); !m.is_null()) h["modbus"] = m;
+        h["http"] = model_.http_json();
+        h["gateway_count"] = tiles_.size();
+        r.header = h.dump();
+        r.phase = Phase::Tiles;
+        return false;
+      }
+      case Phase::Tiles:
+        if (r.index >= tiles_.size()) {
+          r.index = 0;
+          r.phase = Phase::Panel;
+          continue;
+        }
+        stage(tiles_[r.index], model_.tile(r.index, now).dump());
+        ++r.index;
+        return false;
+      case Phase::Panel: {
+        if (r.index >= r.open.size()) {
+          r.index = 0;
+          r.phase = Phase::Bus;
+          continue;
+        }
+        const std::size_t g = r.open[r.index];
+        stage(panels_[g], model_.gateway_head(g, now).dump());
+        const std::size_t n = model_.slot_count(g);
+        if (rows_[g].size() < n) rows_[g].resize(n);  // new rows are not composed before publish
+        r.row_counts.emplace_back(g, n);
+        r.row = 0;
+        r.phase = Phase::Rows;
+        return false;
+      }
+      case Phase::Rows: {
+        const std::size_t g = r.open[r.index];
+        const std::size_t n = r.row_counts.back().second;
+        if (r.row >= n) {
+          ++r.index;
+          r.phase = Phase::Panel;
+          continue;
+        }
+        for (std::size_t k = 0; k < kRowsPerStep && r.row < n; ++k, ++r.row)
+          stage(rows_[g][r.row], model_.slot_json(g, r.row, now, false).dump());
+        return false;
+      }
+      case Phase::Bus: {
+        if (r.index >= r.buses.size()) {
+          r.phase = Phase::Drives;
+          continue;
+        }
+        const std::size_t b = r.buses[r.index++];
+        stage(buses_[b], model_.bus_json(b, now, false).dump());
+        std::vector<Traced> frames;
+        if (const auto* m = model_.sources().buses[b].monitor)
+          for (const auto& t : m->trace()) frames.push_back({t.seq, model_.trace_frame(t).dump()});
+        r.traces.emplace_back(b, std::move(frames));
+        return false;
+      }
+      case Phase::Drives:
+        // Only the drives on a bus of an open panel are shown (their speed plots).
+        for (std::size_t d = 0; d < drives_.size(); ++d) {
+          const auto& bus = model_.sources().drives[d].cfg->bus;
+          for (const auto b : r.buses)
+            if (model_.sources().buses[b].cfg->name == bus) {
+              stage(drives_[d], model_.drive_json(d).dump());
+              break;
+            }
+        }
+        r.phase = Phase::Done;
+        return false;
+      case Phase::Done:
+        publish(now);
+        return true;
+    }
+}
+
+void LiveView::publish(Time now) {
+  Round& r = *round_;
+  header_ = std::move(r.header);
+  for (auto& [piece, json] : r.changed) {
+    piece->json = std::move(json);
+    piece->round = r.number;
+  }
+  for (auto& [b, frames] : r.traces) traces_[b] = std::move(frames);
+  for (const auto& [g, n] : r.row_counts) {
+    if (rows_[g].size() > n) rows_[g].resize(n);
+    panel_round_[g] = r.number;
+  }
+  published_ = r.number;
+  published_at_ = now;
+  auto& counters = model_.http_counters();
+  ++counters.snapshots;
+  counters.last_build_us = static_cast<std::uint64_t>((now - r.started).count());
+  round_.reset();
+}
+
+std::string LiveView::compose(Cursor& c) const {
+  const bool full = c.round == 0;
+  std::string out = "{\"full\":";
+  out += full ? "true" : "false";
+  out += ",\"round\":" + std::to_string(published_);
+  if (!header_.empty()) {
+    out += ',';
+    out += members(header_);
+  }
+  auto list = [&](std::string_view name, auto&& each) {
+    out += ",\"";
+    out += name;
+    out += "\":[";
+    bool first = true;
+    each([&](const std::string& json) {
+      if (!first) out += ',';
+      out += json;
+      first = false;
+    });
+    out += ']';
+  };
+  auto changed = [&](const Piece& p) { return p.round > c.round && !p.json.empty(); };
+  list("gateways", [&](auto emit) {
+    for (const auto& t : tiles_)
+      if (changed(t)) emit(t.json);
+  });
+  const std::optional<std::size_t> g =
+      c.gateway && *c.gateway < panels_.size() && panel_round_[*c.gateway] ? c.gateway
+                                                                           : std::nullopt;
+  if (g) {
+    out += ",\"open\":" + std::to_string(model_.sources().gateways[*g].cfg->dp_address());
+    if (changed(panels_[*g])) {
+      out += ",\"panel\":";
+      out += panels_[*g].json;
+    }
+    list("slots", [&](auto emit) {
+      for (const auto& row : rows_[*g])
+        if (changed(row)) emit(row.json);
+    });
+    const auto bus = model_.bus_of(*g);
+    list("buses", [&](auto emit) {
+      if (bus && changed(buses_[*bus])) emit(buses_[*bus].json);
+    });
+    std::uint64_t seq = c.trace_seq;
+    list("trace", [&](auto emit) {
+      if (!bus) return;
+      for (const auto& f : traces_[*bus])
+        if (f.seq > c.trace_seq) {
+          emit(f.json);
+          seq = std::max(seq, f.seq);
+        }
+    });
+    c.trace_seq = seq;
+    list("drives", [&](auto emit) {
+      if (!bus) return;
+      const auto& name = model_.sources().buses[*bus].cfg->name;
+      for (std::size_t d = 0; d < drives_.size(); ++d)
+        if (model_.sources().drives[d].cfg->bus == name && changed(drives_[d]))
+          emit(drives_[d].json);
+    });
+  }
+  out += '}';
+  c.round = published_;
+  return out;
+}
+
+}  // namespace candp2::http

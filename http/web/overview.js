@@ -1,0 +1,157 @@
+// candp2 live front panel: the overview of every gateway (one tile each: DP address, name, LEDs,
+// DP state, fault, frames/s), the routing between the overview and one gateway's panel (#gw=17,
+// panel.js) and the stream (/api/v1/events). The stream sends everything on connect and then only
+// what changed (docs/daemon.md "Server-Sent Events"): this file keeps the merged state.
+// A configuration with one gateway (the demo) opens on its panel.
+'use strict';
+
+// ---- state merged from the stream ----------------------------------------------------------------
+const tiles = new Map();   // dp_address -> {data, refs}
+let open = null;           // the panel shown: {addr, head, rows, panel, bus, drives}
+let source = null;         // the EventSource
+let single = false;        // one gateway only: no overview to go back to
+
+function wanted() {
+  const m = /^#gw=(\d+)$/.exec(location.hash);
+  return m ? Number(m[1]) : null;
+}
+
+// ---- tiles ---------------------------------------------------------------------------------------
+const TILE_LEDS = [['P', 'green'], ['D', 'green'], ['E', 'red'], ['C', 'green']];
+function makeTile(t) {
+  const x = { leds: {} };
+  const leds = el('div', { class: 'tleds' });
+  for (const [name, color] of TILE_LEDS) {
+    const led = el('span', { class: 'led ' + color, title: 'LED ' + name, 'data-code': '0' });
+    x.leds[name] = { led, code: 0, color };
+    leds.append(el('span', { class: 'tled' }, led, el('span', { class: 'n', text: name })));
+  }
+  x.addr = el('span', { class: 'taddr' });
+  x.name = el('span', { class: 'tname' });
+  x.state = el('span', { class: 'tstate' });
+  x.fault = el('div', { class: 'tfault' });
+  x.fps = el('div', { class: 'tfps mono' });
+  x.root = el('a', { class: 'tile', id: 'tile-' + t.dp_address, href: '#gw=' + t.dp_address },
+    el('div', { class: 'thead' }, x.addr, x.name), leds, x.state, x.fault, x.fps);
+  document.getElementById('tiles').append(x.root);
+  return x;
+}
+function updateTile(x, t) {
+  setText(x.addr, String(t.dp_address).padStart(3, '0'));
+  setText(x.name, t.name + ' · ' + t.bus);
+  for (const [name] of TILE_LEDS) {
+    const L = x.leds[name];
+    L.code = t.leds[name];
+    L.led.dataset.code = String(L.code);
+  }
+  setText(x.state, t.dp_state);
+  setClass(x.state, 'tstate state-' + t.dp_state);
+  setText(x.fault, t.fault || '');
+  setClass(x.root, 'tile' + (t.fault ? ' faulty' : ''));
+  setText(x.fps, 'rx ' + t.fps.rx + ' · tx ' + t.fps.tx + ' frames/s');
+}
+function renderTiles(list) {
+  // Generic DP slaves may come as a list of their own later ("slaves"): tiles of the same kind.
+  for (const t of list) {
+    let x = tiles.get(t.dp_address);
+    if (!x) { x = makeTile(t); tiles.set(t.dp_address, x); }
+    updateTile(x, t);
+  }
+}
+
+// ---- the open panel --------------------------------------------------------------------------------
+function closePanel() {
+  document.getElementById('panel').replaceChildren();
+  open = null;
+}
+function renderPanel(s) {
+  if (!open || s.open !== open.addr) return;
+  if (s.panel) open.head = s.panel;
+  if (s.full && open.bus) { open.bus.lastSeq = 0; open.bus.frames = []; }  // a new stream: new numbering
+  for (const row of s.slots || []) open.rows[row.slot] = row;
+  if (!open.head) return;
+  if (!open.panel) open.panel = makePanel(open.head);
+  updatePanel(open.panel, open.head, open.rows, s.time_ms);
+  for (const b of s.buses || []) {
+    if (!open.bus) open.bus = makeBus(b);
+    updateBus(open.bus, b);
+  }
+  if (open.bus && s.trace) addTrace(open.bus, s.trace);
+  for (const d of s.drives || []) {
+    let x = open.drives.get(d.name);
+    if (!x) { x = { view: makeDrive(d) }; open.drives.set(d.name, x); }
+    x.data = d;
+  }
+  // One point per event for every drive, changed or not: the plots run at the stream's pace.
+  for (const x of open.drives.values()) updateDrive(x.view, x.data);
+}
+
+// ---- view and stream ---------------------------------------------------------------------------
+function show() {
+  const addr = wanted();
+  const panelView = addr !== null;
+  document.getElementById('overview').hidden = panelView;
+  document.getElementById('back').hidden = !panelView || single;
+  setText(document.getElementById('where'), panelView ? 'gateway ' + addr : 'overview');
+  if (!open || open.addr !== addr) closePanel();
+  if (panelView && !open) open = { addr, head: null, rows: [], panel: null, bus: null, drives: new Map() };
+  connect(addr);
+}
+
+function renderHeader(s) {
+  const c = s.cycle || {};
+  const lat = c.lateness_us;
+  let text = c.period_ms + ' ms';
+  if (c.missed !== undefined) text += ' · missed ' + c.missed;
+  if (lat) text += ' · late p50 ' + lat.p50 + ' µs, p99 ' + lat.p99 + ' µs';
+  const cyc = document.getElementById('cycle');
+  setText(cyc, text);
+  setClass(cyc, c.missed ? 'warn' : '');
+  if (s.modbus) setText(document.getElementById('modbus'), s.modbus.requests + ' req · ' + s.modbus.clients + ' client(s)');
+  if (s.gateway_count !== undefined) setText(document.getElementById('count'), s.gateway_count);
+}
+
+function render(s) {
+  renderHeader(s);
+  renderTiles(s.gateways || []);
+  if (s.slaves) renderTiles(s.slaves);
+  if (s.full && wanted() === null && s.gateway_count === 1 && s.gateways.length === 1) {
+    // The demo: one gateway, nothing to choose from.
+    single = true;
+    location.replace('#gw=' + s.gateways[0].dp_address);
+    return;
+  }
+  renderPanel(s);
+  document.body.dataset.snapshot = String(s.time_ms);
+  document.body.dataset.tiles = String(tiles.size);
+  // When the whole overview was first painted (ms since the page's navigation started).
+  if (!document.body.dataset.drawn && s.gateway_count !== undefined && tiles.size >= s.gateway_count)
+    requestAnimationFrame(() => { document.body.dataset.drawn = String(Math.round(performance.now())); });
+}
+
+function connect(addr) {
+  if (source) source.close();
+  const conn = document.getElementById('conn');
+  source = new EventSource('/api/v1/events' + (addr === null ? '' : '?gw=' + addr));
+  source.addEventListener('status', ev => {
+    setText(conn, 'live'); setClass(conn, 'conn on');
+    render(JSON.parse(ev.data));
+    animateLeds();
+  });
+  source.onerror = () => { setText(conn, 'reconnecting…'); setClass(conn, 'conn off'); };
+}
+
+function animateLeds() {
+  const t = performance.now();
+  const all = [...tiles.values()].map(x => x.leds);
+  if (open && open.panel) all.push(open.panel.leds);
+  for (const leds of all)
+    for (const L of Object.values(leds)) {
+      const cls = 'led ' + L.color + (ledLit(L.code, t) ? ' on' : '');
+      if (L.led.className !== cls) L.led.className = cls;
+    }
+}
+setInterval(animateLeds, 40);
+
+window.addEventListener('hashchange', show);
+show();

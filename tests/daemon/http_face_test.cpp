@@ -1,0 +1,241 @@
+// The HTTP face's pure parts (docs/daemon.md "HTTP face"): which connection gives way
+// (ClientTable), the documents built in steps (StatusBuild, MetricsBuild) against the ones built in
+// one piece, and the live view's rounds and per-stream changes (LiveView) on a real plant.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <variant>
+
+#include "config/config.hpp"
+#include "http/client_table.hpp"
+#include "http/documents.hpp"
+#include "http/live_view.hpp"
+#include "modbus/plant_faces.hpp"
+#include "plant/plant.hpp"
+
+namespace candp2 {
+namespace {
+
+using nlohmann::json;
+
+// ---------------------------------------------------------------------------------- ClientTable
+
+TEST(ClientTable, AtTheLimitTheConnectionWaitingLongestGoes) {
+  http::ClientTable t(3, seconds(60));
+  const auto a = t.admit(Time{0}).id;
+  const auto b = t.admit(Time{1000}).id;
+  const auto c = t.admit(Time{2000}).id;
+  t.request_started(a);  // a is busy (a stream, say): not a candidate while others wait
+  const auto d = t.admit(Time{3000});
+  ASSERT_TRUE(d.evict);
+  EXPECT_EQ(*d.evict, b);  // waiting since 1000
+  EXPECT_TRUE(d.evict_was_waiting);
+  EXPECT_FALSE(t.contains(b));
+  EXPECT_EQ(t.size(), 3u);
+  // c finishes a request later than d was accepted: d now waits longest.
+  t.request_started(c);
+  t.request_done(c, Time{5000});
+  const auto e = t.admit(Time{6000});
+  ASSERT_TRUE(e.evict);
+  EXPECT_EQ(*e.evict, d.id);
+}
+
+TEST(ClientTable, WhenEveryConnectionIsBusyTheOldestRequestGoes) {
+  http::ClientTable t(2, seconds(60));
+  const auto a = t.admit(Time{0}).id;
+  const auto b = t.admit(Time{0}).id;
+  t.request_started(b);  // b's request started first
+  t.request_started(a);
+  const auto c = t.admit(Time{10});
+  ASSERT_TRUE(c.evict);
+  EXPECT_EQ(*c.evict, b);
+  EXPECT_FALSE(c.evict_was_waiting);
+  EXPECT_EQ(t.busy(), 1u);
+}
+
+TEST(ClientTable, WaitingForARequestTimesOutEvenWhileBytesTrickle) {
+  http::ClientTable t(10, seconds(5));
+  const auto silent = t.admit(Time{0}).id;
+  const auto served = t.admit(Time{0}).id;
+  const auto trickler = t.admit(Time{1'000'000}).id;  // sends header bytes: no request yet
+  t.request_started(served);
+  EXPECT_EQ(t.next_expiry(), Time{5'000'000});
+  EXPECT_EQ(t.expired(Time{4'999'999}), std::vector<http::ClientTable::Id>{});
+  EXPECT_EQ(t.expired(Time{5'000'000}), std::vector<http::ClientTable::Id>{silent});
+  EXPECT_EQ(t.expired(Time{6'000'000}), (std::vector<http::ClientTable::Id>{silent, trickler}));
+  // A busy connection never times out here (a response without progress is libmicrohttpd's).
+  t.request_done(served, Time{7'000'000});
+  EXPECT_EQ(t.waiting_since(served), Time{7'000'000});
+}
+
+TEST(ClientTable, NoTimeoutWhenZero) {
+  http::ClientTable t(1, Duration{0});
+  t.admit(Time{0});
+  EXPECT_FALSE(t.next_expiry());
+  EXPECT_TRUE(t.expired(Time{1'000'000'000}).empty());
+}
+
+// ------------------------------------------------------------------- a plant and its status model
+
+constexpr const char* kConfig = R"({
+  "master": { "address": 1, "cycle_ms": 10 },
+  "buses": { "can0": { "type": "virtual" }, "can1": { "type": "virtual" } },
+  "gateways": [
+    { "name": "gw3", "address": 3, "bus": "can0", "parameters": { "can_bitrate": "500k" },
+      "slots": [ { "io": "output", "address": 0, "length": 2, "comment": "02,01,00" },
+                 { "io": "output", "address": 2, "length": 2, "comment": "02,02,00" },
+                 { "io": "input", "address": 0, "length": 2, "comment": "01,81,00" } ] },
+    { "name": "gw4", "address": 4, "bus": "can1", "parameters": { "can_bitrate": "500k" },
+      "slots": [ { "io": "output", "address": 16, "length": 1, "comment": "02,03,00" } ] } ]
+})";
+
+// Feeds the bus monitors as the daemon does (daemon/daemon.cpp on_can).
+struct Monitors final : plant::Tap {
+  std::vector<http::BusMonitor> buses;
+  void on_can(const plant::CanRecord& r) override { buses.at(r.bus).on_frame(r.frame, r.time); }
+};
+
+struct Face : ::testing::Test {
+  void SetUp() override {
+    auto parsed = config::parse_daemon(kConfig, "face.json");
+    ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(parsed));
+    cfg = std::get<config::DaemonConfig>(parsed);
+    std::string error;
+    plant = plant::Plant::build(cfg, plant::Options{}, Time{0}, &error);
+    ASSERT_TRUE(plant) << error;
+    monitors.buses.resize(plant->buses().size());
+    plant->add_tap(&monitors);
+    faces = modbus::make_faces(*plant);
+    http::StatusSources src;
+    src.master = &plant->master();
+    src.cycle = &plant->cycle_stats();
+    for (auto& g : plant->gateways())
+      src.gateways.push_back({&g->config(), &g->gateway(), faces.gateways.at(g->index()).get()});
+    for (auto& b : plant->buses())
+      src.buses.push_back({&b->config(), &monitors.buses[b->index()], 500000});
+    model = std::make_unique<http::StatusModel>(std::move(src));
+    run_until(Time{500'000});  // every gateway in Data_Exch
+  }
+  void run_until(Time end) {
+    while (const auto next = plant->next_deadline()) {
+      if (*next > end) break;
+      plant->advance(*next);
+      now = *next;
+    }
+  }
+  config::DaemonConfig cfg;
+  std::unique_ptr<plant::Plant> plant;
+  modbus::PlantFaces faces;
+  Monitors monitors;
+  std::unique_ptr<http::StatusModel> model;
+  Time now{0};
+};
+
+TEST_F(Face, TheStatusBuiltInStepsIsTheStatusBuiltAtOnce) {
+  const json whole = model->status(now);
+  http::StatusBuild build(*model, 0);
+  int steps = 1;
+  while (!build.step(now)) ++steps;
+  const json parts = json::parse(build.take());
+  EXPECT_EQ(parts, whole);
+  EXPECT_EQ(parts["gateways"][0]["slots"].size(), 3u);
+  // head, 2 buses, drives, per gateway its head and one step of up to 8 rows
+  EXPECT_EQ(steps, 1 + 2 + 1 + 2 * 2);
+}
+
+TEST_F(Face, TheMetricsHaveEveryFamilyOnce) {
+  http::MetricsBuild build(*model, 0);
+  int steps = 1;
+  while (!build.step(now)) ++steps;
+  const std::string text = build.take();
+  EXPECT_EQ(steps, 1 + 10 + 1);  // the status blocks, ten per-gateway families, the rest
+  EXPECT_NE(text.find("candp2_gateway_dp_state{gateway=\"4\",bus=\"can1\",name=\"gw4\"} 2\n"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("candp2_master_cycles_missed_total 0\n"), std::string::npos);
+  std::size_t types = 0;
+  for (std::size_t at = 0;
+       (at = text.find("# TYPE candp2_gateway_can_frames_lost_total", at)) != std::string::npos;
+       ++at)
+    ++types;
+  EXPECT_EQ(types, 1u);
+}
+
+// Runs one live-view round to its publication; returns the number of steps.
+int round(http::LiveView& view, Time now, std::vector<std::size_t> open) {
+  view.start_round(now, std::move(open));
+  int steps = 1;
+  while (!view.step(now)) ++steps;
+  return steps;
+}
+
+TEST_F(Face, AStreamGetsEverythingFirstThenOnlyWhatChanged) {
+  http::LiveView view(*model);
+  http::LiveView::Cursor overview, panel;
+  panel.gateway = 0;  // gw3
+  EXPECT_EQ(view.first_round_for(std::nullopt), 1u);
+  // header, 2 tiles, gw3's panel and its rows (one step), its bus, the drives, publication
+  EXPECT_EQ(round(view, now, {0}), 1 + 2 + 2 + 1 + 1 + 1);
+  EXPECT_GE(monitors.buses[0].frames(), 1u);
+  json e = json::parse(view.compose(overview));
+  EXPECT_TRUE(e["full"]);
+  ASSERT_EQ(e["gateways"].size(), 2u);
+  EXPECT_EQ(e["gateways"][1]["dp_address"], 4);
+  EXPECT_EQ(e["gateways"][0]["dp_state"], "Data_Exch");
+  EXPECT_FALSE(e.contains("panel"));  // no panel open
+  e = json::parse(view.compose(panel));
+  EXPECT_EQ(e["open"], 3);
+  EXPECT_EQ(e["panel"]["slot_count"], 3);
+  ASSERT_EQ(e["slots"].size(), 3u);
+  EXPECT_EQ(e["slots"][0]["bytes"], "00 00");
+  EXPECT_EQ(e["buses"][0]["name"], "can0");
+
+  // Q0..1 of gw3 change; everything else stays. The overview sees nothing new but the header.
+  plant->master().image().outputs[1] = 0x42;
+  run_until(now + milliseconds(20));
+  round(view, now, {0});
+  e = json::parse(view.compose(overview));
+  EXPECT_FALSE(e["full"]);
+  EXPECT_TRUE(e["gateways"].empty()) << e.dump();
+  EXPECT_TRUE(e.contains("cycle"));
+  e = json::parse(view.compose(panel));
+  ASSERT_EQ(e["slots"].size(), 1u) << e.dump();
+  EXPECT_EQ(e["slots"][0]["bytes"], "00 42");
+  EXPECT_FALSE(e["slots"][0].contains("age_ms"));  // last_ms: changes only with a frame
+  EXPECT_TRUE(e["trace"].size() >= 1u);            // the frame 0x201 42
+  EXPECT_EQ(e["trace"].back()["id"], 0x201);
+
+  // A stream that lags two rounds gets both rounds' changes in one event.
+  plant->master().image().outputs[3] = 0x07;
+  run_until(now + milliseconds(20));
+  round(view, now, {0});
+  plant->master().image().outputs[1] = 0x43;
+  run_until(now + milliseconds(20));
+  round(view, now, {0});
+  e = json::parse(view.compose(panel));
+  ASSERT_EQ(e["slots"].size(), 2u) << e.dump();
+  EXPECT_EQ(e["slots"][0]["bytes"], "00 43");
+  EXPECT_EQ(e["slots"][1]["bytes"], "00 07");
+  EXPECT_EQ(json::parse(view.compose(panel))["slots"].size(), 0u);  // nothing new now
+}
+
+TEST_F(Face, APanelOpenedLaterWaitsForARoundThatRefreshedIt) {
+  http::LiveView view(*model);
+  round(view, now, {});  // nobody has gw4 open
+  EXPECT_EQ(view.first_round_for(std::nullopt), 2u);
+  view.start_round(now, {});
+  EXPECT_EQ(view.first_round_for(std::nullopt), 2u);  // the running round refreshes tiles
+  EXPECT_EQ(view.first_round_for(1), 3u);             // but not gw4's panel
+  while (!view.step(now)) {
+  }
+  round(view, now, {1});
+  http::LiveView::Cursor c;
+  c.gateway = 1;
+  const json e = json::parse(view.compose(c));
+  EXPECT_EQ(e["open"], 4);
+  EXPECT_EQ(e["panel"]["name"], "gw4");
+  EXPECT_EQ(e["slots"].size(), 1u);
+}
+
+}  // namespace
+}  // namespace candp2
