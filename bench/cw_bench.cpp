@@ -1,4 +1,4 @@
-// Issue 3: the Communication Window's receive FIFO (255 frames, manual §5.3.3.2) and the paths a
+// The Communication Window's receive FIFO (255 frames, manual §5.3.3.2) and the paths a
 // received frame and a command 3 take through the window and the gateway.
 #include <benchmark/benchmark.h>
 

@@ -1,5 +1,5 @@
-// FDL stream parser + slave front end (issue 10): one Data_Exchange request of the emulator-spec
-// §10 capture (6 output bytes, §5.1.4 slots) parsed from raw bytes and answered by a real gateway,
+// FDL stream parser + slave front end: one Data_Exchange request of the docs/profibus.md
+// capture (6 output bytes, §5.1.4 slots) parsed from raw bytes and answered by a real gateway,
 // FCB alternating so every request executes. Also the parser alone and the encoder.
 #include <benchmark/benchmark.h>
 
@@ -19,7 +19,7 @@ struct NullSink : can::FrameSink {
   std::uint64_t count = 0;
 };
 
-// The emulator-spec §10 capture's Data_Exchange requests (FCB=1 / FCB=0).
+// The docs/profibus.md capture's Data_Exchange requests (FCB=1 / FCB=0).
 const std::vector<std::uint8_t> kDx1 = {0x68, 0x09, 0x09, 0x68, 0x03, 0x02, 0x7D, 0x11,
                                         0x22, 0x33, 0x44, 0x55, 0x66, 0xE7, 0x16};
 const std::vector<std::uint8_t> kDx2 = {0x68, 0x09, 0x09, 0x68, 0x03, 0x02, 0x5D, 0x11,

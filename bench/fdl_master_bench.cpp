@@ -1,4 +1,4 @@
-// A Data_Exchange round trip over FDL in memory (emulator-spec §10): dp::DpMaster → fdl::FdlMaster
+// A Data_Exchange round trip over FDL in memory (docs/profibus.md): dp::DpMaster → fdl::FdlMaster
 // → bytes → fdl::SlaveFrontEnd → dp::DpSlave (a real gw::Gateway, manual §5.1.4 slots) → bytes
 // back → FdlMaster → DpMaster. The line is a direct call (no PHY): this measures the protocol code
 // only, ns per round trip.

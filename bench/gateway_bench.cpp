@@ -1,4 +1,4 @@
-// Issue 2 targets on this 2-core machine: Data_Exchange with 48 slots (244 output bytes) <= 1 us,
+// Targets on this 2-core machine: Data_Exchange with 48 slots (244 output bytes) <= 1 us,
 // Rx frame dispatch <= 100 ns.
 #include <benchmark/benchmark.h>
 

@@ -1,9 +1,10 @@
 #!/usr/bin/python3
-"""The HTTP face after connection bursts, A/B (issue 18, docs/daemon.md "HTTP connections"):
+"""The HTTP face after connection bursts, A/B (docs/daemon.md "HTTP connections"):
 each binary runs config/demo.json with its HTTP face on a free loopback port; 1000 connections are
-opened and closed, ten times in a row, then one GET /api/v1/status must be answered. The build
-before issue 18 never answered again (libmicrohttpd's listening socket left its epoll set at the
-connection limit); tests/e2e/http_hostile_e2e.py asserts the same on the current build.
+opened and closed, ten times in a row, then one GET /api/v1/status must be answered. Builds from
+before the HTTP face accepted its own connections never answered again (libmicrohttpd's listening
+socket left its epoll set at the connection limit); tests/e2e/http_hostile_e2e.py asserts the same
+on the current build.
 
 Only the standard library and the daemon's own command line: it runs against any candp2d, old or
 new (no READY=1 protocol needed; it polls the face until it answers before the bursts).

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""DP master cycle jitter with and without live-page clients (issue 13, docs/daemon.md
+"""DP master cycle jitter with and without live-page clients (docs/daemon.md
 "Measurements").
 
 Runs candp2d with N gateways (default 122, DP addresses 3..124) on one virtual bus, master cycle
@@ -12,7 +12,7 @@ the 10 ms grid point: p50, p99, max) from GET /api/v1/status:
   phase "clients": --sse plain SSE clients reading /api/v1/events, plus one headless chromium
                    showing the page, the overview (--no-chromium to leave it out).
 
-bench/http_load.py (issue 18) measures missed cycles, 122 x 48 slots and 1/2/10 ms as well.
+bench/http_load.py measures missed cycles, 122 x 48 slots and 1/2/10 ms as well.
 
 Usage: bench/http_jitter.py --candp2d build/bin/candp2d [--gateways 122] [--seconds 45] [--fifo]
 """
@@ -30,7 +30,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "e2e"))
 from cdp import Browser  # noqa: E402
 from http_common import Daemon  # noqa: E402
 
-from pymodbus.client import ModbusTcpClient  # python3-pymodbus
+from pymodbus.client import ModbusTcpClient  # noqa: E402  python3-pymodbus
 
 
 def config(n):

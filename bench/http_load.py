@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Watching must not disturb (issue 18, docs/daemon.md "Measurements"): the DP master cycle of the
+"""Watching must not disturb (docs/daemon.md "Measurements"): the DP master cycle of the
 largest line the product allows while the HTTP face is watched.
 
 candp2d runs 122 gateways x 48 six-byte slots (tests/e2e/http_common.line_config) and a Modbus

@@ -52,11 +52,13 @@ def config(cycle_ms):
         for k in range(SLOTS_OUT):
             ident = 0x100 + k
             slots.append({"io": "output", "address": (k * SLOT_LEN + i * 8) % 8000,
-                          "length": SLOT_LEN, "comment": "%02X,%02X,00" % (ident >> 8, ident & 0xFF)})
+                          "length": SLOT_LEN,
+                          "comment": "%02X,%02X,00" % (ident >> 8, ident & 0xFF)})
         for k in range(SLOTS_IN):
             ident = 0x300 + k
             slots.append({"io": "input", "address": (k * SLOT_LEN + i * 8) % 8000,
-                          "length": SLOT_LEN, "comment": "%02X,%02X,00" % (ident >> 8, ident & 0xFF)})
+                          "length": SLOT_LEN,
+                          "comment": "%02X,%02X,00" % (ident >> 8, ident & 0xFF)})
         gws.append({"name": "gw%d" % a, "address": a, "bus": bus,
                     "parameters": {"can_bitrate": "1000k"}, "slots": slots})
     return {"modbus": {"listen": "127.0.0.1:0"}, "http": {"listen": "127.0.0.1:0"},
@@ -153,7 +155,8 @@ def measure(binary, cycle_ms, seconds):
             due = (t1 - t0) * 1000.0 / cycle_ms
             lat = s1["cycle"]["lateness_us"]
             hz = os.sysconf("SC_CLK_TCK")
-            return {"cycle_ms": cycle_ms, "cycles_done": s1["cycle"]["cycles"] - s0["cycle"]["cycles"],
+            return {"cycle_ms": cycle_ms,
+                    "cycles_done": s1["cycle"]["cycles"] - s0["cycle"]["cycles"],
                     "cycles_due": round(due), "p99_us": lat["p99"], "max_us": lat["max"],
                     "cpu_pct": round(100.0 * (c1 - c0) / hz / (t1 - t0), 1),
                     "rss_kb": rss, "hwm_kb": hwm, "frames": frames_sent(s1) - frames_sent(s0)}

@@ -1,4 +1,4 @@
-// Issue 4: one Page-Mode page processed by the gateway (manual §6, emulator-spec §6), and one PLC
+// One Page-Mode page processed by the gateway (manual §6, docs/page-mode.md), and one PLC
 // cycle of the page driver + DP master + gateway. Pages of 105 bytes (manual §6.4.2 example 1:
 // segments 32 + 32 + 32 + 9) with 12 Tx / 12 Rx entries of 6 data bytes each, as in the 127-motor
 // configuration; force 1, so every entry is sent on every page.

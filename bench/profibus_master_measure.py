@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""Data_Exchange round trips per second: candp2d role "master" driving a candp2d role "slaves" over a
-pseudo-terminal (emulator-spec §10, docs/profibus.md "Performance").
+"""Data_Exchange round trips per second: candp2d role "master" driving a candp2d role "slaves"
+over a pseudo-terminal (docs/profibus.md "Performance").
 
     /usr/bin/python3 bench/profibus_master_measure.py --candp2d build/bin/candp2d \
         --gateways 1 --cycle-ms 1 --baud 19200 --seconds 5

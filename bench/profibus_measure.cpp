@@ -139,7 +139,7 @@ class Master {
                                    std::vector<std::uint8_t> du, double* us = nullptr) {
     auto& fcb = fcb_[station];
     std::uint8_t fc;
-    if (fcb < 0) {  // first after FDL_Status: FCB=1, FCV=0 (emulator-spec §10)
+    if (fcb < 0) {  // first after FDL_Status: FCB=1, FCV=0 (docs/profibus.md)
       fcb = 1;
       fc = fdl::request_fc(fdl::kFcSrdHigh, true, false);
     } else {
@@ -156,7 +156,7 @@ class Master {
     if (!transact(fdl::Telegram::no_data(station, kMaster, fdl::request_fc(fdl::kFcFdlStatus))))
       return false;
     if (!srd(station, fdl::kSapSlaveDiag, {})) return false;
-    // emulator-spec §10 capture's Set_Prm with the watchdog off (Lock_Req only).
+    // docs/profibus.md capture's Set_Prm with the watchdog off (Lock_Req only).
     const std::vector<std::uint8_t> prm = {0x80, 0x01, 0x01, 0x00, 0x04, 0xA4, 0x00, 0x00,
                                            0x02, 0x00, 0x01, 0x00, 0x00, 0xFF, 0xFF, 0xFF};
     auto r = srd(station, fdl::kSapSetPrm, prm);

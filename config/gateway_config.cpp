@@ -49,7 +49,8 @@ void parse_parameters(const json& j, const std::string& path, GatewayConfig& g) 
   if (const json* b = o.find("can_bitrate"))
     p.bitrate_index = parse_bitrate(*b, o.path("can_bitrate"));
   p.comm_window = get_bool(o, "communication_window", false);
-  // GSD PrmText 3: RTR-Frames "Yes" = bit 4 clear = send RTR frames (emulator-spec §1.1).
+  // GSD PrmText 3: RTR-Frames "Yes" = bit 4 clear = send RTR frames
+  // (docs/dp-slave.md "User parameters").
   p.send_rtr = get_bool(o, "rtr_frames", true);
   const auto role = get_enum<gw::CanopenRole>(o, "canopen", gw::CanopenRole::None,
                                               {{"none", gw::CanopenRole::None},
@@ -68,7 +69,7 @@ void parse_parameters(const json& j, const std::string& path, GatewayConfig& g) 
   p.can_diagnosis = get_bool(o, "can_diagnosis", false);
   p.rx_counter = get_bool(o, "rx_counter", false);
   p.tx_counter = get_bool(o, "tx_counter", false);
-  // 10 ms × WD_Fact_1 × WD_Fact_2 with both factors 1..255 (emulator-spec §1).
+  // 10 ms × WD_Fact_1 × WD_Fact_2 with both factors 1..255 (docs/dp-slave.md).
   g.watchdog_ms = get_uint<std::uint16_t>(o, "watchdog_ms", 0, 0, 65000, "ms");
 }
 
@@ -113,7 +114,7 @@ SlotEntry parse_slot(const json& j, const std::string& path) {
                             {{"input", SlotIo::Input}, {"output", SlotIo::Output}});
     s.address = static_cast<std::uint16_t>(
         as_uint(o.at("address"), o.path("address"), 0, dp::kImageSize - 1, "(PLC byte address)"));
-    // Special identifier format: length byte bits 5-0 = count-1 (emulator-spec §2).
+    // Special identifier format: length byte bits 5-0 = count-1 (docs/slots.md "Chk_Cfg slots").
     s.length = static_cast<std::uint8_t>(as_uint(o.at("length"), o.path("length"), 1, 64, "bytes"));
     s.consistent = get_bool(o, "consistent", true);
     if (const json* c = o.find("comment")) {
@@ -171,7 +172,7 @@ void check_with_gateway(const std::string& file, GatewayConfig& g) {
                    std::string(gw::cfg_code_text(f.code)) + ")");
     return;
   }
-  // Behaviour the manual states, which the validator reports (emulator-spec §2).
+  // Behaviour the manual states, which the validator reports (docs/slots.md "Chk_Cfg slots").
   const auto& slots = gateway.slot_config()->slots;
   for (std::size_t i = 0; i < slots.size() && i < g.slots.size(); ++i) {
     const auto& s = slots[i];
@@ -180,7 +181,7 @@ void check_with_gateway(const std::string& file, GatewayConfig& g) {
     const bool bit29 = !m.empty() && (m[0] & 0x20);
     if ((m.size() == 5 && !bit29) || m.size() == 7)
       warn(g.slots[i].json_path + ".comment",
-           "cycle bytes on an input slot are ignored (emulator-spec §2)");
+           "cycle bytes on an input slot are ignored (docs/slots.md)");
     for (std::size_t k = i + 1; k < slots.size(); ++k)
       if (slots[k].kind == gw::SlotKind::Rx && slots[k].id == s.id)
         warn(g.slots[i].json_path,
@@ -189,7 +190,7 @@ void check_with_gateway(const std::string& file, GatewayConfig& g) {
   }
 }
 
-// Slots whose PLC bytes overlap: allowed (emulator-spec §8), reported as warnings.
+// Slots whose PLC bytes overlap: allowed (docs/modbus.md), reported as warnings.
 }  // namespace
 
 void check_overlaps(const std::string& file, const std::vector<GatewayConfig*>& gateways,
@@ -219,8 +220,8 @@ void check_overlaps(const std::string& file, const std::vector<GatewayConfig*>& 
                  std::string(input ? "input bytes I " : "output bytes Q ") +
                      std::to_string(s.begin) + ".." + std::to_string(s.end - 1) + " overlap " +
                      other.slot->json_path +
-                     (input ? " (the later slot's bytes win in the PLC image, emulator-spec §8)"
-                            : " (both send the same PLC bytes, emulator-spec §8)")});
+                     (input ? " (the later slot's bytes win in the PLC image, docs/modbus.md)"
+                            : " (both send the same PLC bytes, docs/modbus.md)")});
         list.push_back(s);
       }
     }
@@ -272,7 +273,7 @@ Result<GatewayConfig> parse_gateway(const json& j, const std::string& file,
 std::optional<std::uint32_t> configured_bitrate(const GatewayConfig& g) {
   const auto prm = set_prm_bytes(g);
   if (prm.size() <= gw::kPrmBitrate || prm[gw::kPrmBitrate] > gw::kBitrateMax) return std::nullopt;
-  return gw::kBitrates[prm[gw::kPrmBitrate]];  // emulator-spec §1.1 byte 8
+  return gw::kBitrates[prm[gw::kPrmBitrate]];  // docs/dp-slave.md "User parameters" byte 8
 }
 
 std::vector<std::uint8_t> set_prm_bytes(const GatewayConfig& g) {
@@ -288,8 +289,8 @@ std::vector<std::uint8_t> chk_cfg_bytes(const GatewayConfig& g) {
       out.insert(out.end(), s.cfg->begin(), s.cfg->end());
       continue;
     }
-    // Special identifier format with the comment as manufacturer bytes (emulator-spec §2, manual
-    // §7): "Universalmodul" entries as SIMATIC writes them.
+    // Special identifier format with the comment as manufacturer bytes
+    // (docs/slots.md "Chk_Cfg slots", manual §7): "Universalmodul" entries as SIMATIC writes them.
     const dp::CfgEntry e = s.io == SlotIo::Input
                                ? dp::special_input(s.length, s.consistent, s.comment)
                                : dp::special_output(s.length, s.consistent, s.comment);

@@ -202,7 +202,7 @@ std::uint8_t CommWindow::execute(const CwRequest& req, Time now, CwHost& host) {
   if (uses_length && req.length > can::kMaxDlc)
     return fail(req, kCwErrLength, "length " + std::to_string(req.length) + " > 8");
   if (transmits && !host.can_released())
-    return fail(req, kCwErrNotReleased, "CAN transmission not yet released (emulator-spec §7)");
+    return fail(req, kCwErrNotReleased, "CAN transmission not yet released (docs/canopen.md)");
 
   switch (req.command) {
     case kCwNop:

@@ -332,7 +332,7 @@ class Checker {
           const CanDp2Slot s = describe_candp2(e);
           if (s.problem)
             err(mod.line, name + ": the CAN-DP/2 rejects this entry (" + *s.problem +
-                              "; manual §7, emulator-spec §2)");
+                              "; manual §7, docs/slots.md)");
         }
       }
       if (!mod.prm.empty() || mod.ext_module_prm_data_len)

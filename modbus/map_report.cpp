@@ -10,7 +10,7 @@ namespace candp2::modbus {
 
 std::string map_text(const config::DaemonConfig& config) {
   std::ostringstream out;
-  out << "Modbus/TCP " << config.modbus_listen.to_string() << " (emulator-spec §8)\n\n";
+  out << "Modbus/TCP " << config.modbus_listen.to_string() << " (docs/modbus.md)\n\n";
   out << "Unit IDs (status block and control register of one gateway; the process image is the "
          "same for all):\n";
   for (std::size_t i = 0; i < config.gateways.size(); ++i) {

@@ -24,7 +24,7 @@ ProcessImageMap::ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFac
 
 GatewayFace* ProcessImageMap::resolve(std::uint8_t unit) const {
   if (gateways_.empty()) return nullptr;
-  // emulator-spec §8: unit IDs 0 and 255 address the first configured gateway.
+  // docs/modbus.md: unit IDs 0 and 255 address the first configured gateway.
   for (auto u : kFirstGatewayUnits)
     if (unit == u) return gateways_.front();
   for (auto* g : gateways_)
@@ -52,7 +52,7 @@ bool within(std::uint32_t address, std::uint32_t count, std::uint32_t begin, std
 
 std::uint16_t image_register(const std::array<std::uint8_t, dp::kImageSize>& bytes,
                              std::uint32_t r) {
-  // emulator-spec §8: register r = byte 2r (high) and 2r+1 (low).
+  // docs/modbus.md: register r = byte 2r (high) and 2r+1 (low).
   return static_cast<std::uint16_t>((bytes[2 * r] << 8) | bytes[2 * r + 1]);
 }
 

@@ -35,7 +35,7 @@ class GatewayFace {
   virtual std::uint16_t drop_remaining() const { return 0; }
   // A command this gateway cannot carry out: the reason (the write gets exception 0x04 and the
   // control register keeps its value). profibus role master: a power cycle cannot reach a remote
-  // device (emulator-spec §10, docs/modbus.md).
+  // device (docs/profibus.md, docs/modbus.md).
   virtual std::optional<std::string> refuses(Control /*command*/) const { return std::nullopt; }
   // The whole Slave_Diag answer (input registers kDiagnosisBase..); by default the status block's
   // 11 diagnosis bytes.
@@ -83,14 +83,14 @@ class Handler {
                                               Time now) = 0;
 };
 
-// emulator-spec §8. Single-threaded: a request is applied as a whole between two master cycles,
+// docs/modbus.md. Single-threaded: a request is applied as a whole between two master cycles,
 // which makes multi-register writes atomic with respect to the DP cycle.
 class ProcessImageMap final : public Handler {
  public:
   // The first gateway is the one unit IDs 0 and 255 address.
   ProcessImageMap(dp::ProcessImage& image, std::vector<GatewayFace*> gateways,
                   std::vector<DriveFace*> drives = {}, std::vector<FieldFace*> fields = {});
-  // profibus role slaves (emulator-spec §10): the output image shows what an external master
+  // profibus role slaves (docs/profibus.md): the output image shows what an external master
   // sent; writes to it (holding registers 0..4095, coils) get exception 0x04.
   void set_outputs_read_only(bool read_only) { outputs_read_only_ = read_only; }
   std::optional<DecodeFailure> handle(const Request& request, ReadResult& out, Time now) override;

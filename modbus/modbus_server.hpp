@@ -1,4 +1,4 @@
-// Modbus/TCP server inside the daemon's one event loop (emulator-spec §8), on libmodbus.
+// Modbus/TCP server inside the daemon's one event loop (docs/modbus.md), on libmodbus.
 //
 // libmodbus's own receive path (modbus_receive) blocks in select() until a whole request has
 // arrived and frames by function code rather than by the MBAP length, so one slow or broken client

@@ -10,11 +10,11 @@ std::span<const StatusField> status_fields() {
   using namespace status;
   static constexpr StatusField kFields[] = {
       {kDpState, 1, "dp_state", "DP slave state: 0 Wait_Prm, 1 Wait_Cfg, 2 Data_Exch"},
-      {kDiag, 11, "diag", "Slave_Diag bytes 0..10, one per register (emulator-spec §3)"},
+      {kDiag, 11, "diag", "Slave_Diag bytes 0..10, one per register (docs/dp-slave.md)"},
       {kMasterState, 1, "master_state",
        "master's view: 0 Init, 1 Set_Prm, 2 Chk_Cfg, 3 Check_Diag, 4 Data_Exch, 5 Retry"},
       {kBusState, 1, "bus_state", "CAN controller: 0 ok, 1 warning, 2 error-passive, 3 bus-off"},
-      {kReleased, 1, "released", "CAN transmission released: 0 no, 1 yes (emulator-spec §7)"},
+      {kReleased, 1, "released", "CAN transmission released: 0 no, 1 yes (docs/canopen.md)"},
       {kNmtState, 1, "nmt_state",
        "CANopen NMT state: 0 initialising, 1 pre-operational, 2 operational, 3 stopped"},
       {kRxFrames, 2, "rx_frames", "CAN frames received since power-on"},
@@ -43,7 +43,7 @@ std::span<const StatusField> status_fields() {
       {kBitrateMismatch, 1, "bitrate_mismatch",
        "1 = the interface's bit rate differs from Set_Prm's by more than 1 %"},
       {kLineRole, 1, "line_role",
-       "PROFIBUS line (emulator-spec §10): 0 none (in-process), 1 role slaves, 2 role master"},
+       "PROFIBUS line (docs/profibus.md): 0 none (in-process), 1 role slaves, 2 role master"},
       {kLineTelegrams, 2, "line_telegrams", "good FDL telegrams received on the line"},
       {kLineFcsErrors, 2, "line_fcs_errors", "telegrams dropped for a wrong FCS"},
       {kLineOtherErrors, 2, "line_other_errors",

@@ -16,7 +16,7 @@
 
 namespace candp2::modbus {
 
-// ---- the map of emulator-spec §8 -------------------------------------------------------------
+// ---- the map of docs/modbus.md ---------------------------------------------------------------
 
 inline constexpr std::uint16_t kImageRegisters = 4096;   // registers 0..4095 = image bytes 0..8191
 inline constexpr std::uint32_t kImageBits = 65536;       // coils / discrete inputs 0..65535
@@ -47,13 +47,13 @@ inline constexpr std::uint16_t kDpState = 0;       // 0 Wait_Prm, 1 Wait_Cfg, 2 
 inline constexpr std::uint16_t kDiag = 1;          // 1..11: diagnosis bytes 0..10
 inline constexpr std::uint16_t kMasterState = 12;  // the master's view of this slave
 inline constexpr std::uint16_t kBusState = 13;     // 0 ok, 1 warning, 2 error-passive, 3 bus-off
-inline constexpr std::uint16_t kReleased = 14;     // CAN transmission released (emulator-spec §7)
+inline constexpr std::uint16_t kReleased = 14;     // CAN transmission released (docs/canopen.md)
 inline constexpr std::uint16_t kNmtState =
     15;  // 0 initialising, 1 pre-op, 2 operational, 3 stopped
 inline constexpr std::uint16_t kRxFrames = 16;   // 16-17, 32 bit, high word first
 inline constexpr std::uint16_t kTxFrames = 18;   // 18-19
-inline constexpr std::uint16_t kIrqLost = 20;    // 20-21 (emulator-spec §3)
-inline constexpr std::uint16_t kMsgLost = 22;    // 22-23 (emulator-spec §3)
+inline constexpr std::uint16_t kIrqLost = 20;    // 20-21 (docs/dp-slave.md "Diagnosis")
+inline constexpr std::uint16_t kMsgLost = 22;    // 22-23 (docs/dp-slave.md "Diagnosis")
 inline constexpr std::uint16_t kFifoLevel = 24;  // Communication Window FIFO (manual §5.3)
 inline constexpr std::uint16_t kFifoHighWater = 25;
 inline constexpr std::uint16_t kSyncMs = 26;         // effective SYNC time
@@ -65,13 +65,13 @@ inline constexpr std::uint16_t kLedP = 32;
 inline constexpr std::uint16_t kLedC = 33;
 inline constexpr std::uint16_t kDpAddress = 34;
 inline constexpr std::uint16_t kParameterizations = 35;  // 35-36, master side
-// ---- issue 14: the CAN bit rate (SocketCAN "bitrate": "check" / "apply", docs/transports.md).
+// ---- The CAN bit rate (SocketCAN "bitrate": "check" / "apply", docs/transports.md).
 // One contiguous group; 0 where unknown (not a SocketCAN bus, no Set_Prm yet, vcan).
 inline constexpr std::uint16_t kBitrateMode = 37;        // 0 none, 1 check, 2 apply
 inline constexpr std::uint16_t kBitrateConfigured = 38;  // 38-39 bit/s from Set_Prm byte 8
 inline constexpr std::uint16_t kBitrateInterface = 40;   // 40-41 bit/s of the interface
 inline constexpr std::uint16_t kBitrateMismatch = 42;    // 1 = they differ by more than 1 %
-// The PROFIBUS line (emulator-spec §10; zero without a `profibus` section).
+// The PROFIBUS line (docs/profibus.md; zero without a `profibus` section).
 inline constexpr std::uint16_t kLineRole = 43;         // 0 in-process, 1 role slaves, 2 role master
 inline constexpr std::uint16_t kLineTelegrams = 44;    // 44-45 good telegrams on the line
 inline constexpr std::uint16_t kLineFcsErrors = 46;    // 46-47
@@ -118,7 +118,7 @@ struct Codes {
 Codes codes(const gw::GatewayStatus& g);
 }  // namespace led
 
-// Holding register 8192 commands (emulator-spec §8).
+// Holding register 8192 commands (docs/modbus.md).
 enum class Control : std::uint16_t {
   None = 0,
   PowerCycle = 1,

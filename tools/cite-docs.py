@@ -580,13 +580,16 @@ def tracked(paths: list[str], excludes: list[str]) -> list[str]:
 
 def missing_headings(files: list[str]) -> list[str]:
     """Citations `docs/PAGE.md "Heading"` whose page or heading does not exist (a heading may be
-    cited by its beginning; backticks in headings are ignored)."""
+    cited by its beginning; backticks in headings are ignored; a paragraph's bold label, as in
+    "- **Initial transmission in layer-2 mode.** ...", counts as a heading)."""
     heads: dict[str, list[str]] = {}
     for f in files:
         if f.startswith("docs/") and f.endswith(".md"):
             text = Path(f).read_text(encoding="utf-8")
             heads[f] = [ln.lstrip("#").strip().replace("`", "") for ln in text.split("\n")
                         if ln.startswith("#")]
+            heads[f] += [m.group(1).replace("`", "")
+                         for m in re.finditer(r"^(?:- )?\*\*([^*]+?)\.?\*\*", text, re.M)]
     found = []
     for f in files:
         if f == SELF or kind_of(f) is None:

@@ -250,7 +250,7 @@ std::string explain_diagnosis(const GatewayReport& g) {
   if (g.not_supported)
     return state +
            ": Set_Prm rejected with Not_Supported: Sync_Req or Freeze_Req in "
-           "Station_Status (emulator-spec §1: FREEZE/SYNC not supported)";
+           "Station_Status (docs/dp-slave.md: FREEZE/SYNC not supported)";
   if (g.prm_fault) {
     const auto& f = *g.prm_fault;
     const std::size_t len = g.input.params.prm.size();
@@ -258,11 +258,11 @@ std::string explain_diagnosis(const GatewayReport& g) {
       return state + ": Set_Prm rejected, the telegram has " + std::to_string(len) +
              " bytes, the gateway expects " + std::to_string(gw::kSetPrmLen) +
              " (byte 9 = " + std::to_string(f.byte) +
-             ": first missing or excess byte; emulator-spec §1.1)";
+             ": first missing or excess byte; docs/dp-slave.md)";
     std::string at = prm_byte_name(f.byte);
     if (f.byte < len) at += " = " + hex8(g.input.params.prm[f.byte]);
     return state + ": Set_Prm rejected at " + at + ", a correct value is " + hex8(f.correct) +
-           " (emulator-spec §1.1)";
+           " (docs/dp-slave.md)";
   }
   if (!g.prm_accepted) return state + ": Set_Prm rejected";
   if (g.cfg_fault) {
@@ -270,7 +270,7 @@ std::string explain_diagnosis(const GatewayReport& g) {
     std::string where = "slot " + std::to_string(f.slot);
     if (f.slot < g.slots.size()) where += " (" + g.slots[f.slot].json_path + ")";
     return state + ": Chk_Cfg rejected, " + where + ": code " + std::to_string(f.code) + " = " +
-           std::string(gw::cfg_code_text(f.code)) + " (emulator-spec §2)";
+           std::string(gw::cfg_code_text(f.code)) + " (docs/slots.md)";
   }
   if (!g.cfg_accepted) return state + ": Chk_Cfg rejected";
   return state + ": the gateway accepts the parameters and the configuration";
@@ -280,7 +280,7 @@ std::string format_text(const Report& r) {
   std::ostringstream os;
   os << "candp2 validate " << r.file << "\n";
   if (r.gsd_file.empty())
-    os << "named parameters: built-in encoding (emulator-spec §1.1)\n";
+    os << "named parameters: built-in encoding (docs/dp-slave.md)\n";
   else
     os << "named parameters: encoded through the GSD " << r.gsd_file << " (" << r.gsd_name << ")\n";
   std::size_t invalid = 0;

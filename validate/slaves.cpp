@@ -151,8 +151,8 @@ void check_slave_overlaps(const std::vector<GatewayReport>& gateways,
               {WarningKind::Overlap, span.path,
                "PLC bytes " + area + range(span.begin, span.end - span.begin) + " overlap " + area +
                    range(o.begin, o.end - o.begin) + " of " + o.path +
-                   (input ? ": the later bytes win in the PLC image (emulator-spec §8)"
-                          : ": both send the same PLC bytes (emulator-spec §8)")});
+                   (input ? ": the later bytes win in the PLC image (docs/modbus.md)"
+                          : ": both send the same PLC bytes (docs/modbus.md)")});
         }
         list.push_back(span);
       }

@@ -76,7 +76,7 @@ void slot_warnings(GatewayReport& r) {
         r.warnings.push_back({WarningKind::InputCycle, path_of(r, i),
                               "cycle " + std::to_string(*cycle) +
                                   " ms in the comment bytes of an input slot is ignored "
-                                  "(emulator-spec §2)"});
+                                  "(docs/slots.md)"});
     }
     if (s.kind == gw::SlotKind::Tx && s.id) {
       // docs/slots.md "Chk_Cfg slots": the same Tx identifier on two output slots is accepted.
@@ -87,7 +87,7 @@ void slot_warnings(GatewayReport& r) {
                               "Tx identifier 0x" + can::ident_text(*s.id) + " is also sent by " +
                                   slot_name(r, k) +
                                   ": two slots send frames with the same identifier (accepted, "
-                                  "emulator-spec §2)"});
+                                  "docs/slots.md)"});
         break;
       }
     }
@@ -175,8 +175,8 @@ void check_overlaps(std::vector<GatewayReport>& reports) {
           r.warnings.push_back(
               {WarningKind::Overlap, s.path,
                "PLC bytes " + text(s) + " overlap " + text(o) + " of " + o.path +
-                   (input ? ": the later slot's bytes win in the PLC image (emulator-spec §8)"
-                          : ": both slots send the same PLC bytes (emulator-spec §8)")});
+                   (input ? ": the later slot's bytes win in the PLC image (docs/modbus.md)"
+                          : ": both slots send the same PLC bytes (docs/modbus.md)")});
         }
         list.push_back(s);
       }

@@ -1,6 +1,7 @@
-// The SocketCAN bit rate rules (docs/transports.md "Bit rate"; manual §5.1.2 / emulator-spec §1.1
-// Set_Prm byte 8) against a fake interface, and the pure helpers of can/can_link.hpp. The real
-// netlink path runs in the QEMU guest (tests/qemu/socketcan_sja1000.sh).
+// The SocketCAN bit rate rules (docs/transports.md "Bit rate"; manual §5.1.2 /
+// docs/dp-slave.md "User parameters" Set_Prm byte 8) against a fake interface, and the pure helpers
+// of can/can_link.hpp. The real netlink path runs in the QEMU guest
+// (tests/qemu/socketcan_sja1000.sh).
 #include "bitrate/bitrate_supervisor.hpp"
 
 #include <errno.h>
@@ -61,7 +62,7 @@ TEST(BitrateSupervisor, ApplySetsTheSetPrmBitrateAndAgainOnChange) {
   const auto gw = f.sup->add_gateway("gw5");
   f.sup->update(gw, std::nullopt, t0);  // before Set_Prm: nothing
   EXPECT_TRUE(f.link->sets.empty());
-  f.sup->update(gw, 500000, t0);  // emulator-spec §1.1 byte 8 = 2
+  f.sup->update(gw, 500000, t0);  // docs/dp-slave.md "User parameters" byte 8 = 2
   ASSERT_EQ(f.link->sets.size(), 1u);
   EXPECT_EQ(f.link->sets[0].first, 500000u);
   EXPECT_EQ(f.link->sets[0].second, 100u);

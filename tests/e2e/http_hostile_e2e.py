@@ -1,4 +1,4 @@
-"""The HTTP face under hostile clients (issue 18, docs/daemon.md "HTTP connections"), pytest on the
+"""The HTTP face under hostile clients (docs/daemon.md "HTTP connections"), pytest on the
 candp2 package (ctest e2e_http_hostile):
 
   - 1000 connections opened and closed, ten times in a row, then a request is answered within
@@ -14,10 +14,11 @@ candp2 package (ctest e2e_http_hostile):
 
 Throughout, a Modbus client reads the status block every 20 ms: every read is answered (the
 slowest within 500 ms), the DP master keeps cycling (Data_Exchanges at >= 90 % of the cycle
-rate) and missed cycles stay below 5 % of the grid points. The bounds are far from what a disturbed
-cycle looks like (a third of the cycles lost while one browser watched, before issue 18) and far
-enough from a loaded CI machine's scheduling noise (9 of 743 seen with three browsers beside); the
-numbers are printed, and bench/http_load.py measures the real margin. Every wait has a deadline; the process's descriptor limit is raised for the sockets.
+rate) and missed cycles stay below 5 % of the grid points. The bounds are far from what a
+disturbed cycle looks like (a third of the cycles lost while one browser watched, before the face
+was reworked) and far enough from a loaded CI machine's scheduling noise (9 of 743 seen with three
+browsers beside); the numbers are printed, and bench/http_load.py measures the real margin. Every
+wait has a deadline; the process's descriptor limit is raised for the sockets.
 """
 
 import errno

@@ -1,4 +1,4 @@
-"""The live front panel at the largest line the product allows (issue 18): 122 gateways x 48
+"""The live front panel at the largest line the product allows: 122 gateways x 48
 six-byte slots (http_common.line_config, master cycle 10 ms) in Debian's headless chromium over the
 DevTools protocol (cdp.py), pytest on the candp2 package (ctest e2e_http_scale):
 

@@ -95,7 +95,7 @@ TEST(Validate, CfgFaultIsTheGatewaysDiagnosis) {
   EXPECT_FALSE(r.slots[0].slot);  // nothing accepted, nothing decoded
   EXPECT_EQ(explain_diagnosis(r),
             "Wait_Prm: Chk_Cfg rejected, slot 0 ($.gateways[0].slots[0]): code 3 = " +
-                std::string(gw::cfg_code_text(3)) + " (emulator-spec §2)");
+                std::string(gw::cfg_code_text(3)) + " (docs/slots.md)");
 }
 
 TEST(Validate, PrmFaultLeavesChkCfgUnevaluated) {
@@ -111,7 +111,7 @@ TEST(Validate, PrmFaultLeavesChkCfgUnevaluated) {
   EXPECT_EQ(r.slots.size(), 2u);  // the rows are still listed, as sent
   EXPECT_EQ(explain_diagnosis(r),
             "Wait_Prm: Set_Prm rejected at ModuleID (byte 10) = 0x00, a correct value is 0x01 "
-            "(emulator-spec §1.1)");
+            "(docs/dp-slave.md)");
 }
 
 TEST(Validate, PrmLengthAndNotSupported) {

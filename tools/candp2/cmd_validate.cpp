@@ -117,7 +117,7 @@ int run_validate(const ValidateArgs& a) {
       if (builtin != enc.telegram)
         in.warnings.push_back({validate::WarningKind::GsdEncoding, g.json_path + ".parameters",
                                "the GSD encodes Set_Prm as " + hex_bytes(enc.telegram) +
-                                   ", the built-in encoding (emulator-spec §1.1) gives " +
+                                   ", the built-in encoding (docs/dp-slave.md) gives " +
                                    hex_bytes(builtin)});
     }
     report.gateways.push_back(validate::check_gateway(std::move(in)));
