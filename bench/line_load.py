@@ -32,38 +32,18 @@ import threading
 import time
 import urllib.request
 
-from pymodbus.client import ModbusTcpClient  # python3-pymodbus
+from pymodbus.client import ModbusTcpClient  # noqa: E402  python3-pymodbus
 
-GATEWAYS = 122
-SLOTS_OUT = 24
-SLOTS_IN = 24
-SLOT_LEN = 6
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "e2e"))
+from http_common import line_config  # noqa: E402
 
 
 def config(cycle_ms):
-    """122 x 48 six-byte slots; the PLC image (8192 bytes) is shared, so the gateways' slot
-    addresses overlap (allowed, docs/modbus.md) and one Modbus write reaches them all."""
-    gws, buses = [], {}
-    for i in range(GATEWAYS):
-        a = 3 + i
-        bus = "can%d" % a
-        buses[bus] = {"type": "virtual"}
-        slots = []
-        for k in range(SLOTS_OUT):
-            ident = 0x100 + k
-            slots.append({"io": "output", "address": (k * SLOT_LEN + i * 8) % 8000,
-                          "length": SLOT_LEN,
-                          "comment": "%02X,%02X,00" % (ident >> 8, ident & 0xFF)})
-        for k in range(SLOTS_IN):
-            ident = 0x300 + k
-            slots.append({"io": "input", "address": (k * SLOT_LEN + i * 8) % 8000,
-                          "length": SLOT_LEN,
-                          "comment": "%02X,%02X,00" % (ident >> 8, ident & 0xFF)})
-        gws.append({"name": "gw%d" % a, "address": a, "bus": bus,
-                    "parameters": {"can_bitrate": "1000k"}, "slots": slots})
-    return {"modbus": {"listen": "127.0.0.1:0"}, "http": {"listen": "127.0.0.1:0"},
-            "master": {"address": 1, "cycle_ms": cycle_ms}, "buses": buses, "gateways": gws,
-            "log": {"level": "warn"}}
+    """122 x 48 six-byte slots (tests/e2e/http_common.line_config), quieter log."""
+    cfg = line_config(cycle_ms)
+    cfg["log"] = {"level": "warn"}
+    return cfg
 
 
 class Run:

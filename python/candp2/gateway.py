@@ -5,11 +5,11 @@ parameters (the HTTP face), and the faults a test can inject (docs/faults.md).""
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING, Any, Mapping, overload
+from typing import TYPE_CHECKING, Any, Mapping
 
 from .errors import Candp2Error
 from .registers import DiagnosisLayout, RegisterMap, SlotMap, StatusValue
-from .station import POLL_INTERVAL, Image, Station, hex_bytes
+from .station import POLL_INTERVAL, DiagnosisBytes, Image, Station, hex_bytes
 
 if TYPE_CHECKING:
     from .connection import Connection
@@ -37,7 +37,7 @@ class PrmFault:
 
 
 @dataclass(frozen=True)
-class Diagnosis:
+class Diagnosis(DiagnosisBytes):
     """The 11 Slave_Diag bytes, decoded (manual §3.4).
 
     `raw` the bytes; `bits` the names of the station status bits that are set ("Ext_Diag",
@@ -78,21 +78,6 @@ class Diagnosis:
             irq, msg = raw[layout.irq_lost], raw[layout.msg_lost]
         return cls(bytes(raw), bits, None if master == layout.no_master else master, ident,
                    cfg, prm, can_state, irq, msg)
-
-    @overload
-    def __getitem__(self, index: int) -> int: ...
-
-    @overload
-    def __getitem__(self, index: slice) -> bytes: ...
-
-    def __getitem__(self, index: int | slice) -> int | bytes:
-        return self.raw[index]
-
-    def __len__(self) -> int:
-        return len(self.raw)
-
-    def __contains__(self, bit: object) -> bool:
-        return bit in self.bits
 
     def __str__(self) -> str:
         parts = [hex_bytes(self.raw)]

@@ -6,11 +6,11 @@ diagnosis after it), its field side (the inputs it reports, the outputs it appli
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Mapping, Sequence, TypeVar, overload
+from typing import TYPE_CHECKING, Mapping, Sequence, TypeVar
 
 from .errors import Candp2Error
 from .registers import DiagnosisLayout, SlaveMap, StatusValue
-from .station import ByteView, Station, hex_bytes
+from .station import ByteView, DiagnosisBytes, Station, hex_bytes
 
 if TYPE_CHECKING:
     from .connection import Connection
@@ -106,7 +106,7 @@ def decode_blocks(data: bytes) -> tuple[DiagBlock, ...]:
 
 
 @dataclass(frozen=True)
-class SlaveDiagnosis:
+class SlaveDiagnosis(DiagnosisBytes):
     """A generic slave's whole Slave_Diag answer, decoded (docs/slaves.md "Diagnosis").
 
     `raw` the bytes (6..244); `bits` the names of the station status bits set ("Ext_Diag",
@@ -139,21 +139,6 @@ class SlaveDiagnosis:
     def device(self) -> bytes | None:
         """The bytes of the first device-related block (a diagnosis alarm), or None."""
         return next((b.data for b in self.blocks if b.kind == "device"), None)
-
-    @overload
-    def __getitem__(self, index: int) -> int: ...
-
-    @overload
-    def __getitem__(self, index: slice) -> bytes: ...
-
-    def __getitem__(self, index: int | slice) -> int | bytes:
-        return self.raw[index]
-
-    def __len__(self) -> int:
-        return len(self.raw)
-
-    def __contains__(self, bit: object) -> bool:
-        return bit in self.bits
 
     def __str__(self) -> str:
         parts = [hex_bytes(self.raw) or "(none)"]

@@ -27,6 +27,29 @@ def hex_bytes(data: bytes) -> str:
     return " ".join("%02X" % b for b in data)
 
 
+class DiagnosisBytes:
+    """What both diagnoses (candp2.Diagnosis, candp2.SlaveDiagnosis) answer as bytes and as a set
+    of station status bits: `diag[8]`, `diag[0:6]`, `len(diag)`, `"Ext_Diag" in diag`."""
+
+    raw: bytes
+    bits: frozenset[str]
+
+    @overload
+    def __getitem__(self, index: int) -> int: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> bytes: ...
+
+    def __getitem__(self, index: int | slice) -> int | bytes:
+        return self.raw[index]
+
+    def __len__(self) -> int:
+        return len(self.raw)
+
+    def __contains__(self, bit: object) -> bool:
+        return bit in self.bits
+
+
 def describe_predicate(predicate: Callable[..., object]) -> str:
     """The lambda's source text ("lambda g: g.state == 'Data_Exch'"), else its repr."""
     try:
