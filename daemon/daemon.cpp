@@ -374,6 +374,11 @@ bool DaemonImpl::start_http(std::string* error) {
     src.buses.push_back(bs);
   }
   for (auto& d : plant_->drives()) src.drives.push_back({&d->config(), &d->drive().drive()});
+  // The generic slaves with their Modbus faces (docs/slaves.md "Front panel and HTTP API").
+  for (auto& s : plant_->slaves())
+    for (auto& f : faces_.gateways)
+      if (f->dp_address() == s->config().address)
+        src.slaves.push_back({&s->config(), &s->slave(), f.get(), plant_->slave_line() != nullptr});
   status_model_ = std::make_unique<http::StatusModel>(std::move(src));
   std::string e;
   http_ = http::HttpServer::listen(

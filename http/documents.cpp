@@ -27,7 +27,9 @@ void put(std::string& out, std::uint64_t v) {
   out += std::to_string(v);
 }
 
-// The per-gateway families (docs/daemon.md "Metrics"), one step each.
+}  // namespace
+
+// A per-gateway or per-slave family (docs/daemon.md "Metrics"), one step each.
 struct PerGateway {
   const char* name;
   const char* type;
@@ -35,6 +37,9 @@ struct PerGateway {
   const char* reason;  // a second label, or nullptr
   std::uint32_t (*value)(const modbus::StatusBlock&);
 };
+
+namespace {
+
 using namespace modbus::status;
 constexpr PerGateway kPerGateway[] = {
     {"candp2_gateway_can_frames_received_total", "counter",
@@ -68,6 +73,21 @@ constexpr PerGateway kPerGateway[] = {
 };
 constexpr std::size_t kFamilies = std::size(kPerGateway);
 
+// The per-slave families of the generic DP slaves (docs/slaves.md "Front panel and HTTP API"),
+// from their status blocks as for gateways, one step each.
+constexpr PerGateway kPerSlave[] = {
+    {"candp2_slave_dp_state", "gauge",
+     "generic DP slave state: 0 Wait_Prm, 1 Wait_Cfg, 2 Data_Exch", nullptr,
+     [](const modbus::StatusBlock& b) { return std::uint32_t{b[kDpState]}; }},
+    {"candp2_slave_data_exchanges_total", "counter",
+     "Data_Exchange telegrams the built-in master completed with the generic DP slave", nullptr,
+     [](const modbus::StatusBlock& b) { return get32(b, kDataExchanges); }},
+    {"candp2_slave_parameterizations_total", "counter",
+     "Set_Prm telegrams the built-in master sent to the generic DP slave", nullptr,
+     [](const modbus::StatusBlock& b) { return get32(b, kParameterizations); }},
+};
+constexpr std::size_t kSlaveFamilies = std::size(kPerSlave);
+
 }  // namespace
 
 // ------------------------------------------------------------------------ GET /api/v1/status
@@ -89,6 +109,9 @@ bool StatusBuild::step(Time now) {
     for (std::size_t i = 0; i < model_.sources().drives.size(); ++i)
       drives.push_back(model_.drive_json(i));
     out_ += "],\"drives\":" + drives.dump() + ",\"gateways\":[";
+  } else if (slaves_open_) {
+    if (slave_ > 0) out_ += ',';
+    out_ += model_.slave_json(slave_++, now).dump();
   } else if (!in_gateway_) {
     if (gateway_ > 0) out_ += ',';
     open_object(out_, model_.gateway_head(gateway_, now).dump());
@@ -107,7 +130,11 @@ bool StatusBuild::step(Time now) {
     in_gateway_ = false;
     ++gateway_;
   }
-  if (drives_ && !in_gateway_ && gateway_ >= gateways) {
+  if (drives_ && !in_gateway_ && gateway_ >= gateways && !slaves_open_) {
+    out_ += "],\"slaves\":[";
+    slaves_open_ = true;
+  }
+  if (slaves_open_ && slave_ >= model_.sources().slaves.size()) {
     out_ += "]}\n";
     done_ = true;
   }
@@ -129,9 +156,12 @@ void MetricsBuild::family(std::string_view name, std::string_view type, std::str
 }
 
 void MetricsBuild::per_gateway(std::size_t k) {
-  const PerGateway& f = kPerGateway[k];
+  per_row(kPerGateway[k], rows_);
+}
+
+void MetricsBuild::per_row(const PerGateway& f, const std::vector<Row>& rows) {
   if (f.type) family(f.name, f.type, f.help);
-  for (const auto& r : rows_) {
+  for (const auto& r : rows) {
     out_ += f.name;
     out_ += '{';
     out_ += r.labels;
@@ -159,8 +189,22 @@ bool MetricsBuild::step(Time now) {
     }
     return false;
   }
+  const auto& slaves = model_.sources().slaves;
+  if (slave_rows_.size() < slaves.size()) {
+    for (std::size_t n = 0; n < kGatewaysPerStep && slave_rows_.size() < slaves.size(); ++n) {
+      const auto& sl = slaves[slave_rows_.size()];
+      slave_rows_.push_back(
+          {"address=\"" + std::to_string(sl.cfg->address) + "\",name=\"" + sl.cfg->name + "\"",
+           sl.face->status(now)});
+    }
+    return false;
+  }
   if (family_ < kFamilies) {
     per_gateway(family_++);
+    return false;
+  }
+  if (!slaves.empty() && slave_family_ < kSlaveFamilies) {
+    per_row(kPerSlave[slave_family_++], slave_rows_);
     return false;
   }
   model_.refresh_load(now);

@@ -16,6 +16,8 @@
 
 namespace candp2::http {
 
+struct PerGateway;
+
 class DocumentBuild {
  public:
   virtual ~DocumentBuild() = default;
@@ -49,10 +51,12 @@ class StatusBuild final : public DocumentBuild {
   std::size_t row_ = 0;
   std::size_t rows_ = 0;
   bool in_gateway_ = false;
+  bool slaves_open_ = false;  // the gateways are done: "slaves" one a step
+  std::size_t slave_ = 0;
 };
 
-// Prometheus text format 0.0.4: the gateways' status blocks a few at a time, then one metric
-// family per step.
+// Prometheus text format 0.0.4: the gateways' and the generic slaves' status blocks a few at a
+// time, then one metric family per step.
 class MetricsBuild final : public DocumentBuild {
  public:
   MetricsBuild(StatusModel& model, std::size_t expected) : DocumentBuild(expected), model_(model) {}
@@ -61,17 +65,20 @@ class MetricsBuild final : public DocumentBuild {
 
  private:
   void family(std::string_view name, std::string_view type, std::string_view help);
-  void per_gateway(std::size_t k);
-  void tail();
-
-  StatusModel& model_;
-  bool started_ = false;
   struct Row {
     std::string labels;
     modbus::StatusBlock block;
   };
+  void per_gateway(std::size_t k);
+  void per_row(const PerGateway& f, const std::vector<Row>& rows);
+  void tail();
+
+  StatusModel& model_;
+  bool started_ = false;
   std::vector<Row> rows_;
+  std::vector<Row> slave_rows_;  // the generic slaves' status blocks
   std::size_t family_ = 0;
+  std::size_t slave_family_ = 0;
   bool done_ = false;
 };
 

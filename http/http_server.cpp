@@ -307,8 +307,8 @@ class HttpServerImpl final : public HttpServer {
     if (closing_) return;
     std::uint64_t more = 0;
     if (throttle.pass(loop_.now(), line, &more)) {
-      log_.log(level, more ? line + " (and " + std::to_string(more) + " more like it before)"
-                           : line);
+      log_.log(level,
+               more ? line + " (and " + std::to_string(more) + " more like it before)" : line);
     } else if (!log_timer_) {
       log_timer_ = loop_.add_timer(seconds(1), [this] {
         log_timer_ = 0;
@@ -513,7 +513,13 @@ class HttpServerImpl final : public HttpServer {
       for (std::size_t i = 0; i < gateways.size(); ++i)
         if (std::to_string(gateways[i].cfg->dp_address()) == gw) stream->cursor.gateway = i;
     }
-    stream->first_round = view_.first_round_for(stream->cursor.gateway);
+    // ?slave=8: the panel of the generic slave at DP address 8 (docs/slaves.md).
+    if (const char* sl = MHD_lookup_connection_value(connection, MHD_GET_ARGUMENT_KIND, "slave")) {
+      const auto& slaves = model_.sources().slaves;
+      for (std::size_t i = 0; i < slaves.size(); ++i)
+        if (std::to_string(slaves[i].cfg->address) == sl) stream->cursor.slave = i;
+    }
+    stream->first_round = view_.first_round_for(stream->cursor.gateway, stream->cursor.slave);
     auto* ctx = new StreamContext{this, stream.get()};
     auto* r = MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, kStreamBlock,
                                                 &HttpServerImpl::read_stream, ctx,
@@ -593,10 +599,12 @@ class HttpServerImpl final : public HttpServer {
   void maybe_start_round(Time now) {
     if (streams_.empty() || view_.round_active()) return;
     if (!want_round_ && now - last_round_ < options_.push_interval) return;
-    std::vector<std::size_t> open;
-    for (const auto& [p, s] : streams_)
+    std::vector<std::size_t> open, open_slaves;
+    for (const auto& [p, s] : streams_) {
       if (s->cursor.gateway) open.push_back(*s->cursor.gateway);
-    view_.start_round(now, std::move(open));
+      if (s->cursor.slave) open_slaves.push_back(*s->cursor.slave);
+    }
+    view_.start_round(now, std::move(open), std::move(open_slaves));
     last_round_ = now;
     want_round_ = false;
   }

@@ -9,10 +9,6 @@
 
 namespace candp2::http {
 
-namespace {
-
-using nlohmann::json;
-
 std::string hex_bytes(std::span<const std::uint8_t> bytes) {
   std::string out;
   out.reserve(bytes.size() * 3);
@@ -23,6 +19,10 @@ std::string hex_bytes(std::span<const std::uint8_t> bytes) {
   }
   return out;
 }
+
+namespace {
+
+using nlohmann::json;
 
 std::uint32_t get32(const modbus::StatusBlock& b, std::uint16_t at) {
   return (static_cast<std::uint32_t>(b[at]) << 16) | b[at + 1];
@@ -360,6 +360,9 @@ json StatusModel::status(Time now) {
     gateways.push_back(std::move(g));
   }
   j["gateways"] = std::move(gateways);
+  json slaves = json::array();
+  for (std::size_t i = 0; i < src_.slaves.size(); ++i) slaves.push_back(slave_json(i, now));
+  j["slaves"] = std::move(slaves);
   return j;
 }
 

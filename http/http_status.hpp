@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <deque>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,7 @@
 #include "common/time.hpp"
 #include "config/config.hpp"
 #include "gateway/gateway.hpp"
+#include "gsd_slave/gsd_slave.hpp"
 #include "modbus/modbus_map.hpp"
 #include "modbus/modbus_server.hpp"
 #include "plant/cycle_stats.hpp"
@@ -36,6 +38,9 @@ namespace candp2::http {
 // floor((n - 1) / 4) stuff bits, n = the stuffed part SOF..CRC = 34 + 8 * DLC (11-bit identifier)
 // or 54 + 8 * DLC (29-bit); remote frames carry no data bytes.
 std::uint32_t frame_bits_stuffed(const can::Frame& f);
+
+// "0A 1B 2C": bytes as the JSON shows them.
+std::string hex_bytes(std::span<const std::uint8_t> bytes);
 
 // Every frame on one bus, counted and kept for the live trace. Fed by the daemon exactly once per
 // frame (the bus's tap on virtual buses, the logging channel on SocketCAN/socketcand buses).
@@ -62,6 +67,13 @@ struct GatewaySource {
   const config::GatewayConfig* cfg = nullptr;
   gw::Gateway* gateway = nullptr;
   modbus::GatewayFace* face = nullptr;  // the Modbus status block (LEDs, diagnosis, counters)
+};
+// A generic DP-V0 slave from its GSD (docs/slaves.md "Front panel and HTTP API").
+struct SlaveSource {
+  const config::SlaveConfig* cfg = nullptr;
+  gsd_slave::GsdSlave* slave = nullptr;
+  modbus::GatewayFace* face = nullptr;  // its status block and whole diagnosis, as Modbus has them
+  bool line = false;                    // on a profibus line in role slaves (else in-process)
 };
 struct BusSource {
   const config::BusConfig* cfg = nullptr;
@@ -95,6 +107,7 @@ struct StatusSources {
   const plant::CycleStats* cycle = nullptr;
   const modbus::ModbusServer* modbus = nullptr;
   std::vector<GatewaySource> gateways;
+  std::vector<SlaveSource> slaves;
   std::vector<BusSource> buses;
   std::vector<DriveSource> drives;
 };
@@ -105,7 +118,8 @@ class StatusModel {
 
   // GET /api/v1/status: the whole state as JSON in one piece (docs/daemon.md lists the fields).
   // `now` is the loop's CLOCK_MONOTONIC time; ages in the JSON are relative to it. The HTTP face
-  // assembles the same document from the pieces below (status_head, gateway_head, slot_json).
+  // assembles the same document from the pieces below (status_head, gateway_head, slot_json,
+  // slave_json).
   nlohmann::json status(Time now);
   // Everything of status() but "gateways"; `parts` false: without "buses" and "drives" too.
   nlohmann::json status_head(Time now, bool parts = true);
@@ -115,11 +129,16 @@ class StatusModel {
   // Slot row k of a gateway. `age` true: "age_ms" relative to now (status); false: "last_ms", the
   // loop time of the slot's last frame, which changes only with a frame (the live view).
   nlohmann::json slot_json(std::size_t gateway, std::size_t k, Time now, bool age) const;
+  // One generic slave of status() (http/slave_status.cpp): its GSD, DP and master state, the
+  // whole diagnosis, its modules, the field side's bytes, the faults forced on it.
+  nlohmann::json slave_json(std::size_t slave, Time now) const;
 
   // The live view's pieces (docs/daemon.md "Server-Sent Events"): a gateway's overview tile
   // (address, name, LEDs, DP state, fault, frames/s over the last second), the cycle, Modbus and
   // HTTP figures, a bus without or with its trace, a drive.
   nlohmann::json tile(std::size_t gateway, Time now);
+  // A generic slave's tile: address, name, model, DP state, fault (no LEDs, no frames).
+  nlohmann::json slave_tile(std::size_t slave, Time now) const;
   nlohmann::json cycle_json() const;
   nlohmann::json modbus_json() const;
   nlohmann::json http_json() const;

@@ -25,15 +25,30 @@ LiveView::LiveView(StatusModel& model)
       buses_(model.sources().buses.size()),
       traces_(model.sources().buses.size()),
       drives_(model.sources().drives.size()),
-      panel_round_(model.sources().gateways.size(), 0) {}
+      panel_round_(model.sources().gateways.size(), 0),
+      slave_tiles_(model.sources().slaves.size()),
+      slave_panels_(model.sources().slaves.size()),
+      slave_round_(model.sources().slaves.size(), 0) {}
 
-void LiveView::start_round(Time now, std::vector<std::size_t> open) {
+namespace {
+
+// Sorted, without duplicates and indices >= n.
+std::vector<std::size_t> index_set(std::vector<std::size_t> v, std::size_t n) {
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  std::erase_if(v, [&](std::size_t i) { return i >= n; });
+  return v;
+}
+
+}  // namespace
+
+void LiveView::start_round(Time now, std::vector<std::size_t> open,
+                           std::vector<std::size_t> open_slaves) {
   Round r;
   r.number = next_round_++;
   r.started = now;
-  std::sort(open.begin(), open.end());
-  open.erase(std::unique(open.begin(), open.end()), open.end());
-  std::erase_if(open, [&](std::size_t g) { return g >= tiles_.size(); });
+  open = index_set(std::move(open), tiles_.size());
+  r.open_slaves = index_set(std::move(open_slaves), slave_tiles_.size());
   for (const auto g : open)
     if (const auto b = model_.bus_of(g)) r.buses.push_back(*b);
   std::sort(r.buses.begin(), r.buses.end());
@@ -46,10 +61,17 @@ bool LiveView::in_round(std::size_t gateway) const {
   return round_ && std::binary_search(round_->open.begin(), round_->open.end(), gateway);
 }
 
-std::uint64_t LiveView::first_round_for(std::optional<std::size_t> gateway) const {
+bool LiveView::slave_in_round(std::size_t slave) const {
+  return round_ &&
+         std::binary_search(round_->open_slaves.begin(), round_->open_slaves.end(), slave);
+}
+
+std::uint64_t LiveView::first_round_for(std::optional<std::size_t> gateway,
+                                        std::optional<std::size_t> slave) const {
   if (!round_) return next_round_;
   // The running round serves it if it refreshes its panel (every round refreshes the tiles).
-  return !gateway || in_round(*gateway) ? round_->number : round_->number + 1;
+  const bool served = gateway ? in_round(*gateway) : !slave || slave_in_round(*slave);
+  return served ? round_->number : round_->number + 1;
 }
 
 void LiveView::stage(Piece& p, std::string json) {
@@ -69,6 +91,7 @@ bool LiveView::step(Time now) {
         if (const auto m = model_.modbus_json(); !m.is_null()) h["modbus"] = m;
         h["http"] = model_.http_json();
         h["gateway_count"] = tiles_.size();
+        if (!slave_tiles_.empty()) h["slave_count"] = slave_tiles_.size();
         r.header = h.dump();
         r.phase = Phase::Tiles;
         return false;
@@ -76,16 +99,25 @@ bool LiveView::step(Time now) {
       case Phase::Tiles:
         if (r.index >= tiles_.size()) {
           r.index = 0;
-          r.phase = Phase::Panel;
+          r.phase = Phase::SlaveTiles;
           continue;
         }
         stage(tiles_[r.index], model_.tile(r.index, now).dump());
         ++r.index;
         return false;
+      case Phase::SlaveTiles:
+        if (r.index >= slave_tiles_.size()) {
+          r.index = 0;
+          r.phase = Phase::Panel;
+          continue;
+        }
+        stage(slave_tiles_[r.index], model_.slave_tile(r.index, now).dump());
+        ++r.index;
+        return false;
       case Phase::Panel: {
         if (r.index >= r.open.size()) {
           r.index = 0;
-          r.phase = Phase::Bus;
+          r.phase = Phase::SlavePanels;
           continue;
         }
         const std::size_t g = r.open[r.index];
@@ -107,6 +139,16 @@ bool LiveView::step(Time now) {
         }
         for (std::size_t k = 0; k < kRowsPerStep && r.row < n; ++k, ++r.row)
           stage(rows_[g][r.row], model_.slot_json(g, r.row, now, false).dump());
+        return false;
+      }
+      case Phase::SlavePanels: {
+        if (r.index >= r.open_slaves.size()) {
+          r.index = 0;
+          r.phase = Phase::Bus;
+          continue;
+        }
+        const std::size_t k = r.open_slaves[r.index++];
+        stage(slave_panels_[k], model_.slave_json(k, now).dump());
         return false;
       }
       case Phase::Bus: {
@@ -152,6 +194,7 @@ void LiveView::publish(Time now) {
     if (rows_[g].size() > n) rows_[g].resize(n);
     panel_round_[g] = r.number;
   }
+  for (const auto k : r.open_slaves) slave_round_[k] = r.number;
   published_ = r.number;
   published_at_ = now;
   auto& counters = model_.http_counters();
@@ -186,6 +229,18 @@ std::string LiveView::compose(Cursor& c) const {
     for (const auto& t : tiles_)
       if (changed(t)) emit(t.json);
   });
+  if (!slave_tiles_.empty())
+    list("slaves", [&](auto emit) {
+      for (const auto& t : slave_tiles_)
+        if (changed(t)) emit(t.json);
+    });
+  if (c.slave && *c.slave < slave_panels_.size() && slave_round_[*c.slave]) {
+    out += ",\"open_slave\":" + std::to_string(model_.sources().slaves[*c.slave].cfg->address);
+    if (changed(slave_panels_[*c.slave])) {
+      out += ",\"slave\":";
+      out += slave_panels_[*c.slave].json;
+    }
+  }
   const std::optional<std::size_t> g =
       c.gateway && *c.gateway < panels_.size() && panel_round_[*c.gateway] ? c.gateway
                                                                            : std::nullopt;

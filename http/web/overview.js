@@ -1,19 +1,21 @@
 // candp2 live front panel: the overview of every gateway (one tile each: DP address, name, LEDs,
-// DP state, fault, frames/s), the routing between the overview and one gateway's panel (#gw=17,
-// panel.js) and the stream (/api/v1/events). The stream sends everything on connect and then only
-// what changed (docs/daemon.md "Server-Sent Events"): this file keeps the merged state.
-// A configuration with one gateway (the demo) opens on its panel.
+// DP state, fault, frames/s) and every generic DP slave (slave.js), the routing between the
+// overview and one gateway's panel (#gw=17, panel.js) or one slave's (#slave=8, slave.js) and the
+// stream (/api/v1/events). The stream sends everything on connect and then only what changed
+// (docs/daemon.md "Server-Sent Events"): this file keeps the merged state.
+// A configuration with one gateway and no generic slaves (the demo) opens on its panel.
 'use strict';
 
 // ---- state merged from the stream ----------------------------------------------------------------
-const tiles = new Map();   // dp_address -> {data, refs}
-let open = null;           // the panel shown: {addr, head, rows, panel, bus, drives}
+const tiles = new Map();   // dp_address -> {data, refs} (gateways and generic slaves)
+let open = null;           // the panel shown: {kind, addr, head, rows, panel, bus, drives}
 let source = null;         // the EventSource
 let single = false;        // one gateway only: no overview to go back to
 
+// The panel the address bar asks for: {kind: 'gw' | 'slave', addr}, or null (the overview).
 function wanted() {
-  const m = /^#gw=(\d+)$/.exec(location.hash);
-  return m ? Number(m[1]) : null;
+  const m = /^#(gw|slave)=(\d+)$/.exec(location.hash);
+  return m ? { kind: m[1], addr: Number(m[2]) } : null;
 }
 
 // ---- tiles ---------------------------------------------------------------------------------------
@@ -50,12 +52,11 @@ function updateTile(x, t) {
   setClass(x.root, 'tile' + (t.fault ? ' faulty' : ''));
   setText(x.fps, 'rx ' + t.fps.rx + ' · tx ' + t.fps.tx + ' frames/s');
 }
-function renderTiles(list) {
-  // Generic DP slaves may come as a list of their own later ("slaves"): tiles of the same kind.
+function renderTiles(list, make, update) {
   for (const t of list) {
     let x = tiles.get(t.dp_address);
-    if (!x) { x = makeTile(t); tiles.set(t.dp_address, x); }
-    updateTile(x, t);
+    if (!x) { x = make(t); tiles.set(t.dp_address, x); }
+    update(x, t);
   }
 }
 
@@ -65,6 +66,12 @@ function closePanel() {
   open = null;
 }
 function renderPanel(s) {
+  if (open && open.kind === 'slave') {
+    if (s.open_slave !== open.addr || !s.slave) return;
+    if (!open.panel) open.panel = makeSlavePanel(s.slave);
+    updateSlavePanel(open.panel, s.slave);
+    return;
+  }
   if (!open || s.open !== open.addr) return;
   if (s.panel) open.head = s.panel;
   if (s.full && open.bus) { open.bus.lastSeq = 0; open.bus.frames = []; }  // a new stream: new numbering
@@ -88,14 +95,16 @@ function renderPanel(s) {
 
 // ---- view and stream ---------------------------------------------------------------------------
 function show() {
-  const addr = wanted();
-  const panelView = addr !== null;
+  const want = wanted();
+  const panelView = want !== null;
   document.getElementById('overview').hidden = panelView;
   document.getElementById('back').hidden = !panelView || single;
-  setText(document.getElementById('where'), panelView ? 'gateway ' + addr : 'overview');
-  if (!open || open.addr !== addr) closePanel();
-  if (panelView && !open) open = { addr, head: null, rows: [], panel: null, bus: null, drives: new Map() };
-  connect(addr);
+  setText(document.getElementById('where'),
+    panelView ? (want.kind === 'gw' ? 'gateway ' : 'slave ') + want.addr : 'overview');
+  if (!open || !want || open.addr !== want.addr || open.kind !== want.kind) closePanel();
+  if (panelView && !open)
+    open = { kind: want.kind, addr: want.addr, head: null, rows: [], panel: null, bus: null, drives: new Map() };
+  connect(want);
 }
 
 function renderHeader(s) {
@@ -109,13 +118,18 @@ function renderHeader(s) {
   setClass(cyc, c.missed ? 'warn' : '');
   if (s.modbus) setText(document.getElementById('modbus'), s.modbus.requests + ' req · ' + s.modbus.clients + ' client(s)');
   if (s.gateway_count !== undefined) setText(document.getElementById('count'), s.gateway_count);
+  if (s.slave_count !== undefined) {
+    setText(document.getElementById('scount'), s.slave_count);
+    document.getElementById('slaves').hidden = false;
+  }
 }
 
 function render(s) {
   renderHeader(s);
-  renderTiles(s.gateways || []);
-  if (s.slaves) renderTiles(s.slaves);
-  if (s.full && wanted() === null && s.gateway_count === 1 && s.gateways.length === 1) {
+  renderTiles(s.gateways || [], makeTile, updateTile);
+  renderTiles(s.slaves || [], makeSlaveTile, updateSlaveTile);
+  if (s.full && wanted() === null && s.gateway_count === 1 && s.gateways.length === 1 &&
+      !s.slave_count) {
     // The demo: one gateway, nothing to choose from.
     single = true;
     location.replace('#gw=' + s.gateways[0].dp_address);
@@ -125,14 +139,15 @@ function render(s) {
   document.body.dataset.snapshot = String(s.time_ms);
   document.body.dataset.tiles = String(tiles.size);
   // When the whole overview was first painted (ms since the page's navigation started).
-  if (!document.body.dataset.drawn && s.gateway_count !== undefined && tiles.size >= s.gateway_count)
+  if (!document.body.dataset.drawn && s.gateway_count !== undefined &&
+      tiles.size >= s.gateway_count + (s.slave_count || 0))
     requestAnimationFrame(() => { document.body.dataset.drawn = String(Math.round(performance.now())); });
 }
 
-function connect(addr) {
+function connect(want) {
   if (source) source.close();
   const conn = document.getElementById('conn');
-  source = new EventSource('/api/v1/events' + (addr === null ? '' : '?gw=' + addr));
+  source = new EventSource('/api/v1/events' + (want === null ? '' : '?' + want.kind + '=' + want.addr));
   source.addEventListener('status', ev => {
     setText(conn, 'live'); setClass(conn, 'conn on');
     render(JSON.parse(ev.data));
@@ -143,8 +158,8 @@ function connect(addr) {
 
 function animateLeds() {
   const t = performance.now();
-  const all = [...tiles.values()].map(x => x.leds);
-  if (open && open.panel) all.push(open.panel.leds);
+  const all = [...tiles.values()].filter(x => x.leds).map(x => x.leds);
+  if (open && open.panel && open.panel.leds) all.push(open.panel.leds);
   for (const leds of all)
     for (const L of Object.values(leds)) {
       const cls = 'led ' + L.color + (ledLit(L.code, t) ? ' on' : '');
