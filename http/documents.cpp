@@ -50,7 +50,7 @@ constexpr PerGateway kPerGateway[] = {
      [](const modbus::StatusBlock& b) { return get32(b, kTxFrames); }},
     {"candp2_gateway_can_frames_lost_total", "counter",
      "CAN frames lost: irq = before the gateway saw them (IRQ_LOST), fifo = dropped at the full "
-     "Communication Window FIFO (MSG_LOST), emulator-spec §3",
+     "Communication Window FIFO (MSG_LOST), docs/dp-slave.md",
      "irq", [](const modbus::StatusBlock& b) { return get32(b, kIrqLost); }},
     {"candp2_gateway_can_frames_lost_total", nullptr, nullptr, "fifo",
      [](const modbus::StatusBlock& b) { return get32(b, kMsgLost); }},

@@ -37,7 +37,8 @@ function ledMeaning(name, code) {
   return '';
 }
 
-// ---- diagnosis (manual §3.4, emulator-spec §3; names as in profibus_sim/dp/dp_telegram.hpp) --------
+// ---- diagnosis (manual §3.4, docs/dp-slave.md "Diagnosis"; names as in
+// profibus_sim/dp/dp_telegram.hpp) ---
 const DIAG_BITS = {
   0: ['Station_Non_Existent', 'Station_Not_Ready', 'Cfg_Fault', 'Ext_Diag', 'Not_Supported',
       'Invalid_Slave_Response', 'Prm_Fault', 'Master_Lock'],
