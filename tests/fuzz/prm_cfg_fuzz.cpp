@@ -52,7 +52,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   std::vector<std::uint8_t> telegram(prm.begin(), prm.end());
   telegram[4] = 0x04;  // make the Ident right so the user bytes get checked
   telegram[5] = 0xA4;
-  telegram[0] &= static_cast<std::uint8_t>(~dp::kPrmWdOn);  // the clock below jumps 5 s: no watchdog
+  telegram[0] &=
+      static_cast<std::uint8_t>(~dp::kPrmWdOn);  // the clock below jumps 5 s: no watchdog
   g.dp().set_prm(1, telegram, Time{0});
   g.dp().chk_cfg(1, cfg, Time{1000});
   const auto diag = g.dp().slave_diag(Time{2000});

@@ -86,7 +86,8 @@ INSTANTIATE_TEST_SUITE_P(
                 "$.steps[0].freigabe", "page_driver"},
         BadCase{"dp state", slots_scenario(R"({"expect_dp_state": "run"})"),
                 "$.steps[0].expect_dp_state", "data_exch"},
-        // Simulated drives (docs/replay-format.md "Simulated drives"): entries as in the daemon's "drives".
+        // Simulated drives (docs/replay-format.md "Simulated drives"): entries as in the daemon's
+        // "drives".
         BadCase{"drives not an array", slots_scenario("", R"("drives": {},)"), "$.drives",
                 "array of drives"},
         BadCase{"drive key typo",
@@ -222,8 +223,8 @@ TEST(ReplayRun, FailuresSayWhatWasSeen) {
   EXPECT_NE(junit.find("<failure message=\"no matching frame"), std::string::npos) << junit;
 }
 
-// A simulated Unitek drive (docs/replay-format.md "Simulated drives") on the scenario's bus answers the
-// gateway's frames at once; the drive fault steps act as its Modbus registers 0..3
+// A simulated Unitek drive (docs/replay-format.md "Simulated drives") on the scenario's bus answers
+// the gateway's frames at once; the drive fault steps act as its Modbus registers 0..3
 // (docs/faults.md): muted it neither answers nor sends its cyclic replies (and answering again does
 // not send the missed ones), restarted it has lost its cyclic request.
 TEST(ReplayRun, SimulatedDriveAnswersAndItsFaults) {
