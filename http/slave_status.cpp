@@ -2,7 +2,6 @@
 // docs/daemon.md "HTTP face"): a slave's overview tile and its whole state, read from the slave
 // (gsd_slave::GsdSlave) and from its Modbus face (the status block and the whole diagnosis), so
 // the page, Modbus and /metrics can never disagree.
-#include <array>
 
 #include "gsd/cfg.hpp"
 #include "http/http_status.hpp"
@@ -13,16 +12,6 @@ namespace candp2::http {
 namespace {
 
 using nlohmann::json;
-
-// Station_Status_1..3 bit names (IEC 61158-6-3; as profibus_sim/dp/dp_telegram.hpp names the
-// constants and the page shows them). Bytes 0..2 of the diagnosis, bit 0 first; "" = unused.
-constexpr std::array<std::array<const char*, 8>, 3> kStatusBits = {{
-    {"Station_Non_Existent", "Station_Not_Ready", "Cfg_Fault", "Ext_Diag", "Not_Supported",
-     "Invalid_Slave_Response", "Prm_Fault", "Master_Lock"},
-    {"Prm_Req", "Stat_Diag", "always 1", "WD_On", "Freeze_Mode", "Sync_Mode", "reserved",
-     "Deactivated"},
-    {"", "", "", "", "", "", "", "Ext_Diag_Overflow"},
-}};
 
 std::uint32_t get32(const modbus::StatusBlock& b, std::uint16_t at) {
   return (static_cast<std::uint32_t>(b[at]) << 16) | b[at + 1];
@@ -150,9 +139,8 @@ json StatusModel::slave_json(std::size_t index, Time now) const {
 
   // The whole diagnosis (docs/slaves.md "Diagnosis"): 6 standard bytes, then Ext_Diag_Data.
   json bits = json::array();
-  for (std::size_t i = 0; i < kStatusBits.size() && i < diag.size(); ++i)
-    for (int b = 0; b < 8; ++b)
-      if ((diag[i] >> b & 1) && *kStatusBits[i][b]) bits.push_back(kStatusBits[i][b]);
+  for (const auto& b : dp::kDiagBitNames)
+    if (b.byte < diag.size() && (diag[b.byte] & b.mask)) bits.push_back(b.name);
   const bool full = diag.size() >= dp::kDiagStdLen;
   j["diag"] = diag;
   j["diagnosis"] = {

@@ -209,21 +209,7 @@ json diagnosis_json() {
   auto bit = [&](int byte, std::uint8_t mask, const char* name) {
     bits.push_back({{"byte", byte}, {"mask", mask}, {"name", name}});
   };
-  bit(0, dp::kDiag1StationNonExistent, "Station_Non_Existent");
-  bit(0, dp::kDiag1StationNotReady, "Station_Not_Ready");
-  bit(0, dp::kDiag1CfgFault, "Cfg_Fault");
-  bit(0, dp::kDiag1ExtDiag, "Ext_Diag");
-  bit(0, dp::kDiag1NotSupported, "Not_Supported");
-  bit(0, dp::kDiag1InvalidSlaveResponse, "Invalid_Slave_Response");
-  bit(0, dp::kDiag1PrmFault, "Prm_Fault");
-  bit(0, dp::kDiag1MasterLock, "Master_Lock");
-  bit(1, dp::kDiag2PrmReq, "Prm_Req");
-  bit(1, dp::kDiag2StatDiag, "Stat_Diag");
-  bit(1, dp::kDiag2WdOn, "WD_On");
-  bit(1, dp::kDiag2FreezeMode, "Freeze_Mode");
-  bit(1, dp::kDiag2SyncMode, "Sync_Mode");
-  bit(1, dp::kDiag2Deactivated, "Deactivated");
-  bit(2, dp::kDiag3ExtDiagOverflow, "Ext_Diag_Overflow");
+  for (const auto& b : dp::kDiagBitNames) bit(b.byte, b.mask, b.name);
   json can_states = json::array();
   for (auto s : {can::BusState::Ok, can::BusState::Warning, can::BusState::ErrorPassive,
                  can::BusState::BusOff})

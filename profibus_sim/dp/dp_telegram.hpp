@@ -111,4 +111,30 @@ inline constexpr std::uint8_t kDiag3ExtDiagOverflow = 0x80;
 // Diagnosis byte 3 before any master parameterized the slave.
 inline constexpr std::uint8_t kNoMaster = 0xFF;
 
+// The names of the station status bits (bytes 0..2) as the manual's tables 3.4.3-3.4.5 and
+// IEC 61158-6-3 write them: the one table the register map, the HTTP face and the logs use. Bit 2
+// of byte 1 (always 1) and the reserved bit 6 have no name.
+struct DiagBitName {
+  std::uint8_t byte;
+  std::uint8_t mask;
+  const char* name;
+};
+inline constexpr DiagBitName kDiagBitNames[] = {
+    {0, kDiag1StationNonExistent, "Station_Non_Existent"},
+    {0, kDiag1StationNotReady, "Station_Not_Ready"},
+    {0, kDiag1CfgFault, "Cfg_Fault"},
+    {0, kDiag1ExtDiag, "Ext_Diag"},
+    {0, kDiag1NotSupported, "Not_Supported"},
+    {0, kDiag1InvalidSlaveResponse, "Invalid_Slave_Response"},
+    {0, kDiag1PrmFault, "Prm_Fault"},
+    {0, kDiag1MasterLock, "Master_Lock"},
+    {1, kDiag2PrmReq, "Prm_Req"},
+    {1, kDiag2StatDiag, "Stat_Diag"},
+    {1, kDiag2WdOn, "WD_On"},
+    {1, kDiag2FreezeMode, "Freeze_Mode"},
+    {1, kDiag2SyncMode, "Sync_Mode"},
+    {1, kDiag2Deactivated, "Deactivated"},
+    {2, kDiag3ExtDiagOverflow, "Ext_Diag_Overflow"},
+};
+
 }  // namespace candp2::dp
