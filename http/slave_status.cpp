@@ -38,7 +38,9 @@ std::string slave_fault(const SlaveSource& s, std::span<const std::uint8_t> diag
 std::string plc_address(char area, std::optional<std::uint16_t> base, std::size_t offset,
                         std::size_t length) {
   if (!base || length == 0) return {};
-  return std::string(1, area) + std::to_string(*base + offset);
+  std::string text(1, area);  // appended, not operator+ (GCC 12 -Wrestrict false positive)
+  text += std::to_string(*base + offset);
+  return text;
 }
 
 json nullable(const std::string& s) {
