@@ -169,7 +169,10 @@ run_tests() {
   if build_release 2>&1 | tee "$release_log"; then
     if grep -q "warning:" "$release_log"; then
       echo "setup: the Release build printed compiler warnings (see above)"
-      failures+=("Release build: compiler warnings: $(grep -m3 'warning:' "$release_log" | tr '\n' ' ')")
+      # Our files the warnings name ("../http/x.cpp:52" in "inlined from ... at" and "In file
+      # included from" lines), then the first warning itself.
+      failures+=("Release build: compiler warnings, at $(grep -o '\.\./[A-Za-z0-9_/.-]*\.[ch]pp:[0-9]*' \
+        "$release_log" | sort -u | tr '\n' ' ')- $(grep -m1 'warning:' "$release_log")")
       status=1
     fi
   else
