@@ -1,7 +1,8 @@
-// Which connection to close when a server is full or a connection idles too long (
-// "idle clients cannot lock others out"). The policy many Modbus/TCP devices use: when the limit
-// is reached, a new connection evicts the one idle longest; a connection without traffic for
-// idle_timeout is closed. Pure: times passed in; the Modbus and socketcand servers each hold one.
+// Which connection to close when a server is full or a connection idles too long: idle clients
+// cannot lock others out (docs/configuration.md, `max_clients`, `idle_timeout_s`). The policy
+// many Modbus/TCP devices use: when the limit is reached, a new connection evicts the one idle
+// longest; a connection without traffic for idle_timeout is closed. Pure: times passed in; the
+// Modbus and socketcand servers each hold one.
 #pragma once
 
 #include <cstdint>

@@ -1,5 +1,5 @@
-// Fuzzes the FDL stream parser and the FDL slave front end serving real gateways (
-// docs/profibus.md). Byte 0 selects the mode: even = the rest is a raw line stream, cut into
+// Fuzzes the FDL stream parser and the FDL slave front end serving real gateways
+// (docs/profibus.md). Byte 0 selects the mode: even = the rest is a raw line stream, cut into
 // chunks (with gaps) by byte 1; odd = the rest is a list of telegram records encoded with a valid
 // FCS, so the front end's DP services are reached. Every decoded telegram goes to the front end.
 // Invariants: no crash or sanitizer report; every telegram the parser emits re-decodes from its
