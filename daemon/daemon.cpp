@@ -11,6 +11,7 @@
 #include "capture/pcapng_tap.hpp"
 #include "daemon/state_file.hpp"
 #include "drive_sim/file_parameter_store.hpp"
+#include "event_loop/deadline_timer.hpp"
 #include "http/http_server.hpp"
 #include "http/http_status.hpp"
 #include "modbus/modbus_server.hpp"
@@ -29,8 +30,7 @@ struct Export {
   plant::BusUnit* bus = nullptr;
   std::unique_ptr<can::VirtualEndpoint> endpoint;
   std::unique_ptr<can::SocketcandServer> server;
-  EventLoop::TimerId timer = 0;
-  std::optional<Time> armed;
+  std::unique_ptr<DeadlineTimer> timer;  // on the wall clock the server runs on
 };
 
 // A gateway's channel with a descriptor (SocketCAN, socketcand client) and, for socketcand
@@ -38,8 +38,7 @@ struct Export {
 struct Watched {
   std::size_t gateway = 0;
   can::SocketcandClientChannel* link = nullptr;
-  EventLoop::TimerId timer = 0;
-  std::optional<Time> armed{};
+  std::unique_ptr<DeadlineTimer> timer;  // reconnection (socketcand clients only)
 };
 
 // The SocketCAN interface of a gateway: its bit-rate supervisor and the member index there.
@@ -61,11 +60,9 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
     // Unregister everything from the loop before the parts go away.
     http_.reset();
     if (deferred_) loop_.remove_deferred(deferred_);
-    if (plant_timer_) loop_.cancel_timer(plant_timer_);
-    for (auto& w : watched_)
-      if (w.timer) loop_.cancel_timer(w.timer);
-    for (auto& e : exports_)
-      if (e->timer) loop_.cancel_timer(e->timer);
+    plant_timer_.reset();
+    for (auto& w : watched_) w.timer.reset();
+    for (auto& e : exports_) e->timer.reset();
     for (int fd : fds_) loop_.remove_fd(fd);
     slave_port_.reset();
     master_port_.reset();
@@ -128,7 +125,8 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   std::unique_ptr<plant::Plant> plant_;
   StoredMap stored_;  // what the state file holds
   std::map<std::string, std::unique_ptr<bitrate::BitrateSupervisor>> supervisors_;  // by interface
-  std::map<std::string, LinkMember> link_of_;  // by gateway name
+  std::map<std::string, LinkMember> link_of_;     // by gateway name, while the plant is built
+  std::vector<std::optional<LinkMember>> links_;  // by gateway index, from link_of_ at start
   std::vector<std::unique_ptr<drive::FileParameterStore>> drive_stores_;
   std::vector<std::unique_ptr<Export>> exports_;
   std::vector<Watched> watched_;
@@ -143,8 +141,7 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   std::unique_ptr<modbus::ModbusServer> modbus_;
   std::vector<int> fds_;
   EventLoop::DeferredId deferred_ = 0;
-  EventLoop::TimerId plant_timer_ = 0;
-  std::optional<Time> plant_armed_;
+  std::unique_ptr<DeadlineTimer> plant_timer_;
   std::unique_ptr<http::StatusModel> status_model_;  // declared last: destroyed first
   std::unique_ptr<http::HttpServer> http_;
 };
@@ -185,10 +182,9 @@ drive::ParameterStore* DaemonImpl::drive_store(const config::DriveConfig& d) {
 }
 
 std::optional<modbus::BitrateStatus> DaemonImpl::bitrate(std::size_t gateway) const {
-  const auto& name = plant_->gateways().at(gateway)->name();
-  const auto it = link_of_.find(name);
-  if (it == link_of_.end()) return std::nullopt;
-  return it->second.supervisor->status(it->second.member);
+  const auto& link = links_.at(gateway);
+  if (!link) return std::nullopt;
+  return link->supervisor->status(link->member);
 }
 
 // -------------------------------------------------------------------------------- observers
@@ -222,6 +218,12 @@ bool DaemonImpl::start(std::string* error) {
   o.wire_image = config_.capture.has_value();  // the in-process DP side in the capture
   plant_ = plant::Plant::build(config_, std::move(o), loop_.now(), error);
   if (!plant_) return false;
+  plant_timer_ = std::make_unique<DeadlineTimer>(loop_, [this] { plant_->advance(loop_.now()); });
+  links_.resize(plant_->gateways().size());
+  for (auto& g : plant_->gateways())
+    if (const auto it = link_of_.find(g->name()); it != link_of_.end())
+      links_[g->index()] = it->second;
+  link_of_.clear();
   monitors_.resize(plant_->buses().size());
   plant_->add_tap(this);
   plant_->add_tap(&can_log_tap_);
@@ -230,10 +232,17 @@ bool DaemonImpl::start(std::string* error) {
   for (auto& g : plant_->gateways()) {
     const int fd = g->channel().poll_fd();
     if (fd < 0) continue;
-    Watched w{.gateway = g->index(),
-              .link = dynamic_cast<can::SocketcandClientChannel*>(&g->channel())};
-    watched_.push_back(w);
-    const std::size_t k = watched_.size() - 1;
+    Watched w;
+    w.gateway = g->index();
+    w.link = dynamic_cast<can::SocketcandClientChannel*>(&g->channel());
+    const std::size_t k = watched_.size();
+    if (w.link)
+      w.timer = std::make_unique<DeadlineTimer>(loop_, [this, k] {
+        watched_[k].link->advance(loop_.now());
+        plant_->receive(watched_[k].gateway, loop_.now());  // shows the state
+        rearm_link(watched_[k]);
+      });
+    watched_.push_back(std::move(w));
     if (!watch(
             fd,
             [this, k] {
@@ -299,6 +308,10 @@ bool DaemonImpl::start_exports(std::string* error) {
       return false;
     }
     Export* ep = e.get();
+    ep->timer = std::make_unique<DeadlineTimer>(loop_, [this, ep] {
+      ep->server->advance(EventLoop::wall_now());
+      rearm_export(*ep);
+    });
     for (int fd : ep->server->poll_fds())
       if (!watch(
               fd,
@@ -411,61 +424,27 @@ bool DaemonImpl::after_dispatch() {
 }
 
 void DaemonImpl::rearm_plant() {
-  const auto next = plant_->next_deadline();
-  if (next == plant_armed_ && (plant_timer_ || !next)) return;
-  if (plant_timer_) loop_.cancel_timer(plant_timer_);
-  plant_timer_ = 0;
-  plant_armed_ = next;
-  if (!next) return;
-  plant_timer_ = loop_.add_timer(std::max(Duration(0), *next - loop_.now()), [this] {
-    plant_timer_ = 0;
-    plant_armed_.reset();
-    plant_->advance(loop_.now());
-  });
+  plant_timer_->arm(plant_->next_deadline(), loop_.now());
 }
 
 // The socketcand export's idle timeouts run on the wall clock its on_readable() is given.
 void DaemonImpl::rearm_export(Export& e) {
-  const auto next = e.server->next_deadline();
-  if (next == e.armed && (e.timer || !next)) return;
-  if (e.timer) loop_.cancel_timer(e.timer);
-  e.timer = 0;
-  e.armed = next;
-  if (!next) return;
-  e.timer = loop_.add_timer(std::max(Duration(0), *next - EventLoop::wall_now()), [this, ep = &e] {
-    ep->timer = 0;
-    ep->armed.reset();
-    ep->server->advance(EventLoop::wall_now());
-    rearm_export(*ep);
-  });
+  e.timer->arm(e.server->next_deadline(), EventLoop::wall_now());
 }
 
 // A socketcand client channel's reconnection timer (can/socketcand_client.hpp).
 void DaemonImpl::rearm_link(Watched& w) {
-  if (!w.link) return;
-  const auto next = w.link->next_deadline();
-  if (next == w.armed && (w.timer || !next)) return;
-  if (w.timer) loop_.cancel_timer(w.timer);
-  w.timer = 0;
-  w.armed = next;
-  if (!next) return;
-  w.timer = loop_.add_timer(std::max(Duration(0), *next - loop_.now()), [this, wp = &w] {
-    wp->timer = 0;
-    wp->armed.reset();
-    wp->link->advance(loop_.now());
-    plant_->receive(wp->gateway, loop_.now());  // shows the state
-    rearm_link(*wp);
-  });
+  if (w.link) w.timer->arm(w.link->next_deadline(), loop_.now());
 }
 
 void DaemonImpl::after_cycle(Time now) {
   // The SocketCAN interfaces' bit rates against the gateways' accepted Set_Prm byte 8.
   for (auto& g : plant_->gateways()) {
-    const auto it = link_of_.find(g->name());
-    if (it == link_of_.end()) continue;
+    const auto& link = links_[g->index()];
+    if (!link) continue;
     const auto& prm = g->gateway().user_prm();
-    it->second.supervisor->update(
-        it->second.member,
+    link->supervisor->update(
+        link->member,
         prm ? std::optional<std::uint32_t>(gw::kBitrates.at(prm->bitrate_index)) : std::nullopt,
         now);
   }
@@ -508,8 +487,7 @@ void DaemonImpl::reopen_can_log() {
 }
 
 void DaemonImpl::shutdown() {
-  if (plant_timer_) loop_.cancel_timer(plant_timer_);
-  plant_timer_ = 0;
+  if (plant_timer_) plant_timer_->disarm();
   if (deferred_) loop_.remove_deferred(deferred_);
   deferred_ = 0;
   check_stored();

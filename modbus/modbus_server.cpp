@@ -16,6 +16,7 @@
 
 #include "common/hex.hpp"
 #include "common/idle_clients.hpp"
+#include "event_loop/deadline_timer.hpp"
 #include "net/tcp_listener.hpp"
 
 namespace candp2::modbus {
@@ -34,10 +35,11 @@ class Server final : public ModbusServer {
         handler_(handler),
         log_(log, "modbus"),
         scratch_(65536, 0),
-        idle_(options_.idle_timeout) {}
+        idle_(options_.idle_timeout),
+        idle_timer_(loop, [this] { close_idle(); }) {}
 
   ~Server() override {
-    if (idle_timer_) loop_.cancel_timer(idle_timer_);
+    idle_timer_.disarm();
     for (auto& [fd, c] : clients_) {
       loop_.remove_fd(fd);
       ::close(fd);
@@ -144,27 +146,22 @@ class Server final : public ModbusServer {
     idle_.remove(static_cast<IdleClients::Id>(fd));
   }
 
-  // One timer for the earliest idle expiry; closes every client idle for idle_timeout.
-  void arm_idle_timer() {
-    const auto next = idle_.next_expiry();
-    if (!next || (idle_timer_ && idle_armed_ && *idle_armed_ <= *next)) return;
-    if (idle_timer_) loop_.cancel_timer(idle_timer_);
-    idle_armed_ = *next;
-    idle_timer_ = loop_.add_timer(std::max(Duration(0), *next - loop_.now()), [this] {
-      idle_timer_ = 0;
-      idle_armed_.reset();
-      for (const auto id : idle_.expired(loop_.now())) {
-        ++stats_.clients_timed_out;
-        close_client(static_cast<int>(id),
-                     "idle for " +
-                         std::to_string(
-                             std::chrono::duration_cast<std::chrono::seconds>(options_.idle_timeout)
-                                 .count()) +
-                         " s",
-                     false);
-      }
-      arm_idle_timer();
-    });
+  // One timer for the earliest idle expiry (a request only moves a client's expiry later).
+  void arm_idle_timer() { idle_timer_.arm_earlier(idle_.next_expiry(), loop_.now()); }
+
+  // Closes every client idle for idle_timeout.
+  void close_idle() {
+    for (const auto id : idle_.expired(loop_.now())) {
+      ++stats_.clients_timed_out;
+      close_client(
+          static_cast<int>(id),
+          "idle for " +
+              std::to_string(
+                  std::chrono::duration_cast<std::chrono::seconds>(options_.idle_timeout).count()) +
+              " s",
+          false);
+    }
+    arm_idle_timer();
   }
 
   void on_readable(int fd) {
@@ -288,8 +285,7 @@ class Server final : public ModbusServer {
   ReadResult result_;
   std::vector<std::uint16_t> scratch_;
   IdleClients idle_;  // keyed by descriptor
-  EventLoop::TimerId idle_timer_ = 0;
-  std::optional<Time> idle_armed_;
+  DeadlineTimer idle_timer_;
 };
 
 }  // namespace

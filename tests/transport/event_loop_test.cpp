@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "can/virtual_bus.hpp"
+#include "event_loop/deadline_timer.hpp"
 #include "transport_test_support.hpp"
 
 namespace candp2 {
@@ -316,6 +317,55 @@ TEST(EventLoop, DeferredHooksAlsoRunAtTheStartOfEveryRound) {
   });
   loop.run_once(0ms);
   EXPECT_GE(runs, 1);
+}
+
+// DeadlineTimer (event_loop/deadline_timer.hpp): one loop timer at a moving deadline.
+TEST(DeadlineTimer, ArmsOneLoopTimerAndRearmsOnlyWhenTheDeadlineChanges) {
+  EventLoop loop;
+  int fired = 0;
+  DeadlineTimer t(loop, [&] { ++fired; });
+  const Time now = loop.now();
+  t.arm(now + 20ms, now);
+  t.arm(now + 20ms, now);  // the same deadline: still one timer
+  EXPECT_EQ(loop.timer_count(), 1u);
+  t.arm(now + 10ms, now);  // moved: the old loop timer is cancelled
+  EXPECT_EQ(loop.timer_count(), 1u);
+  EXPECT_EQ(t.at(), now + 10ms);
+  ASSERT_TRUE(loop.run_until([&] { return fired == 1; }, kWait));
+  EXPECT_GE(loop.now() - now, 10ms);
+  EXPECT_EQ(t.at(), std::nullopt);  // disarmed after firing
+  EXPECT_EQ(loop.timer_count(), 0u);
+  t.arm(loop.now() + 5ms, loop.now());
+  t.arm(std::nullopt, loop.now());  // no deadline: nothing fires
+  EXPECT_EQ(loop.timer_count(), 0u);
+  loop.run_once(20ms);
+  EXPECT_EQ(fired, 1);
+}
+
+TEST(DeadlineTimer, ArmEarlierOnlyMovesTheDeadlineForward) {
+  EventLoop loop;
+  DeadlineTimer t(loop, [] {});
+  const Time now = loop.now();
+  t.arm_earlier(std::nullopt, now);
+  EXPECT_EQ(t.at(), std::nullopt);
+  t.arm_earlier(now + 50ms, now);
+  EXPECT_EQ(t.at(), now + 50ms);
+  t.arm_earlier(now + 80ms, now);  // later: the earlier timer stays
+  EXPECT_EQ(t.at(), now + 50ms);
+  t.arm_earlier(now + 30ms, now);
+  EXPECT_EQ(t.at(), now + 30ms);
+  EXPECT_EQ(loop.timer_count(), 1u);
+}
+
+TEST(DeadlineTimer, DestructionCancelsTheLoopTimer) {
+  EventLoop loop;
+  {
+    DeadlineTimer t(loop, [] { FAIL() << "fired after destruction"; });
+    t.arm(loop.now() + 1ms, loop.now());
+    EXPECT_EQ(loop.timer_count(), 1u);
+  }
+  EXPECT_EQ(loop.timer_count(), 0u);
+  loop.run_once(10ms);
 }
 
 }  // namespace
