@@ -202,6 +202,20 @@ TEST_F(Face, AStreamGetsEverythingFirstThenOnlyWhatChanged) {
   EXPECT_EQ(json::parse(view.compose(panel))["slots"].size(), 0u);  // nothing new now
 }
 
+TEST_F(Face, ATraceFrameKeptFromTheRoundBeforeIsTheOneTheStatusShows) {
+  http::LiveView view(*model);
+  run_round(view, now, {0});
+  plant->master().image().outputs[1] = 0x42;
+  run_until(now + milliseconds(20));
+  run_round(view, now, {0});  // the frames of the first round again, and the new ones
+  http::LiveView::Cursor c;
+  c.gateway = 0;
+  const json e = json::parse(view.compose(c));
+  const json want = model->bus_json(0, now, true)["trace"];
+  ASSERT_GE(want.size(), 2u);
+  EXPECT_EQ(e["trace"], want);
+}
+
 TEST_F(Face, APanelOpenedLaterWaitsForARoundThatRefreshedIt) {
   http::LiveView view(*model);
   run_round(view, now, {});  // nobody has gw4 open
