@@ -20,7 +20,6 @@ Usage: bench/http_jitter.py --candp2d build/bin/candp2d [--gateways 122] [--seco
 import argparse
 import json
 import os
-import socket
 import sys
 import threading
 import time
@@ -28,7 +27,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "e2e"))
 from cdp import Browser  # noqa: E402
-from http_common import Daemon  # noqa: E402
+from http_common import Daemon, SseReader  # noqa: E402
 
 from pymodbus.client import ModbusTcpClient  # noqa: E402  python3-pymodbus
 
@@ -47,26 +46,6 @@ def config(n):
     return {"modbus": {"listen": "127.0.0.1:0"}, "http": {"listen": "127.0.0.1:0"},
             "master": {"address": 1, "cycle_ms": 10},
             "buses": {"can0": {"type": "virtual"}}, "gateways": gws, "log": {"level": "info"}}
-
-
-class SseReader(threading.Thread):
-    def __init__(self, port):
-        super().__init__(daemon=True)
-        self.port, self.bytes, self.events, self.stop = port, 0, 0, False
-
-    def run(self):
-        s = socket.create_connection(("127.0.0.1", self.port), timeout=5)
-        s.sendall(b"GET /api/v1/events HTTP/1.1\r\nHost: x\r\n\r\n")
-        while not self.stop:
-            try:
-                b = s.recv(1 << 20)
-            except socket.timeout:
-                continue
-            if not b:
-                break
-            self.bytes += len(b)
-            self.events += b.count(b"event: status")
-        s.close()
 
 
 def main():
@@ -138,7 +117,7 @@ def main():
                     "document.querySelectorAll('#tiles .tile').length")
                 browser.close()
             for r in readers:
-                r.stop = True
+                r.stop.set()
             results.append(row)
             print(json.dumps(row), flush=True)
     finally:

@@ -32,7 +32,6 @@ import argparse
 import json
 import os
 import re
-import socket
 import statistics
 import subprocess
 import sys
@@ -43,32 +42,9 @@ import urllib.request
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "e2e"))
 from cdp import Browser  # noqa: E402
-from http_common import Daemon, demo_config, line_config  # noqa: E402
+from http_common import Daemon, SseReader, demo_config, line_config  # noqa: E402
 
 from pymodbus.client import ModbusTcpClient  # noqa: E402  python3-pymodbus
-
-
-class SseReader(threading.Thread):
-    """Reads one event stream and counts its bytes."""
-
-    def __init__(self, port, query=""):
-        super().__init__(daemon=True)
-        self.port, self.query = port, query
-        self.bytes, self.stop = 0, threading.Event()
-
-    def run(self):
-        s = socket.create_connection(("127.0.0.1", self.port), timeout=5)
-        s.sendall(b"GET /api/v1/events%s HTTP/1.1\r\nHost: x\r\n\r\n" % self.query.encode())
-        s.settimeout(0.5)
-        while not self.stop.is_set():
-            try:
-                b = s.recv(1 << 20)
-            except socket.timeout:
-                continue
-            if not b:
-                break
-            self.bytes += len(b)
-        s.close()
 
 
 class Writer(threading.Thread):

@@ -14,10 +14,6 @@ void open_object(std::string& out, const std::string& object) {
   out.append(object, 0, object.empty() ? 0 : object.size() - 1);
 }
 
-std::uint32_t get32(const modbus::StatusBlock& b, std::uint16_t at) {
-  return (static_cast<std::uint32_t>(b[at]) << 16) | b[at + 1];
-}
-
 void put(std::string& out, double v) {
   char buf[32];
   const auto r = std::to_chars(buf, buf + sizeof buf, v);

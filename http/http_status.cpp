@@ -24,10 +24,6 @@ namespace {
 
 using nlohmann::json;
 
-std::uint32_t get32(const modbus::StatusBlock& b, std::uint16_t at) {
-  return (static_cast<std::uint32_t>(b[at]) << 16) | b[at + 1];
-}
-
 std::string_view direction(gw::SlotKind k) {
   switch (k) {
     case gw::SlotKind::Rx:

@@ -5,9 +5,9 @@
 // Read-only: it never changes a gateway, the master or a bus. Every function runs on the event
 // loop's thread between two callbacks, so each piece it returns (one gateway, one slot row, the
 // head of the status) belongs to one instant between two master cycles. The HTTP face builds a
-// large status from such pieces over several loop turns (http/snapshot_jobs.hpp). LED codes come
-// from the Modbus status block (modbus::encode_status, manual table 3.3.1), so the page, Modbus
-// and /metrics can never disagree.
+// large status from such pieces over several loop turns (http/documents.hpp, http/live_view.hpp).
+// LED codes come from the Modbus status block (modbus::encode_status, manual table 3.3.1), so the
+// page, Modbus and /metrics can never disagree.
 #pragma once
 
 #include <cstdint>
@@ -41,6 +41,12 @@ std::uint32_t frame_bits_stuffed(const can::Frame& f);
 
 // "0A 1B 2C": bytes as the JSON shows them.
 std::string hex_bytes(std::span<const std::uint8_t> bytes);
+
+// A 32-bit counter of the Modbus status block: high word at `at`, low word at `at + 1`
+// (docs/modbus.md).
+inline std::uint32_t get32(const modbus::StatusBlock& b, std::uint16_t at) {
+  return (static_cast<std::uint32_t>(b[at]) << 16) | b[at + 1];
+}
 
 // Every frame on one bus, counted and kept for the live trace. Fed by the daemon exactly once per
 // frame (the bus's tap on virtual buses, the logging channel on SocketCAN/socketcand buses).

@@ -51,8 +51,7 @@ void LiveView::start_round(Time now, std::vector<std::size_t> open,
   r.open_slaves = index_set(std::move(open_slaves), slave_tiles_.size());
   for (const auto g : open)
     if (const auto b = model_.bus_of(g)) r.buses.push_back(*b);
-  std::sort(r.buses.begin(), r.buses.end());
-  r.buses.erase(std::unique(r.buses.begin(), r.buses.end()), r.buses.end());
+  r.buses = index_set(std::move(r.buses), buses_.size());
   r.open = std::move(open);
   round_ = std::move(r);
 }
@@ -158,9 +157,18 @@ bool LiveView::step(Time now) {
         }
         const std::size_t b = r.buses[r.index++];
         stage(buses_[b], model_.bus_json(b, now, false).dump());
+        // A traced frame never changes: the text of one the last round had is taken from there.
         std::vector<Traced> frames;
-        if (const auto* m = model_.sources().buses[b].monitor)
-          for (const auto& t : m->trace()) frames.push_back({t.seq, model_.trace_frame(t).dump()});
+        if (const auto* m = model_.sources().buses[b].monitor) {
+          const auto& known = traces_[b];
+          auto k = known.begin();
+          for (const auto& t : m->trace()) {
+            while (k != known.end() && k->seq < t.seq) ++k;
+            frames.push_back({t.seq, k != known.end() && k->seq == t.seq
+                                         ? k->json
+                                         : model_.trace_frame(t).dump()});
+          }
+        }
         r.traces.emplace_back(b, std::move(frames));
         return false;
       }

@@ -13,10 +13,6 @@ namespace {
 
 using nlohmann::json;
 
-std::uint32_t get32(const modbus::StatusBlock& b, std::uint16_t at) {
-  return (static_cast<std::uint32_t>(b[at]) << 16) | b[at + 1];
-}
-
 // The one line a slave's tile shows when something is wrong (docs/slaves.md "Faults"): off the
 // bus, a forced or real Prm/Cfg fault, Not_Supported, a diagnosis alarm, a master that stopped
 // addressing it. Empty when all is well.

@@ -10,6 +10,7 @@
 #include "http/client_table.hpp"
 #include "http/documents.hpp"
 #include "http/live_view.hpp"
+#include "http_plant_support.hpp"
 #include "modbus/plant_faces.hpp"
 #include "plant/plant.hpp"
 
@@ -106,23 +107,11 @@ struct Face : ::testing::Test {
     monitors.buses.resize(plant->buses().size());
     plant->add_tap(&monitors);
     faces = modbus::make_faces(*plant);
-    http::StatusSources src;
-    src.master = &plant->master();
-    src.cycle = &plant->cycle_stats();
-    for (auto& g : plant->gateways())
-      src.gateways.push_back({&g->config(), &g->gateway(), faces.gateways.at(g->index()).get()});
-    for (auto& b : plant->buses())
-      src.buses.push_back({&b->config(), &monitors.buses[b->index()], 500000});
-    model = std::make_unique<http::StatusModel>(std::move(src));
+    model =
+        std::make_unique<http::StatusModel>(test::status_sources(*plant, faces, &monitors.buses));
     run_until(Time{500'000});  // every gateway in Data_Exch
   }
-  void run_until(Time end) {
-    while (const auto next = plant->next_deadline()) {
-      if (*next > end) break;
-      plant->advance(*next);
-      now = *next;
-    }
-  }
+  void run_until(Time end) { test::run_plant_until(*plant, now, end); }
   config::DaemonConfig cfg;
   std::unique_ptr<plant::Plant> plant;
   modbus::PlantFaces faces;
@@ -161,13 +150,7 @@ TEST_F(Face, TheMetricsHaveEveryFamilyOnce) {
   EXPECT_EQ(types, 1u);
 }
 
-// Runs one live-view round to its publication; returns the number of steps.
-int round(http::LiveView& view, Time now, std::vector<std::size_t> open) {
-  view.start_round(now, std::move(open));
-  int steps = 1;
-  while (!view.step(now)) ++steps;
-  return steps;
-}
+using test::run_round;
 
 TEST_F(Face, AStreamGetsEverythingFirstThenOnlyWhatChanged) {
   http::LiveView view(*model);
@@ -175,7 +158,7 @@ TEST_F(Face, AStreamGetsEverythingFirstThenOnlyWhatChanged) {
   panel.gateway = 0;  // gw3
   EXPECT_EQ(view.first_round_for(std::nullopt), 1u);
   // header, 2 tiles, gw3's panel and its rows (one step), its bus, the drives, publication
-  EXPECT_EQ(round(view, now, {0}), 1 + 2 + 2 + 1 + 1 + 1);
+  EXPECT_EQ(run_round(view, now, {0}), 1 + 2 + 2 + 1 + 1 + 1);
   EXPECT_GE(monitors.buses[0].frames(), 1u);
   json e = json::parse(view.compose(overview));
   EXPECT_TRUE(e["full"]);
@@ -193,7 +176,7 @@ TEST_F(Face, AStreamGetsEverythingFirstThenOnlyWhatChanged) {
   // Q0..1 of gw3 change; everything else stays. The overview sees nothing new but the header.
   plant->master().image().outputs[1] = 0x42;
   run_until(now + milliseconds(20));
-  round(view, now, {0});
+  run_round(view, now, {0});
   e = json::parse(view.compose(overview));
   EXPECT_FALSE(e["full"]);
   EXPECT_TRUE(e["gateways"].empty()) << e.dump();
@@ -208,10 +191,10 @@ TEST_F(Face, AStreamGetsEverythingFirstThenOnlyWhatChanged) {
   // A stream that lags two rounds gets both rounds' changes in one event.
   plant->master().image().outputs[3] = 0x07;
   run_until(now + milliseconds(20));
-  round(view, now, {0});
+  run_round(view, now, {0});
   plant->master().image().outputs[1] = 0x43;
   run_until(now + milliseconds(20));
-  round(view, now, {0});
+  run_round(view, now, {0});
   e = json::parse(view.compose(panel));
   ASSERT_EQ(e["slots"].size(), 2u) << e.dump();
   EXPECT_EQ(e["slots"][0]["bytes"], "00 43");
@@ -219,16 +202,30 @@ TEST_F(Face, AStreamGetsEverythingFirstThenOnlyWhatChanged) {
   EXPECT_EQ(json::parse(view.compose(panel))["slots"].size(), 0u);  // nothing new now
 }
 
+TEST_F(Face, ATraceFrameKeptFromTheRoundBeforeIsTheOneTheStatusShows) {
+  http::LiveView view(*model);
+  run_round(view, now, {0});
+  plant->master().image().outputs[1] = 0x42;
+  run_until(now + milliseconds(20));
+  run_round(view, now, {0});  // the frames of the first round again, and the new ones
+  http::LiveView::Cursor c;
+  c.gateway = 0;
+  const json e = json::parse(view.compose(c));
+  const json want = model->bus_json(0, now, true)["trace"];
+  ASSERT_GE(want.size(), 2u);
+  EXPECT_EQ(e["trace"], want);
+}
+
 TEST_F(Face, APanelOpenedLaterWaitsForARoundThatRefreshedIt) {
   http::LiveView view(*model);
-  round(view, now, {});  // nobody has gw4 open
+  run_round(view, now, {});  // nobody has gw4 open
   EXPECT_EQ(view.first_round_for(std::nullopt), 2u);
   view.start_round(now, {});
   EXPECT_EQ(view.first_round_for(std::nullopt), 2u);  // the running round refreshes tiles
   EXPECT_EQ(view.first_round_for(1), 3u);             // but not gw4's panel
   while (!view.step(now)) {
   }
-  round(view, now, {1});
+  run_round(view, now, {1});
   http::LiveView::Cursor c;
   c.gateway = 1;
   const json e = json::parse(view.compose(c));

@@ -10,6 +10,7 @@
 #include "config/config.hpp"
 #include "http/documents.hpp"
 #include "http/live_view.hpp"
+#include "http_plant_support.hpp"
 #include "modbus/plant_faces.hpp"
 #include "plant/plant.hpp"
 
@@ -28,25 +29,10 @@ struct SlaveFace : ::testing::Test {
     plant = plant::Plant::build(cfg, plant::Options{}, Time{0}, &error);
     ASSERT_TRUE(plant) << error;
     faces = modbus::make_faces(*plant);
-    http::StatusSources src;
-    src.master = &plant->master();
-    src.cycle = &plant->cycle_stats();
-    for (auto& g : plant->gateways())
-      src.gateways.push_back({&g->config(), &g->gateway(), faces.gateways.at(g->index()).get()});
-    for (auto& s : plant->slaves())
-      src.slaves.push_back({&s->config(), &s->slave(),
-                            faces.gateways.at(plant->gateways().size() + s->index()).get(), false});
-    for (auto& b : plant->buses()) src.buses.push_back({&b->config(), nullptr, 500000});
-    model = std::make_unique<http::StatusModel>(std::move(src));
+    model = std::make_unique<http::StatusModel>(test::status_sources(*plant, faces));
     run_until(Time{500'000});  // every station in Data_Exch
   }
-  void run_until(Time end) {
-    while (const auto next = plant->next_deadline()) {
-      if (*next > end) break;
-      plant->advance(*next);
-      now = *next;
-    }
-  }
+  void run_until(Time end) { test::run_plant_until(*plant, now, end); }
   plant::SlaveUnit& io(std::size_t k) { return *plant->slaves().at(k); }
   config::DaemonConfig cfg;
   std::unique_ptr<plant::Plant> plant;
@@ -157,20 +143,14 @@ TEST_F(SlaveFace, TheMetricsHaveEachSlave) {
   EXPECT_NE(text[text.find("} ", at) + 2], '0');
 }
 
-int round(http::LiveView& view, Time now, std::vector<std::size_t> open,
-          std::vector<std::size_t> slaves) {
-  view.start_round(now, std::move(open), std::move(slaves));
-  int steps = 1;
-  while (!view.step(now)) ++steps;
-  return steps;
-}
+using test::run_round;
 
 TEST_F(SlaveFace, AStreamGetsTheSlaveTilesAndTheOpenSlavesPanel) {
   http::LiveView view(*model);
   http::LiveView::Cursor overview, panel;
   panel.slave = 1;  // io2
   // header, 1 gateway tile, 2 slave tiles, io2's panel, the drives, publication
-  EXPECT_EQ(round(view, now, {}, {1}), 1 + 1 + 2 + 1 + 1 + 1);
+  EXPECT_EQ(run_round(view, now, {}, {1}), 1 + 1 + 2 + 1 + 1 + 1);
   json e = json::parse(view.compose(overview));
   EXPECT_EQ(e["slave_count"], 2);
   ASSERT_EQ(e["slaves"].size(), 2u);
@@ -186,7 +166,7 @@ TEST_F(SlaveFace, AStreamGetsTheSlaveTilesAndTheOpenSlavesPanel) {
   // io1's outputs change: its tile shows no bytes, so the overview gets no tile.
   plant->master().image().outputs[*cfg.slaves[0].output_address] = 0x11;
   run_until(now + milliseconds(30));
-  round(view, now, {}, {1});
+  run_round(view, now, {}, {1});
   e = json::parse(view.compose(overview));
   EXPECT_TRUE(e["slaves"].empty()) << e.dump();
   EXPECT_FALSE(e.contains("slave"));
@@ -195,7 +175,7 @@ TEST_F(SlaveFace, AStreamGetsTheSlaveTilesAndTheOpenSlavesPanel) {
 
   // io2 gets a forced Cfg fault: its tile and its panel change, io1's tile does not.
   plant->force_slave_fault(io(1), false, true, now, "by the test");
-  round(view, now, {}, {1});
+  run_round(view, now, {}, {1});
   e = json::parse(view.compose(overview));
   ASSERT_EQ(e["slaves"].size(), 1u) << e.dump();
   EXPECT_EQ(e["slaves"][0]["fault"], "Cfg fault (forced)");

@@ -1,11 +1,14 @@
 """Shared by the HTTP face's end-to-end tests (http_*_e2e.py) and bench/http_jitter.py,
-bench/line_load.py: a candp2.Daemon (python/: every listener on a free loopback port, learnt
-from READY=1) with helpers for its HTTP face.
+bench/http_load.py, bench/line_load.py: a candp2.Daemon (python/: every listener on a free
+loopback port, learnt from READY=1) with helpers for its HTTP face, and a reader of its event
+stream that counts what it receives.
 """
 
 import json
 import os
+import socket
 import sys
+import threading
 import time
 import urllib.error
 import urllib.request
@@ -52,6 +55,31 @@ def line_config(cycle_ms=10, gateways=LINE_GATEWAYS):
     return {"modbus": {"listen": "127.0.0.1:0"}, "http": {"listen": "127.0.0.1:0"},
             "master": {"address": 1, "cycle_ms": cycle_ms}, "buses": buses, "gateways": gws,
             "log": {"level": "info"}}
+
+
+class SseReader(threading.Thread):
+    """Reads one event stream (/api/v1/events with `query`, "?gw=3" say) until stop.set(),
+    counting its bytes and its status events."""
+
+    def __init__(self, port, query=""):
+        super().__init__(daemon=True)
+        self.port, self.query = port, query
+        self.bytes, self.events, self.stop = 0, 0, threading.Event()
+
+    def run(self):
+        s = socket.create_connection(("127.0.0.1", self.port), timeout=5)
+        s.sendall(b"GET /api/v1/events%s HTTP/1.1\r\nHost: x\r\n\r\n" % self.query.encode())
+        s.settimeout(0.5)
+        while not self.stop.is_set():
+            try:
+                b = s.recv(1 << 20)
+            except socket.timeout:
+                continue
+            if not b:
+                break
+            self.bytes += len(b)
+            self.events += b.count(b"event: status")
+        s.close()
 
 
 class Daemon(candp2.Daemon):
