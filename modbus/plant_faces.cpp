@@ -9,7 +9,7 @@ namespace candp2::modbus {
 
 namespace {
 constexpr std::string_view kOrigin = "over Modbus";
-}
+}  // namespace
 
 StatusInputs::Line line_inputs(const plant::LineStatus& l) {
   StatusInputs::Line out;
@@ -25,30 +25,63 @@ StatusInputs::Line line_inputs(const plant::LineStatus& l) {
   return out;
 }
 
+namespace {
+
+// What every station's status block shares (docs/modbus.md): its DP address, the master's view of
+// it (state, parameterizations, addressed, Data_Exchanges), its line group (profibus role slaves:
+// the FDL slave side; role master: the FDL master's figures) and the master's missed cycles.
+StatusInputs station_inputs(plant::Plant& plant, std::uint8_t address) {
+  StatusInputs in;
+  in.dp_address = address;
+  if (const auto view = plant.master().slave(address)) {
+    in.master_state = view->state;
+    in.parameterizations = view->parameterizations;
+    in.addressed = view->addressed;
+    in.gateway.data_exchanges = view->data_exchanges;
+  }
+  if (auto* line = plant.slave_line()) {
+    if (auto l = line->status(address)) in.line = line_inputs(*l);
+  } else if (auto* master_line = plant.master_line()) {
+    in.line = line_inputs(master_line->status(address, plant.master()));
+  }
+  in.cycles_missed = plant.cycle_stats().missed();
+  return in;
+}
+
+// The commands every station takes alike (docs/faults.md): 2 re-parameterize, 3 / 4 the master
+// stops / resumes addressing it; the others (0 nothing, 1 power cycle) are not done here.
+void station_control(plant::Plant& plant, std::uint8_t address, Control command, Time now) {
+  switch (command) {
+    case Control::Reparameterize:
+      plant.reparameterize(address, now, kOrigin);
+      return;
+    case Control::MasterStops:
+    case Control::MasterResumes:
+      plant.set_addressed(address, command == Control::MasterResumes, now, kOrigin);
+      return;
+    case Control::None:
+    case Control::PowerCycle:
+      return;
+  }
+}
+
+}  // namespace
+
 // ------------------------------------------------------------------------------ local gateway
 
 StatusBlock PlantGatewayFace::status(Time now) {
   const gw::Gateway& gw = unit_.gateway();
-  StatusInputs in;
+  StatusInputs in = station_inputs(plant_, gw.address());
   in.gateway = gw.status();
   in.diag = unit_.gateway().dp().slave_diag(now);
-  in.dp_address = gw.address();
   if (bitrate_)
     if (auto b = bitrate_(unit_.index())) in.bitrate = *b;
-  if (const auto view = plant_.master().slave(gw.address())) {
-    in.master_state = view->state;
-    in.parameterizations = view->parameterizations;
-    in.addressed = view->addressed;
-  }
-  if (auto* line = plant_.slave_line())
-    if (auto l = line->status(gw.address())) in.line = line_inputs(*l);
   const auto& f = unit_.faults();
   in.forced_state = f.forced_code();
   in.tx_suppressed = f.tx_suppressed();
   in.rx_suppressed = f.rx_suppressed();
   in.rx_drop_remaining = f.drop_remaining();
   in.reconnects = unit_.reconnects();
-  in.cycles_missed = plant_.cycle_stats().missed();
   return encode_status(in);
 }
 
@@ -57,21 +90,10 @@ std::vector<std::uint8_t> PlantGatewayFace::diagnosis(Time now) {
 }
 
 void PlantGatewayFace::control(Control command, Time now) {
-  const std::uint8_t address = unit_.gateway().address();
-  switch (command) {
-    case Control::None:
-      return;
-    case Control::PowerCycle:
-      plant_.power_cycle(unit_, now, kOrigin);
-      return;
-    case Control::Reparameterize:
-      plant_.reparameterize(address, now, kOrigin);
-      return;
-    case Control::MasterStops:
-    case Control::MasterResumes:
-      plant_.set_addressed(address, command == Control::MasterResumes, now, kOrigin);
-      return;
-  }
+  if (command == Control::PowerCycle)
+    plant_.power_cycle(unit_, now, kOrigin);
+  else
+    station_control(plant_, unit_.gateway().address(), command, now);
 }
 
 bool PlantGatewayFace::force_bus_state(std::uint16_t code, Time now) {
@@ -90,12 +112,8 @@ std::uint16_t PlantGatewayFace::drop_remaining() const {
 // ----------------------------------------------------------------------------- remote station
 
 StatusBlock RemoteStationFace::status(Time) {
-  StatusInputs in;
-  in.dp_address = address_;
-  const auto& master = plant_.master();
-  if (const auto v = master.slave(address_)) {
-    in.master_state = v->state;
-    in.parameterizations = v->parameterizations;
+  StatusInputs in = station_inputs(plant_, address_);
+  if (const auto v = plant_.master().slave(address_)) {
     if (v->last_diag) in.diag = *v->last_diag;
     // The slave's DP state as the master knows it (docs/profibus.md role master).
     switch (v->state) {
@@ -108,27 +126,13 @@ StatusBlock RemoteStationFace::status(Time) {
       default:
         in.gateway.dp_state = dp::SlaveState::WaitPrm;
     }
-    in.gateway.data_exchanges = v->data_exchanges;
-    in.addressed = v->addressed;
   }
-  if (auto* line = plant_.master_line()) in.line = line_inputs(line->status(address_, master));
-  in.cycles_missed = plant_.cycle_stats().missed();
   return encode_status(in);
 }
 
 void RemoteStationFace::control(Control command, Time now) {
-  switch (command) {
-    case Control::Reparameterize:
-      plant_.reparameterize(address_, now, kOrigin);
-      break;
-    case Control::MasterStops:  // docs/faults.md: the PLC stops addressing the station
-    case Control::MasterResumes:
-      plant_.set_addressed(address_, command == Control::MasterResumes, now, kOrigin);
-      break;
-    case Control::None:
-    case Control::PowerCycle:  // refused before (refuses())
-      return;
-  }
+  // A power cycle is refused before (refuses()).
+  station_control(plant_, address_, command, now);
 }
 
 std::vector<std::uint8_t> RemoteStationFace::diagnosis(Time) {
@@ -150,20 +154,10 @@ std::optional<std::string> RemoteStationFace::refuses(Control command) const {
 
 StatusBlock GenericSlaveFace::status(Time now) {
   auto& dp = unit_.slave().dp();
-  StatusInputs in;
+  StatusInputs in = station_inputs(plant_, dp.info().address);
   in.leds = false;  // docs/slaves.md "Modbus": a generic slave has no CAN-DP/2 front plate
-  in.dp_address = dp.info().address;
   in.gateway.dp_state = dp.state();
   in.diag = dp.slave_diag(now);
-  if (const auto view = plant_.master().slave(in.dp_address)) {
-    in.master_state = view->state;
-    in.parameterizations = view->parameterizations;
-    in.addressed = view->addressed;
-    in.gateway.data_exchanges = view->data_exchanges;
-  }
-  if (auto* line = plant_.slave_line())
-    if (auto l = line->status(in.dp_address)) in.line = line_inputs(*l);
-  in.cycles_missed = plant_.cycle_stats().missed();
   return encode_status(in);
 }
 
@@ -172,20 +166,10 @@ std::vector<std::uint8_t> GenericSlaveFace::diagnosis(Time now) {
 }
 
 void GenericSlaveFace::control(Control command, Time now) {
-  switch (command) {
-    case Control::None:
-      return;
-    case Control::PowerCycle:
-      plant_.power_cycle(unit_, now, kOrigin);
-      return;
-    case Control::Reparameterize:
-      plant_.reparameterize(dp_address(), now, kOrigin);
-      return;
-    case Control::MasterStops:
-    case Control::MasterResumes:
-      plant_.set_addressed(dp_address(), command == Control::MasterResumes, now, kOrigin);
-      return;
-  }
+  if (command == Control::PowerCycle)
+    plant_.power_cycle(unit_, now, kOrigin);
+  else
+    station_control(plant_, dp_address(), command, now);
 }
 
 std::uint16_t GenericSlaveFace::slave_fault(std::uint16_t offset) const {
