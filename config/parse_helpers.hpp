@@ -1,9 +1,8 @@
-// Parsing helpers shared by the configuration's files (config.cpp, gateway_config.cpp); not a
-// public interface.
+// Parsing helpers shared by the configuration's files (config.cpp, gateway_config.cpp,
+// slaves_config.cpp); not a public interface.
 #pragma once
 
 #include <algorithm>
-#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
@@ -47,12 +46,9 @@ inline bool valid_name(std::string_view s, std::size_t max) {
   });
 }
 
+// Relative paths are relative to the configuration file's folder (json_reader::relative_to).
 inline std::string resolve(const std::string& file, const std::string& p) {
-  namespace fs = std::filesystem;
-  const fs::path path(p);
-  if (path.is_absolute()) return p;
-  const fs::path dir = fs::path(file).parent_path();
-  return dir.empty() ? p : (dir / path).lexically_normal().string();
+  return relative_to(file, p);
 }
 
 // A gateway entry (config/gateway_config.cpp); throws Failure.

@@ -7,6 +7,7 @@
 #include "common/hex.hpp"
 #include "config/config.hpp"
 #include "config/json_reader.hpp"
+#include "config/parse_helpers.hpp"
 #include "gsd_slave/configuration.hpp"
 #include "gsd_slave/user_prm.hpp"
 
@@ -14,24 +15,9 @@ namespace candp2::config {
 
 using json = nlohmann::json;
 using namespace json_reader;
+using detail::valid_name;
 
 namespace {
-
-// As for gateways and drives (config.cpp): letters, digits, '_', '-', '.'.
-bool valid_name(std::string_view s) {
-  return !s.empty() && s.size() <= 32 && std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-           c == '-' || c == '.';
-  });
-}
-
-// Relative paths are relative to the configuration file's folder.
-std::string resolve(const std::string& file, const std::string& p) {
-  namespace fs = std::filesystem;
-  if (fs::path(p).is_absolute()) return p;
-  const fs::path dir = fs::path(file).parent_path();
-  return dir.empty() ? p : (dir / p).lexically_normal().string();
-}
 
 std::shared_ptr<const gsd::Model> load_gsd(const std::string& path, const std::string& json_path) {
   std::error_code ec;
@@ -183,10 +169,10 @@ SlaveConfig parse_slave(const json& j, const std::string& file, const std::strin
   s.address = static_cast<std::uint8_t>(
       as_uint(o.at("address"), o.path("address"), 0, 125, "(DP address)"));
   s.name = find_string(o, "name", "a slave name").value_or("slave" + std::to_string(s.address));
-  if (!valid_name(s.name))
+  if (!valid_name(s.name, 32))  // as for gateways and drives
     fail(o.path("name"),
          "expected a name of letters, digits, '_', '-', '.' (at most 32), got \"" + s.name + "\"");
-  s.gsd = resolve(file, get_string(o, "gsd", "the GSD file of the slave"));
+  s.gsd = relative_to(file, get_string(o, "gsd", "the GSD file of the slave"));
   s.model = load_gsd(s.gsd, o.path("gsd"));
   auto profile = gsd_slave::read_profile(*s.model);
   if (auto* e = std::get_if<std::string>(&profile)) fail(o.path("gsd"), s.gsd + ": " + *e);

@@ -6,6 +6,7 @@
 
 #include "common/hex.hpp"
 #include "gateway/slot_config.hpp"
+#include "validate/text.hpp"
 
 namespace candp2::validate {
 
@@ -17,15 +18,6 @@ std::string hex8(unsigned v) {
   char buf[8];
   std::snprintf(buf, sizeof buf, "0x%02X", v & 0xFFu);
   return buf;
-}
-
-std::string plural(std::size_t n, const char* word) {
-  return std::to_string(n) + " " + word + (n == 1 ? "" : "s");
-}
-
-std::string range(std::size_t begin, std::size_t len) {
-  if (len <= 1) return std::to_string(begin);
-  return std::to_string(begin) + ".." + std::to_string(begin + len - 1);
 }
 
 const char* direction(dp::CfgIo io) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "common/hex.hpp"
+#include "validate/text.hpp"
 #include "validate/validate.hpp"
 
 namespace candp2::validate {
@@ -15,15 +16,6 @@ std::string trimmed(std::string_view s) {
   while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
   while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
   return gsd::to_utf8(s);
-}
-
-std::string plural(std::size_t n, const char* word) {
-  return std::to_string(n) + " " + word + (n == 1 ? "" : "s");
-}
-
-std::string range(std::size_t begin, std::size_t len) {
-  if (len <= 1) return std::to_string(begin);
-  return std::to_string(begin) + ".." + std::to_string(begin + len - 1);
 }
 
 // Hex bytes, 16 per line, each line indented.
@@ -120,44 +112,6 @@ SlaveReport check_slave(SlaveInput input) {
   fill_modules(r, *slave);
   fill_parameters(r, *slave);
   return r;
-}
-
-void check_slave_overlaps(const std::vector<GatewayReport>& gateways,
-                          std::vector<SlaveReport>& slaves) {
-  struct Span {
-    std::size_t begin, end;
-    std::string path;
-  };
-  std::vector<Span> in, out;
-  for (const auto& g : gateways)
-    for (const auto& row : g.slots) {
-      if (row.in_length && row.plc_input)
-        in.push_back({*row.plc_input, *row.plc_input + row.in_length, row.json_path});
-      if (row.out_length && row.plc_output)
-        out.push_back({*row.plc_output, *row.plc_output + row.out_length, row.json_path});
-    }
-  for (auto& s : slaves) {
-    for (const auto& row : s.modules) {
-      for (const bool input : {true, false}) {
-        const std::size_t n = input ? row.in_length : row.out_length;
-        const auto addr = input ? row.plc_input : row.plc_output;
-        if (n == 0 || !addr) continue;
-        auto& list = input ? in : out;
-        const Span span{*addr, *addr + n, row.json_path};
-        const std::string area = input ? "I " : "Q ";
-        for (const auto& o : list) {
-          if (span.begin >= o.end || o.begin >= span.end) continue;
-          s.warnings.push_back(
-              {WarningKind::Overlap, span.path,
-               "PLC bytes " + area + range(span.begin, span.end - span.begin) + " overlap " + area +
-                   range(o.begin, o.end - o.begin) + " of " + o.path +
-                   (input ? ": the later bytes win in the PLC image (docs/modbus.md)"
-                          : ": both send the same PLC bytes (docs/modbus.md)")});
-        }
-        list.push_back(span);
-      }
-    }
-  }
 }
 
 std::string explain_slave(const SlaveReport& s) {

@@ -5,6 +5,7 @@
 #include "can/channel.hpp"
 #include "gateway/gateway.hpp"
 #include "gsd/cfg.hpp"
+#include "validate/text.hpp"
 
 namespace candp2::validate {
 
@@ -151,37 +152,72 @@ GatewayReport check_gateway(GatewayInput input) {
   return r;
 }
 
-void check_overlaps(std::vector<GatewayReport>& reports) {
+namespace {
+
+// The PLC byte ranges seen so far, per direction: the master has one process image for all
+// stations (docs/modbus.md).
+class PlcImage {
+ public:
+  // What a later range overlapping an earlier one means, appended to the warning.
+  struct Why {
+    const char* input;
+    const char* output;
+  };
+
+  // Records the `n` bytes from `addr` of the row at `path`; with `warnings`, one Overlap warning
+  // at `path` for each earlier range of the same direction they overlap.
+  void add(bool input, std::size_t n, std::optional<std::uint16_t> addr, const std::string& path,
+           std::vector<Warning>* warnings, Why why) {
+    if (n == 0 || !addr) return;
+    auto& list = input ? in_ : out_;
+    const Span s{*addr, *addr + n, path};
+    const std::string area = input ? "I " : "Q ";
+    for (const auto& o : list) {
+      if (!warnings || s.begin >= o.end || o.begin >= s.end) continue;
+      warnings->push_back({WarningKind::Overlap, s.path,
+                           "PLC bytes " + area + range(s.begin, s.end - s.begin) + " overlap " +
+                               area + range(o.begin, o.end - o.begin) + " of " + o.path +
+                               (input ? why.input : why.output)});
+    }
+    list.push_back(s);
+  }
+
+  void add_slots(const GatewayReport& r, std::vector<Warning>* warnings, Why why) {
+    for (const auto& row : r.slots)
+      for (const bool input : {true, false})
+        add(input, input ? row.in_length : row.out_length, input ? row.plc_input : row.plc_output,
+            row.json_path, warnings, why);
+  }
+
+ private:
   struct Span {
     std::size_t begin, end;  // PLC byte addresses [begin, end)
     std::string path;
   };
-  std::vector<Span> in, out;
-  for (auto& r : reports) {
-    for (const auto& row : r.slots) {
-      for (const bool input : {true, false}) {
-        const std::size_t n = input ? row.in_length : row.out_length;
-        const auto addr = input ? row.plc_input : row.plc_output;
-        if (n == 0 || !addr) continue;
-        auto& list = input ? in : out;
-        const Span s{*addr, *addr + n, row.json_path};
-        const std::string area = input ? "I " : "Q ";
-        auto text = [&](const Span& x) {
-          return area + std::to_string(x.begin) +
-                 (x.end - x.begin > 1 ? ".." + std::to_string(x.end - 1) : "");
-        };
-        for (const auto& o : list) {
-          if (s.begin >= o.end || o.begin >= s.end) continue;
-          r.warnings.push_back(
-              {WarningKind::Overlap, s.path,
-               "PLC bytes " + text(s) + " overlap " + text(o) + " of " + o.path +
-                   (input ? ": the later slot's bytes win in the PLC image (docs/modbus.md)"
-                          : ": both slots send the same PLC bytes (docs/modbus.md)")});
-        }
-        list.push_back(s);
-      }
-    }
-  }
+  std::vector<Span> in_, out_;
+};
+
+}  // namespace
+
+void check_overlaps(std::vector<GatewayReport>& reports) {
+  PlcImage image;
+  for (auto& r : reports)
+    image.add_slots(r, &r.warnings,
+                    {": the later slot's bytes win in the PLC image (docs/modbus.md)",
+                     ": both slots send the same PLC bytes (docs/modbus.md)"});
+}
+
+void check_slave_overlaps(const std::vector<GatewayReport>& gateways,
+                          std::vector<SlaveReport>& slaves) {
+  PlcImage image;
+  for (const auto& g : gateways) image.add_slots(g, nullptr, {});
+  for (auto& s : slaves)
+    for (const auto& row : s.modules)
+      for (const bool input : {true, false})
+        image.add(input, input ? row.in_length : row.out_length,
+                  input ? row.plc_input : row.plc_output, row.json_path, &s.warnings,
+                  {": the later bytes win in the PLC image (docs/modbus.md)",
+                   ": both send the same PLC bytes (docs/modbus.md)"});
 }
 
 bool Report::valid() const {

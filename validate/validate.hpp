@@ -76,7 +76,7 @@ GatewayReport check_gateway(GatewayInput input);
 void check_overlaps(std::vector<GatewayReport>& reports);
 
 // Overlapping PLC addresses of a slave's bytes with a gateway's slot or another slave's bytes
-// (one process image, docs/modbus.md); reported at the slave (validate/slaves.cpp).
+// (one process image, docs/modbus.md); reported at the slave.
 void check_slave_overlaps(const std::vector<GatewayReport>& gateways,
                           std::vector<SlaveReport>& slaves);
 

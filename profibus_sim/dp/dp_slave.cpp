@@ -36,6 +36,11 @@ void DpSlave::enter(SlaveState next, Time now, std::string_view why) {
   if (next == SlaveState::DataExch) app_.on_enter_data_exchange(now);
 }
 
+void DpSlave::to_wait_prm(Time now, std::string_view why) {
+  prm_.reset();
+  enter(SlaveState::WaitPrm, now, why);
+}
+
 void DpSlave::reject_prm(PrmFault fault, std::string_view why) {
   prm_fault_ = fault;
   log_.warn("Set_Prm rejected: " + std::string(why) + " (diag 3D " +
@@ -63,10 +68,8 @@ bool DpSlave::lock_request(std::uint8_t master, const PrmStd& p, std::span<const
     prm_fault_.reset();
     cfg_fault_.reset();
     not_supported_ = false;
-    prm_.reset();
-    cfg_accepted_ = false;
     master_ = kNoMaster;
-    enter(SlaveState::WaitPrm, now, "unlocked");
+    to_wait_prm(now, "unlocked");
     return true;
   }
   if (lock) return false;  // the ordinary parameterization
@@ -107,9 +110,7 @@ bool DpSlave::set_prm(std::uint8_t master, std::span<const std::uint8_t> t, Time
   const std::size_t expected = kPrmStdLen + info_.user_prm_len;
   auto fail = [&](std::optional<PrmFault> fault, std::string_view why) {
     if (fault) reject_prm(*fault, why);
-    prm_.reset();
-    cfg_accepted_ = false;
-    enter(SlaveState::WaitPrm, now, "Set_Prm rejected");
+    to_wait_prm(now, "Set_Prm rejected");
     return false;
   };
   // docs/dp-slave.md "User parameters": checks run in telegram byte order; the length comes first.
@@ -141,7 +142,6 @@ bool DpSlave::set_prm(std::uint8_t master, std::span<const std::uint8_t> t, Time
   if (auto fault = app_.on_set_prm(t, now)) return fail(*fault, "user parameter");
   prm_ = std_part;
   master_ = master;
-  cfg_accepted_ = false;
   watchdog_1ms_ = standard() && app_.watchdog_base_1ms();
   log_.info("Set_Prm accepted from master " + std::to_string(master) +
             (std_part.wd_on() ? ", watchdog " + std::to_string(*watchdog_ms()) + " ms"
@@ -158,17 +158,14 @@ bool DpSlave::chk_cfg(std::uint8_t master, std::span<const std::uint8_t> cfg, Ti
   }
   if (auto fault = app_.on_chk_cfg(cfg, now)) {
     cfg_fault_ = fault;
-    cfg_accepted_ = false;
     log_.warn("Chk_Cfg rejected: slot " + std::to_string(fault->slot) + " code " +
               std::to_string(fault->code));
     // docs/dp-slave.md: a faulty Chk_Cfg leaves the slave in Wait_Prm.
-    prm_.reset();
-    enter(SlaveState::WaitPrm, now, "Chk_Cfg rejected");
+    to_wait_prm(now, "Chk_Cfg rejected");
     return false;
   }
   cfg_fault_.reset();
   cfg_.assign(cfg.begin(), cfg.end());
-  cfg_accepted_ = true;
   inputs_.assign(app_.input_length(), 0);
   outputs_.assign(app_.output_length(), 0);
   sync_mode_ = freeze_mode_ = clear_ = fail_safe_telegram_ = false;
@@ -263,7 +260,7 @@ std::vector<std::uint8_t> DpSlave::standard_diag() const {
 std::optional<std::vector<std::uint8_t>> DpSlave::get_cfg(Time now) {
   advance(now);
   if (auto real = app_.real_cfg()) return real;
-  if (!cfg_accepted_) return std::nullopt;
+  if (state_ != SlaveState::DataExch) return std::nullopt;  // no Chk_Cfg accepted
   return cfg_;
 }
 
@@ -305,11 +302,12 @@ std::span<const std::uint8_t> field_outputs(bool cleared, bool sync,
 }  // namespace
 
 void DpSlave::standard_exchange(Time now) {
-  std::vector<std::uint8_t> fresh(app_.input_length(), 0);
-  app_.on_data_exchange(field_outputs(clear_ || fail_safe_telegram_, sync_mode_, synced_, outputs_),
-                        fresh, now);
   // Freeze mode: the inputs stay those sampled by the last Freeze command.
-  if (!freeze_mode_) inputs_ = std::move(fresh);
+  if (freeze_mode_) return apply_outputs(now);
+  // Sampled in place: no buffer allocated per telegram.
+  inputs_.assign(app_.input_length(), 0);
+  app_.on_data_exchange(field_outputs(clear_ || fail_safe_telegram_, sync_mode_, synced_, outputs_),
+                        inputs_, now);
 }
 
 void DpSlave::apply_outputs(Time now) {
@@ -413,11 +411,9 @@ void DpSlave::advance(Time now) {
   if (!wd || state_ == SlaveState::WaitPrm) return;
   if (now - last_master_telegram_ > milliseconds(*wd)) {
     log_.warn("watchdog expired after " + std::to_string(*wd) + " ms without a master telegram");
-    prm_.reset();
-    cfg_accepted_ = false;
     // Standard profile: the expiry also releases the lock (docs/slaves.md "Watchdog").
     if (standard()) master_ = kNoMaster;
-    enter(SlaveState::WaitPrm, now, "watchdog");
+    to_wait_prm(now, "watchdog");
   }
 }
 
@@ -428,33 +424,27 @@ std::optional<Time> DpSlave::next_deadline() const {
 }
 
 void DpSlave::reset(Time now) {
-  prm_.reset();
   cfg_.clear();
-  cfg_accepted_ = false;
   prm_fault_.reset();
   cfg_fault_.reset();
   not_supported_ = false;
   master_ = kNoMaster;
   sync_mode_ = freeze_mode_ = clear_ = fail_safe_telegram_ = false;
-  enter(SlaveState::WaitPrm, now, "reset");
+  to_wait_prm(now, "reset");
 }
 
 void DpSlave::raise_prm_fault(PrmFault fault, Time now) {
   prm_fault_ = fault;
   cfg_fault_.reset();
-  prm_.reset();
-  cfg_accepted_ = false;
   log_.warn("Prm fault raised by the device");
-  enter(SlaveState::WaitPrm, now, "Prm fault");
+  to_wait_prm(now, "Prm fault");
 }
 
 void DpSlave::raise_cfg_fault(CfgFault fault, Time now) {
   cfg_fault_ = fault;
   prm_fault_.reset();
-  prm_.reset();
-  cfg_accepted_ = false;
   log_.warn("Cfg fault raised by the device");
-  enter(SlaveState::WaitPrm, now, "Cfg fault");
+  to_wait_prm(now, "Cfg fault");
 }
 
 }  // namespace candp2::dp

@@ -189,6 +189,8 @@ class DpSlave {
  private:
   bool standard() const { return info_.options.profile == DpProfile::Standard; }
   void enter(SlaveState next, Time now, std::string_view why);
+  // Back to Wait_Prm with the parameters dropped (rejection, unlock, watchdog, reset, fault).
+  void to_wait_prm(Time now, std::string_view why);
   void reject_prm(PrmFault fault, std::string_view why);
   void touch(Time now) { last_master_telegram_ = now; }
   // Standard profile: Lock_Req/Unlock_Req; true when the telegram was fully handled here.
@@ -205,8 +207,7 @@ class DpSlave {
   SlaveState state_ = SlaveState::WaitPrm;
   std::uint8_t master_ = kNoMaster;
   std::optional<PrmStd> prm_;
-  std::vector<std::uint8_t> cfg_;
-  bool cfg_accepted_ = false;
+  std::vector<std::uint8_t> cfg_;  // the accepted Chk_Cfg (valid in Data_Exch)
   bool not_supported_ = false;
   std::optional<PrmFault> prm_fault_;
   std::optional<CfgFault> cfg_fault_;

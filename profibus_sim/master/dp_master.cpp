@@ -33,17 +33,13 @@ std::string describe_diag(std::span<const std::uint8_t> d) {
     out += word;
   };
   if (d.size() < kDiagStdLen) return "short diagnosis " + hex_bytes(d);
-  add(d[0] & kDiag1StationNonExistent, "Station_Non_Existent");
-  add(d[0] & kDiag1StationNotReady, "Station_Not_Ready");
-  add(d[0] & kDiag1CfgFault, "Cfg_Fault");
-  add(d[0] & kDiag1ExtDiag, "Ext_Diag");
-  add(d[0] & kDiag1NotSupported, "Not_Supported");
-  add(d[0] & kDiag1PrmFault, "Prm_Fault");
-  add(d[1] & kDiag2PrmReq, "Prm_Req");
-  add(d[1] & kDiag2WdOn, "WD_On");
-  add(d[1] & kDiag2FreezeMode, "Freeze_Mode");
-  add(d[1] & kDiag2SyncMode, "Sync_Mode");
-  add(d[2] & kDiag3ExtDiagOverflow, "Ext_Diag_Overflow");
+  // The station status bits by their names in kDiagBitNames, in its order. The words the logs
+  // have always shown: Invalid_Slave_Response, Master_Lock, Stat_Diag, Deactivated are left out.
+  constexpr std::uint8_t kSpelled[] = {
+      kDiag1StationNonExistent | kDiag1StationNotReady | kDiag1CfgFault | kDiag1ExtDiag |
+          kDiag1NotSupported | kDiag1PrmFault,
+      kDiag2PrmReq | kDiag2WdOn | kDiag2FreezeMode | kDiag2SyncMode, kDiag3ExtDiagOverflow};
+  for (const auto& b : kDiagBitNames) add(d[b.byte] & b.mask & kSpelled[b.byte], b.name);
   if (!out.empty()) out += ' ';
   out += d[3] == kNoMaster ? "master=none" : "master=" + std::to_string(d[3]);
   out += " ident=" + hex_bytes(d.subspan(4, 2), '\0');
