@@ -127,14 +127,7 @@ class SlaveDiagnosis(DiagnosisBytes):
     def decode(cls, raw: bytes, layout: DiagnosisLayout, standard: int) -> SlaveDiagnosis:
         """Decodes the bytes with the daemon's layout (RegisterMap.diagnosis); `standard` is how
         many bytes come before the Ext_Diag_Data (the master and ident bytes' end)."""
-        bits = frozenset(name for byte, mask, name in layout.bits
-                         if byte < len(raw) and raw[byte] & mask)
-        master = raw[layout.master_byte] if layout.master_byte < len(raw) else layout.no_master
-        ident = 0
-        for i in layout.ident_bytes:
-            ident = (ident << 8) | (raw[i] if i < len(raw) else 0)
-        return cls(bytes(raw), bits, None if master == layout.no_master else master, ident,
-                   decode_blocks(raw[standard:]))
+        return cls(bytes(raw), *cls.standard(raw, layout), decode_blocks(raw[standard:]))
 
     @property
     def device(self) -> bytes | None:

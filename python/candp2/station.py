@@ -11,7 +11,7 @@ import time
 from typing import (TYPE_CHECKING, Callable, Iterator, Mapping, Self, Sequence, TypeVar,
                     overload)
 
-from .registers import RegisterMap, StatusValue
+from .registers import DiagnosisLayout, RegisterMap, StatusValue
 
 if TYPE_CHECKING:
     from .connection import Connection
@@ -43,6 +43,19 @@ class DiagnosisBytes:
 
     raw: bytes
     bits: frozenset[str]
+
+    @staticmethod
+    def standard(raw: bytes, layout: DiagnosisLayout) -> tuple[frozenset[str], int | None, int]:
+        """The station status bits set, the master holding the lock (None: none) and the
+        Ident_Number, read from the standard bytes with the daemon's layout (manual §3.4); a
+        byte past the end of `raw` reads as none / 0."""
+        bits = frozenset(name for byte, mask, name in layout.bits
+                         if byte < len(raw) and raw[byte] & mask)
+        master = raw[layout.master_byte] if layout.master_byte < len(raw) else layout.no_master
+        ident = 0
+        for i in layout.ident_bytes:
+            ident = (ident << 8) | (raw[i] if i < len(raw) else 0)
+        return bits, None if master == layout.no_master else master, ident
 
     @overload
     def __getitem__(self, index: int) -> int: ...
