@@ -3,13 +3,20 @@ exception answers raised as ModbusError with the daemon's own names for them."""
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, Iterator, Sequence
 
 from pymodbus.client import ModbusTcpClient  # python3-pymodbus
 from pymodbus.exceptions import ModbusException
 
 from .errors import ModbusError
 from .registers import RegisterMap
+
+
+def _chunks(address: int, count: int, limit: int) -> Iterator[tuple[int, int]]:
+    """(first address, count) of each request that covers `count` items from `address` in
+    requests of at most `limit` items."""
+    for offset in range(0, count, limit):
+        yield address + offset, min(limit, count - offset)
 
 
 class ModbusFace:
@@ -54,32 +61,23 @@ class ModbusFace:
     def read_registers(self, table: str, address: int, count: int, unit: int) -> list[int]:
         """`count` registers of "holding_registers" or "input_registers" from `address`,
         in requests of at most the map's read limit."""
-        limit = self.map.limits["read_registers"]
+        read = (self.client.read_input_registers if table == "input_registers"
+                else self.client.read_holding_registers)
         out: list[int] = []
-        while count > 0:
-            n = min(count, limit)
-            a = address
-            if table == "input_registers":
-                r = self._call("read input registers %d..%d (unit %d)" % (a, a + n - 1, unit),
-                               lambda: self.client.read_input_registers(a, n, slave=unit))
-            else:
-                r = self._call("read holding registers %d..%d (unit %d)" % (a, a + n - 1, unit),
-                               lambda: self.client.read_holding_registers(a, n, slave=unit))
+        for a, n in _chunks(address, count, self.map.limits["read_registers"]):
+            r = self._call("read %s %d..%d (unit %d)" % (table.replace("_", " "), a, a + n - 1,
+                                                         unit),
+                           lambda: read(a, n, slave=unit))
             out += [int(v) for v in r.registers[:n]]
-            address += n
-            count -= n
         return out
 
     def write_registers(self, address: int, values: Sequence[int], unit: int) -> None:
         """Holding registers from `address` (FC 16), in requests of at most the write limit."""
-        limit = self.map.limits["write_registers"]
         values = list(values)
-        while values:
-            chunk, values = values[:limit], values[limit:]
-            a = address
-            self._call("write holding registers %d..%d (unit %d)" % (a, a + len(chunk) - 1, unit),
+        for a, n in _chunks(address, len(values), self.map.limits["write_registers"]):
+            chunk = values[a - address:a - address + n]
+            self._call("write holding registers %d..%d (unit %d)" % (a, a + n - 1, unit),
                        lambda: self.client.write_registers(a, chunk, slave=unit))
-            address += len(chunk)
 
     def write_register(self, address: int, value: int, unit: int) -> None:
         """One holding register (FC 6)."""
@@ -90,11 +88,8 @@ class ModbusFace:
 
     def write_coils(self, address: int, bits: Sequence[bool], unit: int) -> None:
         """Coils from `address` (FC 15), in requests of at most the write limit."""
-        limit = self.map.limits["write_bits"]
         bits = list(bits)
-        while bits:
-            chunk, bits = bits[:limit], bits[limit:]
-            a = address
-            self._call("write coils %d..%d (unit %d)" % (a, a + len(chunk) - 1, unit),
+        for a, n in _chunks(address, len(bits), self.map.limits["write_bits"]):
+            chunk = bits[a - address:a - address + n]
+            self._call("write coils %d..%d (unit %d)" % (a, a + n - 1, unit),
                        lambda: self.client.write_coils(a, chunk, slave=unit))
-            address += len(chunk)

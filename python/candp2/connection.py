@@ -6,7 +6,7 @@ attaches to one that runs already."""
 from __future__ import annotations
 
 import os
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 from ._http import HttpFace
 from ._modbus import ModbusFace
@@ -16,11 +16,21 @@ from .bus import Bus
 from .drive import Drive
 from .errors import Candp2Error, ModbusError
 from .gateway import Gateway
-from .registers import RegisterMap
+from .registers import GatewayMap, RegisterMap, SlaveMap
 from .slave import Slave
 
 #: How many frames of each bus's trace a report shows.
 REPORT_FRAMES = 20
+
+
+def _by_name(kind: str, stations: Sequence[GatewayMap | SlaveMap], name: str) -> int:
+    """The DP address of the configured gateway or slave named `name`; KeyError naming them
+    all when there is none."""
+    for s in stations:
+        if s.name == name:
+            return s.dp_address
+    raise KeyError("no %s named %r (%ss: %s)" % (
+        kind, name, kind, ", ".join(s.name for s in stations) or "unknown"))
 
 
 class Connection:
@@ -69,11 +79,7 @@ class Connection:
     def gateway(self, address: int | str) -> Gateway:
         """The gateway with this DP address (= Modbus unit ID), or by its configured name."""
         if isinstance(address, str):
-            for g in self.register_map.gateways:
-                if g.name == address:
-                    return Gateway(self, g.dp_address)
-            raise KeyError("no gateway named %r (gateways: %s)" % (
-                address, ", ".join(g.name for g in self.register_map.gateways) or "unknown"))
+            address = _by_name("gateway", self.register_map.gateways, address)
         return Gateway(self, address)
 
     def gateways(self) -> list[Gateway]:
@@ -89,11 +95,7 @@ class Connection:
         """The generic slave (docs/slaves.md) with this DP address (= Modbus unit ID), or by
         its configured name."""
         if isinstance(address, str):
-            for s in self.register_map.slaves:
-                if s.name == address:
-                    return Slave(self, s.dp_address)
-            raise KeyError("no slave named %r (slaves: %s)" % (
-                address, ", ".join(s.name for s in self.register_map.slaves) or "unknown"))
+            address = _by_name("slave", self.register_map.slaves, address)
         return Slave(self, address)
 
     def slaves(self) -> list[Slave]:

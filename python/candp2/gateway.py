@@ -61,11 +61,7 @@ class Diagnosis(DiagnosisBytes):
     @classmethod
     def decode(cls, raw: bytes, layout: DiagnosisLayout) -> Diagnosis:
         """Decodes the bytes with the daemon's layout (RegisterMap.diagnosis)."""
-        bits = frozenset(name for byte, mask, name in layout.bits if raw[byte] & mask)
-        master = raw[layout.master_byte]
-        ident = 0
-        for i in layout.ident_bytes:
-            ident = (ident << 8) | raw[i]
+        bits, master, ident = cls.standard(raw, layout)
         marker = raw[layout.ext_byte]
         cfg = prm = None
         can_state = irq = msg = None
@@ -76,8 +72,7 @@ class Diagnosis(DiagnosisBytes):
         else:
             can_state = layout.can_states.get(marker & layout.can_state_mask)
             irq, msg = raw[layout.irq_lost], raw[layout.msg_lost]
-        return cls(bytes(raw), bits, None if master == layout.no_master else master, ident,
-                   cfg, prm, can_state, irq, msg)
+        return cls(bytes(raw), bits, master, ident, cfg, prm, can_state, irq, msg)
 
     def __str__(self) -> str:
         parts = [hex_bytes(self.raw)]

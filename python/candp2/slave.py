@@ -10,7 +10,8 @@ from typing import TYPE_CHECKING, Mapping, Sequence, TypeVar
 
 from .errors import Candp2Error
 from .registers import DiagnosisLayout, SlaveMap, StatusValue
-from .station import ByteView, DiagnosisBytes, Station, hex_bytes
+from .station import (ByteView, DiagnosisBytes, Station, bytes_to_words, hex_bytes,
+                      words_to_bytes)
 
 if TYPE_CHECKING:
     from .connection import Connection
@@ -126,14 +127,7 @@ class SlaveDiagnosis(DiagnosisBytes):
     def decode(cls, raw: bytes, layout: DiagnosisLayout, standard: int) -> SlaveDiagnosis:
         """Decodes the bytes with the daemon's layout (RegisterMap.diagnosis); `standard` is how
         many bytes come before the Ext_Diag_Data (the master and ident bytes' end)."""
-        bits = frozenset(name for byte, mask, name in layout.bits
-                         if byte < len(raw) and raw[byte] & mask)
-        master = raw[layout.master_byte] if layout.master_byte < len(raw) else layout.no_master
-        ident = 0
-        for i in layout.ident_bytes:
-            ident = (ident << 8) | (raw[i] if i < len(raw) else 0)
-        return cls(bytes(raw), bits, None if master == layout.no_master else master, ident,
-                   decode_blocks(raw[standard:]))
+        return cls(bytes(raw), *cls.standard(raw, layout), decode_blocks(raw[standard:]))
 
     @property
     def device(self) -> bytes | None:
@@ -217,23 +211,12 @@ class FieldImage(ByteView):
         return m.field_outputs if self._output else m.field_inputs
 
     def _registers(self, first: int, last: int) -> bytes:
-        words = self._slave.connection.modbus.read_registers(self._table, first,
-                                                             last - first + 1, self._unit)
-        return b"".join(w.to_bytes(2, "big") for w in words)
+        return words_to_bytes(self._slave.connection.modbus.read_registers(
+            self._table, first, last - first + 1, self._unit))
 
     def _check(self, address: int, length: int) -> None:
         self._unit  # a slave without a field side says so, rather than "0 bytes"
         super()._check(address, length)
-
-    def read(self, address: int, length: int) -> bytes:
-        """`length` bytes from byte `address` of the slave's inputs / outputs."""
-        self._check(address, length)
-        if length == 0:
-            return b""
-        first, last = address // 2, (address + length - 1) // 2
-        data = self._registers(first, last)
-        offset = address - 2 * first
-        return data[offset:offset + length]
 
     def write(self, address: int, data: bytes | bytearray | Sequence[int]) -> None:
         """Writes `data` from byte `address` of the slave's inputs (field_inputs only)."""
@@ -251,8 +234,7 @@ class FieldImage(ByteView):
             words = bytearray(self._registers(first, last))  # keep the neighbouring bytes
         offset = address - 2 * first
         words[offset:offset + len(data)] = data
-        values = [int.from_bytes(words[i:i + 2], "big") for i in range(0, len(words), 2)]
-        self._slave.connection.modbus.write_registers(first, values, self._unit)
+        self._slave.connection.modbus.write_registers(first, bytes_to_words(words), self._unit)
 
     def __repr__(self) -> str:
         return "<%s of slave %d>" % (self._name, self._slave.address)
@@ -296,8 +278,7 @@ class Slave(Station):
             m.diagnosis_bytes.first + m.diagnosis_bytes.count - m.diagnosis_length_register,
             self.address)
         length = words[0]
-        data = b"".join(w.to_bytes(2, "big")
-                        for w in words[m.diagnosis_bytes.first - m.diagnosis_length_register:])
+        data = words_to_bytes(words[m.diagnosis_bytes.first - m.diagnosis_length_register:])
         layout = m.diagnosis
         standard = max(layout.master_byte, *layout.ident_bytes) + 1
         return SlaveDiagnosis.decode(data[:length], layout, standard)
@@ -331,7 +312,7 @@ class Slave(Station):
             return words[regs[name] - first]
 
         n = word("alarm_length")
-        alarm = b"".join(w.to_bytes(2, "big") for w in words[m.alarm_bytes.first - first:])
+        alarm = words_to_bytes(words[m.alarm_bytes.first - first:])
         return SlaveFaults(word("on_bus") == 1, word("prm_fault") == 1, word("cfg_fault") == 1,
                            alarm[:n] if n else None)
 
@@ -357,8 +338,7 @@ class Slave(Station):
         if not 1 <= len(data) <= 2 * m.alarm_bytes.count:
             raise ValueError("a diagnosis alarm has 1..%d bytes, not %d"
                              % (2 * m.alarm_bytes.count, len(data)))
-        padded = data + b"\0" * (len(data) % 2)
-        words = [int.from_bytes(padded[i:i + 2], "big") for i in range(0, len(padded), 2)]
+        words = bytes_to_words(data + b"\0" * (len(data) % 2))
         length = self._fault_registers()["alarm_length"]
         if m.alarm_bytes.first == length + 1:  # one request: the length applies the bytes
             self.connection.modbus.write_registers(length, [len(data)] + words, self.address)

@@ -11,7 +11,7 @@ import time
 from typing import (TYPE_CHECKING, Callable, Iterator, Mapping, Self, Sequence, TypeVar,
                     overload)
 
-from .registers import RegisterMap, StatusValue
+from .registers import DiagnosisLayout, RegisterMap, StatusValue
 
 if TYPE_CHECKING:
     from .connection import Connection
@@ -27,12 +27,35 @@ def hex_bytes(data: bytes) -> str:
     return " ".join("%02X" % b for b in data)
 
 
+def words_to_bytes(words: Sequence[int]) -> bytes:
+    """Modbus registers as the bytes they carry, high byte first (docs/modbus.md)."""
+    return b"".join(w.to_bytes(2, "big") for w in words)
+
+
+def bytes_to_words(data: bytes | bytearray) -> list[int]:
+    """An even number of bytes as Modbus registers, high byte first (docs/modbus.md)."""
+    return [int.from_bytes(data[i:i + 2], "big") for i in range(0, len(data), 2)]
+
+
 class DiagnosisBytes:
     """What both diagnoses (candp2.Diagnosis, candp2.SlaveDiagnosis) answer as bytes and as a set
     of station status bits: `diag[8]`, `diag[0:6]`, `len(diag)`, `"Ext_Diag" in diag`."""
 
     raw: bytes
     bits: frozenset[str]
+
+    @staticmethod
+    def standard(raw: bytes, layout: DiagnosisLayout) -> tuple[frozenset[str], int | None, int]:
+        """The station status bits set, the master holding the lock (None: none) and the
+        Ident_Number, read from the standard bytes with the daemon's layout (manual §3.4); a
+        byte past the end of `raw` reads as none / 0."""
+        bits = frozenset(name for byte, mask, name in layout.bits
+                         if byte < len(raw) and raw[byte] & mask)
+        master = raw[layout.master_byte] if layout.master_byte < len(raw) else layout.no_master
+        ident = 0
+        for i in layout.ident_bytes:
+            ident = (ident << 8) | (raw[i] if i < len(raw) else 0)
+        return bits, None if master == layout.no_master else master, ident
 
     @overload
     def __getitem__(self, index: int) -> int: ...
@@ -74,13 +97,23 @@ def describe_predicate(predicate: Callable[..., object]) -> str:
 class ByteView:
     """A fixed-size run of bytes read and written through Modbus, indexed like a bytes object:
     `view[0:6]`, `view[3]`, `view[0:2] = b"..."`, `bytes(view)`, `len(view)`. Subclasses
-    provide read(), write(), __len__() and the name a wait_until() message shows."""
+    provide _registers(), write(), __len__() and the name a wait_until() message shows."""
 
     def __len__(self) -> int:
         raise NotImplementedError
 
-    def read(self, address: int, length: int) -> bytes:
+    def _registers(self, first: int, last: int) -> bytes:
+        """The bytes of the view's registers `first`..`last` (register n holds bytes 2n, 2n+1)."""
         raise NotImplementedError
+
+    def read(self, address: int, length: int) -> bytes:
+        """`length` bytes from byte `address` of the view."""
+        self._check(address, length)
+        if length == 0:
+            return b""
+        first, last = address // 2, (address + length - 1) // 2
+        offset = address - 2 * first
+        return self._registers(first, last)[offset:offset + length]
 
     def write(self, address: int, data: bytes | bytearray | Sequence[int]) -> None:
         raise NotImplementedError
@@ -158,18 +191,10 @@ class Image(ByteView):
     def _note(self, what: str, value: T) -> T:
         return self._station.note(self._station.image_name(self._output) + what, value)
 
-    def read(self, address: int, length: int) -> bytes:
-        """`length` bytes from PLC address `address`."""
-        self._check(address, length)
-        if length == 0:
-            return b""
+    def _registers(self, first: int, last: int) -> bytes:
         rng = self._map.outputs if self._output else self._map.inputs
-        first, last = address // 2, (address + length - 1) // 2
-        words = self._station.connection.modbus.read_registers(
-            rng.table, rng.first + first, last - first + 1, self._station.address)
-        data = b"".join(w.to_bytes(2, "big") for w in words)
-        offset = address - 2 * first
-        return data[offset:offset + length]
+        return words_to_bytes(self._station.connection.modbus.read_registers(
+            rng.table, rng.first + first, last - first + 1, self._station.address))
 
     def write(self, address: int, data: bytes | bytearray | Sequence[int]) -> None:
         """Writes `data` at PLC address `address` (outputs only)."""
@@ -183,8 +208,7 @@ class Image(ByteView):
         unit = self._station.address
         if address % 2 == 0 and len(data) % 2 == 0:
             rng = self._map.outputs
-            words = [int.from_bytes(data[i:i + 2], "big") for i in range(0, len(data), 2)]
-            modbus.write_registers(rng.first + address // 2, words, unit)
+            modbus.write_registers(rng.first + address // 2, bytes_to_words(data), unit)
         else:
             bits = [bool(b >> i & 1) for b in data for i in range(8)]
             modbus.write_coils(self._map.output_bits.first + 8 * address, bits, unit)

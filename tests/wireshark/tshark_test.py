@@ -20,6 +20,7 @@ Every tshark run is bounded (timeout) and checks that the Lua script loaded with
 import argparse
 import json
 import os
+import select
 import subprocess
 import sys
 import tempfile
@@ -317,11 +318,11 @@ def case_daemon_slaves(tmp):
                 os.write(fd, raw)
                 deadline = time.monotonic() + 2
                 answer = b""
-                while time.monotonic() < deadline and not (answer and answer[-1] in (0x16, 0xE5)):
-                    try:
-                        answer += os.read(fd, 256)
-                    except BlockingIOError:
-                        time.sleep(0.005)
+                while not (answer and answer[-1] in (0x16, 0xE5)):
+                    left = deadline - time.monotonic()
+                    if left <= 0 or not select.select([fd], [], [], left)[0]:
+                        break
+                    answer += os.read(fd, 256)
                 if not answer:
                     fail(f"no answer to {telegram}")
         finally:
