@@ -13,6 +13,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "event_loop/deadline_timer.hpp"
 #include "http/client_table.hpp"
 #include "http/documents.hpp"
 #include "http/live_view.hpp"
@@ -118,11 +119,13 @@ class HttpServerImpl final : public HttpServer {
         log_(log, "http"),
         table_(options_.max_clients, options_.idle_timeout),
         view_(model),
-        budget_(std::clamp<Duration>(options_.cycle / 4, microseconds(100), milliseconds(2))) {}
+        budget_(std::clamp<Duration>(options_.cycle / 4, microseconds(100), milliseconds(2))),
+        idle_timer_(loop, [this] { close_idle(); }) {}
 
   ~HttpServerImpl() override {
-    for (auto* t : {&mhd_timer_, &idle_timer_, &work_timer_, &pause_timer_, &log_timer_})
+    for (auto* t : {&mhd_timer_, &work_timer_, &pause_timer_, &log_timer_})
       if (*t) loop_.cancel_timer(*t);
+    idle_timer_.disarm();
     if (listener_ && listening_) loop_.remove_fd(listener_->fd());
     if (epoll_fd_ >= 0) loop_.remove_fd(epoll_fd_);
     if (daemon_) {
@@ -322,22 +325,16 @@ class HttpServerImpl final : public HttpServer {
     }
   }
 
-  // One timer for the earliest idle expiry of a waiting connection.
-  void arm_idle_timer() {
-    const auto next = table_.next_expiry();
-    if (!next || (idle_timer_ && idle_armed_ && *idle_armed_ <= *next)) return;
-    if (idle_timer_) loop_.cancel_timer(idle_timer_);
-    idle_armed_ = *next;
-    idle_timer_ = loop_.add_timer(std::max(Duration(0), *next - loop_.now()), [this] {
-      idle_timer_ = 0;
-      idle_armed_.reset();
-      const Time now = loop_.now();
-      for (const auto id : table_.expired(now)) {
-        ++model_.http_counters().clients_timed_out;
-        close_conn(id, "no complete request within " + ms_text(options_.idle_timeout), idle_log_);
-      }
-      arm_idle_timer();
-    });
+  // One timer for the earliest idle expiry of a waiting connection (a request only moves a
+  // connection's expiry later).
+  void arm_idle_timer() { idle_timer_.arm_earlier(table_.next_expiry(), loop_.now()); }
+
+  void close_idle() {
+    for (const auto id : table_.expired(loop_.now())) {
+      ++model_.http_counters().clients_timed_out;
+      close_conn(id, "no complete request within " + ms_text(options_.idle_timeout), idle_log_);
+    }
+    arm_idle_timer();
   }
 
   // ---------------------------------------------------------------------- libmicrohttpd
@@ -665,10 +662,9 @@ class HttpServerImpl final : public HttpServer {
   int turn_ = 0;  // pump(): whose step is next
   Time last_round_{0};
   bool want_round_ = false;  // a new stream waits for its first event
-  EventLoop::TimerId mhd_timer_ = 0, idle_timer_ = 0, work_timer_ = 0, pause_timer_ = 0,
-                     log_timer_ = 0;
+  EventLoop::TimerId mhd_timer_ = 0, work_timer_ = 0, pause_timer_ = 0, log_timer_ = 0;
   bool kick_pending_ = false;
-  std::optional<Time> idle_armed_;
+  DeadlineTimer idle_timer_;
   Throttle evicted_log_, idle_log_, refused_log_, mhd_log_;
   bool closing_ = false;
 };

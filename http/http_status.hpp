@@ -42,11 +42,7 @@ std::uint32_t frame_bits_stuffed(const can::Frame& f);
 // "0A 1B 2C": bytes as the JSON shows them.
 std::string hex_bytes(std::span<const std::uint8_t> bytes);
 
-// A 32-bit counter of the Modbus status block: high word at `at`, low word at `at + 1`
-// (docs/modbus.md).
-inline std::uint32_t get32(const modbus::StatusBlock& b, std::uint16_t at) {
-  return (static_cast<std::uint32_t>(b[at]) << 16) | b[at + 1];
-}
+using modbus::get32;  // the status block's 32-bit counters (modbus/registers.hpp)
 
 // Every frame on one bus, counted and kept for the live trace. Fed by the daemon exactly once per
 // frame (the bus's tap on virtual buses, the logging channel on SocketCAN/socketcand buses).

@@ -139,6 +139,10 @@ std::span<const ControlCommand> control_commands();
 inline constexpr std::array<std::uint8_t, 2> kFirstGatewayUnits = {0, 255};
 
 using StatusBlock = std::array<std::uint16_t, status::kCount>;
+// A 32-bit field of the status block: high word at `at`, low word at `at + 1` (docs/modbus.md).
+inline std::uint32_t get32(const StatusBlock& b, std::uint16_t at) {
+  return (static_cast<std::uint32_t>(b[at]) << 16) | b[at + 1];
+}
 
 // Everything a status block shows, gathered by the owner of gateway and master.
 // The CAN bit rate group (kBitrate*): the daemon's view of the SocketCAN interface.

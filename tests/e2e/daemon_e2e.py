@@ -1,12 +1,11 @@
 """End-to-end test of candp2d, driven from outside by independent clients (pytest, the candp2
 package's plugin for the daemon; every register number from the daemon's own map).
 
-The running daemon (manual §5.1.4 slot example on a virtual bus exported over socketcand) is
-driven by mbpoll and Debian's pymodbus writing outputs and reading inputs, and by python-can
-(through the socketcand export) observing the resulting CAN frames and injecting Rx frames: the
-round trip byte-swapped as form byte B8 says (docs/slots.md "Data exchange in normal mode": a b c d
-e f -> b a f e d c). Bad
-Modbus requests get the right exception (docs/modbus.md) and the daemon serves on; bad
+The running daemon (manual §5.1.4 slot example on a virtual bus exported over socketcand) is driven
+by mbpoll and Debian's pymodbus writing outputs and reading inputs, and by python-can (through the
+socketcand export) observing the resulting CAN frames and injecting Rx frames: the round trip
+byte-swapped as form byte B8 says (docs/slots.md "Data exchange in normal mode": a b c d e f -> b a
+f e d c). Bad Modbus requests get the right exception (docs/modbus.md) and the daemon serves on; bad
 configurations are rejected with the file and the JSON path; SIGHUP reopens the CAN log; SIGTERM
 stops cleanly.
 
