@@ -124,6 +124,7 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   Logger log_;
   std::unique_ptr<plant::Plant> plant_;
   StoredMap stored_;  // what the state file holds
+  bool state_kept_ = true;  // false: the state file's folder cannot be written (logged once)
   std::map<std::string, std::unique_ptr<bitrate::BitrateSupervisor>> supervisors_;  // by interface
   std::map<std::string, LinkMember> link_of_;     // by gateway name, while the plant is built
   std::vector<std::optional<LinkMember>> links_;  // by gateway index, from link_of_ at start
@@ -212,8 +213,23 @@ bool DaemonImpl::start(std::string* error) {
   plant::Options o;
   o.log = log_sink_;
   o.environment = this;
-  if (config_.state_file) stored_ = load_state(*config_.state_file, log_);
+  if (config_.state_file) {
+    stored_ = load_state(*config_.state_file, log_);
+    std::string why;
+    state_kept_ = prepare_folder_of(*config_.state_file, &why);
+    if (!state_kept_)
+      log_.warn("state file " + *config_.state_file + ": " + why +
+                "; the gateways' stored wake-up and SYNC values are not kept across restarts");
+  }
   o.stored = stored_;
+  for (const auto* file : {config_.can_log ? &*config_.can_log : nullptr,
+                           config_.capture ? &config_.capture->pcapng : nullptr}) {
+    std::string why;
+    if (file && !prepare_folder_of(*file, &why)) {
+      *error = *file + ": " + why;
+      return false;
+    }
+  }
   if (config_.can_log && !can_log_.open(*config_.can_log, error)) return false;
   o.wire_image = config_.capture.has_value();  // the in-process DP side in the capture
   plant_ = plant::Plant::build(config_, std::move(o), loop_.now(), error);
@@ -453,7 +469,7 @@ void DaemonImpl::after_cycle(Time now) {
 }
 
 void DaemonImpl::check_stored() {
-  if (!config_.state_file) return;
+  if (!config_.state_file || !state_kept_) return;
   auto now = plant_->stored();
   if (now == stored_) return;
   stored_ = std::move(now);
