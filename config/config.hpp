@@ -67,10 +67,17 @@ struct SlotEntry {
   std::string json_path;                         // "$.gateways[0].slots[3]" for messages
 };
 
+// What a warning says of a configuration (docs/configuration.md "Warnings"): Rejected, a gateway
+// or slave will refuse its Set_Prm or Chk_Cfg (`candp2 validate` says invalid, so `candp2d
+// --check` exits 1); Overlap, PLC bytes of two stations overlap; Other, the rest. Beyond 20 of
+// one kind the log sums them up in one line.
+enum class WarningKind : std::uint8_t { Other, Rejected, Overlap };
+
 struct ConfigError {
   std::string file;
   std::string json_path;  // "$.gateways[0].slots[2].comment"; empty for file-level errors
   std::string message;    // what was expected
+  WarningKind kind = WarningKind::Other;  // as a warning
   std::string to_string() const {
     return file + ": " + (json_path.empty() ? "" : json_path + ": ") + message;
   }

@@ -124,7 +124,8 @@ void dry_run(SlaveConfig& s) {
   std::string error;
   auto slave = gsd_slave::GsdSlave::create(s.setup(), &error);
   if (!slave) {
-    s.warnings.push_back({s.json_path, "cannot emulate this slave: " + error});
+    s.warnings.push_back(
+        {s.json_path, "cannot emulate this slave: " + error, WarningKind::Rejected});
     return;
   }
   constexpr std::uint8_t kProbeMaster = 1;
@@ -133,16 +134,19 @@ void dry_run(SlaveConfig& s) {
   if (!slave->dp().set_prm(kProbeMaster, set_prm_bytes(s), t0)) {
     const auto d = slave->dp().diagnosis(t0);
     s.warnings.push_back(
-        {prm_path, "the slave will reject this Set_Prm: " +
-                       (d[0] & dp::kDiag1NotSupported  ? std::string("Not_Supported (Sync_Req or "
-                                                                      "Freeze_Req)")
-                        : slave->prm_problem().empty() ? std::string("Prm_Fault")
-                                                       : slave->prm_problem())});
+        {prm_path,
+         "the slave will reject this Set_Prm: " +
+             (d[0] & dp::kDiag1NotSupported  ? std::string("Not_Supported (Sync_Req or "
+                                                            "Freeze_Req)")
+              : slave->prm_problem().empty() ? std::string("Prm_Fault")
+                                             : slave->prm_problem()),
+         WarningKind::Rejected});
     return;
   }
   if (!slave->dp().chk_cfg(kProbeMaster, chk_cfg_bytes(s), t0))
     s.warnings.push_back({s.cfg_hex ? s.json_path + ".cfg_hex" : s.json_path + ".modules",
-                          "the slave will reject this configuration: " + slave->cfg_problem()});
+                          "the slave will reject this configuration: " + slave->cfg_problem(),
+                          WarningKind::Rejected});
 }
 
 }  // namespace
@@ -259,7 +263,7 @@ void parse_slaves(const json* slaves, const std::string& file, DaemonConfig& c) 
         fail(path + ".address", "DP address " + std::to_string(s.address) +
                                     " is the Modbus unit ID of " + d.json_path +
                                     " (a slave's DP address is its Modbus unit)");
-    for (const auto& w : s.warnings) c.warnings.push_back({file, w.json_path, w.message});
+    for (const auto& w : s.warnings) c.warnings.push_back({file, w.json_path, w.message, w.kind});
     c.slaves.push_back(std::move(s));
   }
 }

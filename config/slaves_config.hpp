@@ -36,6 +36,7 @@ struct SlaveModuleConfig {
 struct SlaveWarning {
   std::string json_path;
   std::string message;
+  WarningKind kind = WarningKind::Other;
 };
 
 struct SlaveConfig {

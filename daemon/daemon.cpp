@@ -123,7 +123,7 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   LogSink* log_sink_;
   Logger log_;
   std::unique_ptr<plant::Plant> plant_;
-  StoredMap stored_;  // what the state file holds
+  StoredMap stored_;        // what the state file holds
   bool state_kept_ = true;  // false: the state file's folder cannot be written (logged once)
   std::map<std::string, std::unique_ptr<bitrate::BitrateSupervisor>> supervisors_;  // by interface
   std::map<std::string, LinkMember> link_of_;     // by gateway name, while the plant is built
