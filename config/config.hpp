@@ -20,6 +20,7 @@
 
 #include "config/capture_config.hpp"
 #include "config/slaves_config.hpp"
+#include "config/warning_kind.hpp"
 #include "gateway/user_prm.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
@@ -66,12 +67,6 @@ struct SlotEntry {
   std::optional<std::vector<std::uint8_t>> cfg;  // raw Chk_Cfg bytes of this slot (cfg_hex)
   std::string json_path;                         // "$.gateways[0].slots[3]" for messages
 };
-
-// What a warning says of a configuration (docs/configuration.md "Warnings"): Rejected, a gateway
-// or slave will refuse its Set_Prm or Chk_Cfg (`candp2 validate` says invalid, so `candp2d
-// --check` exits 1); Overlap, PLC bytes of two stations overlap; Other, the rest. Beyond 20 of
-// one kind the log sums them up in one line.
-enum class WarningKind : std::uint8_t { Other, Rejected, Overlap };
 
 struct ConfigError {
   std::string file;

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "config/warning_kind.hpp"
 #include "gsd/gsd.hpp"
 #include "gsd/prm.hpp"
 #include "gsd_slave/gsd_slave.hpp"
