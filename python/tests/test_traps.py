@@ -50,8 +50,8 @@ def test_wait_timeout_shows_bytes_in_hex(candp2d: Factory) -> None:
     gw.outputs[0:2] = b"\xa8\x01"
     with pytest.raises(WaitTimeout) as failed:
         gw.wait_until(lambda g: g.outputs[0:2] == b"\x00\x00", timeout=0.2)
-    text = str(failed.value)
-    assert "[A8 01]" in text and "\\x" not in text and "b'" not in text
+    seen = str(failed.value).split("last saw ", 1)[1].split(" (predicate", 1)[0]
+    assert seen == "outputs[0:2]=[A8 01]", seen
 
 
 def test_failed_expect_names_the_users_of_the_identifier(candp2d: Factory) -> None:
