@@ -16,7 +16,7 @@ let single = false;        // one gateway only: no overview to go back to
 const fpsSeen = new Map();  // dp_address -> {rx: [], tx: [], t, now: {rx, tx}}
 function noteFps(t) {
   let h = fpsSeen.get(t.dp_address);
-  if (!h) { h = { rx: [], tx: [], t: 0, now: t.fps }; fpsSeen.set(t.dp_address, h); }
+  if (!h) { h = { rx: [], tx: [], t: -Infinity, now: t.fps }; fpsSeen.set(t.dp_address, h); }
   h.now = t.fps;
   const now = performance.now();
   if (now - h.t < 1000) return;

@@ -59,7 +59,7 @@ def test_front_panel(candp2_binary, tmp_path):
     cfg = demo_config()
     # docs/slots.md "Chk_Cfg slots": Page-Mode on with a plain slot is rejected (Cfg code 9).
     # A long name must stay in the panel's left column and in its tile.
-    cfg["gateways"].append({"name": "gw5-" + "a-long-plant-name-" * 3, "address": 5, "bus": "can0",
+    cfg["gateways"].append({"name": "gw5-hall2-line7-station5-dp2can", "address": 5, "bus": "can0",
                             "parameters": {"can_bitrate": "500k", "page_mode": True},
                             "slots": [{"io": "output", "address": 32, "length": 2,
                                        "comment": "03,05,00"}]})

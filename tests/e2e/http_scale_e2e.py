@@ -3,7 +3,7 @@ six-byte slots (http_common.line_config, master cycle 10 ms) in Debian's headles
 DevTools protocol (cdp.py), pytest on the candp2 package (ctest e2e_http_scale):
 
   - the overview (one tile per gateway) is drawn within 2 s of the page's load, no tile's text
-    overflows it (gateway names of 40 characters), and a screenshot is kept
+    overflows it (gateway names of 32 characters, the longest allowed), and a screenshot is kept
     ($CANDP2_TEST_OUTPUT/overview-122.png);
   - a click on gateway 17's tile opens its panel with its 48 slot rows (#gw=17);
   - a Modbus write of gateway 17's first output slot shows on that open panel;
@@ -37,8 +37,8 @@ OVERFLOWING = """Array.from(document.querySelectorAll('%s'))
 
 def test_overview_then_one_gateway_at_122_x_48(candp2_binary):
     config = line_config(10)
-    for g in config["gateways"]:  # long names, as a plant's naming scheme makes them
-        g["name"] = ("hall2-line7-station-%d-can-dp2" % g["address"]).ljust(40, "x")
+    for g in config["gateways"]:  # the longest names, as a plant's naming scheme makes them
+        g["name"] = ("hall2-line7-station-%d-dp2can" % g["address"]).ljust(32, "x")
     d = Daemon(candp2_binary, config=config, timeout=60)
     browser = None
     try:
