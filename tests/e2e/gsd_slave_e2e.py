@@ -30,8 +30,8 @@ import pytest
 
 from profibus_e2e import CFG_514, PRM_300MS, SC, SD2, SD3, FdlMaster, sd2, slots_514
 
-GSD_DATA = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "gsd",
-                                        "data"))
+HERE = os.path.dirname(os.path.abspath(__file__))
+GSD_DATA = os.path.normpath(os.path.join(HERE, "..", "gsd", "data"))
 WAIT = 10.0
 SAP_DIAG, SAP_GC, SAP_MASTER = 60, 58, 62
 FC_DL, FC_DH = 0x08, 0x0A
