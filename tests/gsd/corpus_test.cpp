@@ -127,6 +127,11 @@ TEST(ProjectGsd, SyntaxCornerCases) {
   const PrmOverride ov[] = {{"Output Behaviour", 2}};
   EXPECT_EQ(hex_bytes(encode_user_prm(io.model, ov).bytes), "21 03 00");
   EXPECT_EQ(io.model.number("FixPresetModules"), 1);
+  const Module* head = io.model.module("Head MIO");
+  ASSERT_NE(head, nullptr);
+  ASSERT_EQ(head->settings.size(), 1u);
+  EXPECT_EQ(head->settings[0].key, "Preset");
+  EXPECT_EQ(head->settings[0].raw, "1");
   ASSERT_EQ(io.model.slots.size(), 2u);
   EXPECT_EQ(io.model.slots[0].name, "Head");
   // CP2CIO8.GSD (CRLF, ISO-8859-1): legacy and Ext parameter bytes agree; texts become UTF-8.
