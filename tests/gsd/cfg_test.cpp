@@ -27,12 +27,13 @@ TEST(GsdCfg, GeneralFormat) {
 }
 
 TEST(GsdCfg, SpecialFormat) {
-  // SI1180fd.gse: 0xC0 -> output length byte, then input length byte, no manufacturer bytes.
+  // tests/gsd/data/CP2DPV1.GSD: 0xC0 -> output length byte, then input length byte, no manufacturer
+  // bytes.
   CfgDecode d = dec({0xC0, 0x83, 0x89});
   ASSERT_FALSE(d.error);
   ASSERT_EQ(d.entries.size(), 1u);
   EXPECT_EQ(describe(d.entries[0]), "output 4 bytes consistent, input 10 bytes consistent");
-  // SIEM8031.GSE: 0x04 -> no data, 4 manufacturer bytes.
+  // 0x04 -> no data, 4 manufacturer bytes (an empty slot as vendor files write it).
   d = dec({0x04, 0x00, 0x00, 0xAD, 0xC0, 0x10});
   ASSERT_FALSE(d.error);
   ASSERT_EQ(d.entries.size(), 2u);
