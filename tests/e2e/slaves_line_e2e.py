@@ -1,0 +1,111 @@
+"""A line of generic DP-V0 slaves alone, no gateway and no CAN bus (docs/slaves.md "A line of
+generic slaves alone"), end to end: candp2d checks config/slaves-line.json, prints its Modbus map
+(text and JSON: units 0 and 255 on the first slave), starts on it (the Daemon moves its listeners
+to free ports, a pcapng capture is added) and its faces answer outside clients: mbpoll writes the
+PLC outputs of slave in1 (unit 4) and reads them back on its field side (unit 104), writes in2's
+field inputs (unit 105) and reads them in the PLC image through unit 0; /api/v1/status has both
+slaves in Data_Exch and no gateway or bus, /metrics their DP state, the page is served; the
+capture holds the DP telegrams. pytest on the candp2 package (ctest e2e_slaves_line).
+"""
+
+import json
+import os
+import re
+import struct
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from http_common import ROOT, Daemon  # noqa: E402
+
+CONFIG = os.path.join(ROOT, "config", "slaves-line.json")
+MBPOLL = "/usr/bin/mbpoll"
+WAIT = 10.0
+
+
+def run(*argv):
+    r = subprocess.run([str(a) for a in argv], capture_output=True, text=True, timeout=WAIT)
+    return r.returncode, r.stdout + r.stderr
+
+
+def mbpoll(daemon, unit, table, address, *values, count=1):
+    """One mbpoll request (TCP, PDU addressing, hex); the registers read as {address: value}."""
+    args = [MBPOLL, "-m", "tcp", "-p", daemon.modbus_port, "-0", "-1", "-o", "2", "-a", unit,
+            "-t", "%d:hex" % table, "-r", address]
+    if not values:
+        args += ["-c", count]
+    rc, out = run(*args, "127.0.0.1", *values)
+    assert rc == 0, out
+    return {int(a): int(v, 16) for a, v in re.findall(r"\[(\d+)\]:\s+0x([0-9A-Fa-f]+)", out)}
+
+
+def packets(path):
+    """The Enhanced Packet Blocks of a pcapng file (block type 6), counted."""
+    n = 0
+    with open(path, "rb") as f:
+        data = f.read()
+    at = 0
+    while at + 12 <= len(data):
+        kind, length = struct.unpack_from("<II", data, at)
+        assert length >= 12 and length % 4 == 0, (at, length)
+        n += kind == 6
+        at += length
+    assert at == len(data), "a truncated block at %d" % at
+    return n
+
+
+def test_check_and_the_map_without_a_gateway(candp2_binary):
+    rc, out = run(candp2_binary, "--config", CONFIG, "--check")
+    assert rc == 0, out
+    rc, text = run(candp2_binary, "--config", CONFIG, "--print-modbus-map")
+    assert rc == 0, text
+    assert re.search(r"^  4, 0, 255  in1 \(generic slave\)$", text, re.M), text
+    assert re.search(r"^  5  in2 \(generic slave\)$", text, re.M), text
+    assert "in2  outputs Q 8..15" in text, text
+    assert "forced CAN state" not in text, text  # no gateway: no CAN fault registers
+    rc, out = run(candp2_binary, "--config", CONFIG, "--print-modbus-map", "--json")
+    assert rc == 0, out
+    m = json.loads(out)
+    assert m["gateways"] == [] and m["drives"] == []
+    assert [s["units"] for s in m["slaves"]] == [[4, 0, 255], [5]]
+
+
+def test_the_faces_of_a_line_of_slaves(candp2_binary, tmp_path):
+    with open(CONFIG) as f:
+        config = json.load(f)
+    for s in config["slaves"]:  # the copy the Daemon runs lies elsewhere
+        s["gsd"] = os.path.join(ROOT, "config", s["gsd"])
+    capture = tmp_path / "line.pcapng"
+    config["capture"] = {"pcapng": str(capture)}
+    d = Daemon(candp2_binary, config=config)
+    try:
+        s = d.wait_for("both slaves in Data_Exch", lambda s: [
+            (x["name"], x["dp_state"], x["master"]["state"]) for x in s["slaves"]] == [
+            ("in1", "Data_Exch", "Data_Exch"), ("in2", "Data_Exch", "Data_Exch")])
+        assert s["gateways"] == [] and s["buses"] == [], s
+        assert d.socketcand == {}
+
+        # in1's PLC outputs Q 0..3 (unit 4, holding registers 0..1) reach its field side.
+        mbpoll(d, 4, 4, 0, "0x1122", "0x3344")
+        d.slave("in1").wait_until(lambda x: x.field_outputs[0:4] == bytes.fromhex("11223344"))
+        assert mbpoll(d, 104, 3, 0, count=2) == {0: 0x1122, 1: 0x3344}
+        # in2's field inputs (unit 105) reach the PLC image I 8..9 (input register 4), read
+        # through unit 0, which addresses the first slave here.
+        mbpoll(d, 105, 4, 0, "0xA55A")
+        d.slave("in2").wait_until(lambda x: x.inputs[8:10] == b"\xA5\x5A")
+        assert mbpoll(d, 0, 3, 4) == {4: 0xA55A}
+        dp_address = d.register_map.fields["dp_address"].register
+        assert mbpoll(d, 255, 3, dp_address) == {dp_address: 4}
+
+        code, _, body = d.get("/metrics")
+        assert code == 200
+        metrics = body.decode()
+        for name in ("in1", "in2"):
+            assert re.search(r'^candp2_slave_dp_state\{[^}]*name="%s"[^}]*\} 2$' % name,
+                             metrics, re.M), metrics
+        code, _, page = d.get("/")
+        assert code == 200 and b"<html" in page.lower()
+    finally:
+        d.stop()
+    assert d.returncode == 0, d.log
+    assert packets(capture) > 10  # the master's services to both slaves as FDL telegrams
