@@ -11,6 +11,7 @@ capture holds the DP telegrams. pytest on the candp2 package (ctest e2e_slaves_l
 import json
 import os
 import re
+import socket
 import struct
 import subprocess
 import sys
@@ -52,6 +53,21 @@ def packets(path):
         at += length
     assert at == len(data), "a truncated block at %d" % at
     return n
+
+
+def first_event(port, query):
+    """The first `event: status` of /api/v1/events?QUERY, its data parsed (HTTP/1.0: no
+    chunked encoding between the bytes)."""
+    with socket.create_connection(("127.0.0.1", port), timeout=WAIT) as s:
+        s.sendall(b"GET /api/v1/events?%s HTTP/1.0\r\nHost: x\r\n\r\n" % query.encode())
+        data = b""
+        while True:
+            m = re.search(rb"event: status\r?\ndata: (.*?)\r?\n\r?\n", data, re.S)
+            if m:
+                return json.loads(m.group(1))
+            chunk = s.recv(1 << 16)
+            assert chunk, data[-500:]
+            data += chunk
 
 
 def test_check_and_the_map_without_a_gateway(candp2_binary):
@@ -103,6 +119,9 @@ def test_the_faces_of_a_line_of_slaves(candp2_binary, tmp_path):
         for name in ("in1", "in2"):
             assert re.search(r'^candp2_slave_dp_state\{[^}]*name="%s"[^}]*\} 2$' % name,
                              metrics, re.M), metrics
+        event = first_event(d.http_port, "slave=4")
+        assert [t["name"] for t in event["slaves"]] == ["in1", "in2"], event
+        assert event["slave"]["name"] == "in1" and not event.get("gateways"), event
         code, _, page = d.get("/")
         assert code == 200 and b"<html" in page.lower()
     finally:
