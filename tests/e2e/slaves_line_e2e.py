@@ -4,8 +4,11 @@ generic slaves alone"), end to end: candp2d checks config/slaves-line.json, prin
 to free ports, a pcapng capture is added) and its faces answer outside clients: mbpoll writes the
 PLC outputs of slave in1 (unit 4) and reads them back on its field side (unit 104), writes in2's
 field inputs (unit 105) and reads them in the PLC image through unit 0; /api/v1/status has both
-slaves in Data_Exch and no gateway or bus, /metrics their DP state, the page is served; the
-capture holds the DP telegrams. pytest on the candp2 package (ctest e2e_slaves_line).
+slaves in Data_Exch and no gateway or bus, the first SSE event their tiles, /metrics their DP
+state, the page is served; the capture holds the DP telegrams. Both wire roles (docs/profibus.md)
+without a gateway: a candp2d in role "slaves" serves the two slaves on a pty, a second one in role
+"master" drives them there as remote stations, and the PLC image goes both ways. pytest on the
+candp2 package (ctest e2e_slaves_line).
 """
 
 import json
@@ -18,6 +21,8 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from http_common import ROOT, Daemon  # noqa: E402
+
+import candp2  # noqa: E402  (http_common put python/ on the path)
 
 CONFIG = os.path.join(ROOT, "config", "slaves-line.json")
 MBPOLL = "/usr/bin/mbpoll"
@@ -87,10 +92,7 @@ def test_check_and_the_map_without_a_gateway(candp2_binary):
 
 
 def test_the_faces_of_a_line_of_slaves(candp2_binary, tmp_path):
-    with open(CONFIG) as f:
-        config = json.load(f)
-    for s in config["slaves"]:  # the copy the Daemon runs lies elsewhere
-        s["gsd"] = os.path.join(ROOT, "config", s["gsd"])
+    config = line_config()
     capture = tmp_path / "line.pcapng"
     config["capture"] = {"pcapng": str(capture)}
     d = Daemon(candp2_binary, config=config)
@@ -128,3 +130,33 @@ def test_the_faces_of_a_line_of_slaves(candp2_binary, tmp_path):
         d.stop()
     assert d.returncode == 0, d.log
     assert packets(capture) > 10  # the master's services to both slaves as FDL telegrams
+
+
+def line_config():
+    """config/slaves-line.json with the GSD paths made absolute (the Daemon runs a copy)."""
+    with open(CONFIG) as f:
+        config = json.load(f)
+    for s in config["slaves"]:
+        s["gsd"] = os.path.join(ROOT, "config", s["gsd"])
+    return config
+
+
+def test_both_wire_roles_without_a_gateway(candp2_binary, tmp_path):
+    link = str(tmp_path / "pb")
+    served = line_config()  # S: the slaves answer an external master on the pty
+    served["profibus"] = {"port": "pty:" + link, "baud": 19200, "role": "slaves"}
+    del served["master"]
+    master = line_config()  # M: the built-in master drives them there as remote stations
+    master["master"] = {"address": 1, "cycle_ms": 5, "retry_ms": 100}
+    master["profibus"] = {"port": link, "baud": 19200, "role": "master"}
+    for sl in master["slaves"]:
+        del sl["field_unit"]  # a remote station has no field side here
+    with candp2.Daemon(served, candp2_binary) as s, candp2.Daemon(master, candp2_binary) as m:
+        for name in ("in1", "in2"):
+            m.slave(name).wait_until(lambda x: x.master_state == "Data_Exch", timeout=WAIT)
+            s.slave(name).wait_until(lambda x: x.state == "Data_Exch", timeout=WAIT)
+        m.slave("in2").outputs[8:10] = b"\x5A\xA5"      # M's PLC outputs reach S's slave
+        s.slave("in2").wait_until(lambda x: x.field_outputs[0:2] == b"\x5A\xA5", timeout=WAIT)
+        s.slave("in1").field_inputs[0:2] = b"\x12\x34"  # S's field inputs reach M's image
+        m.slave("in1").wait_until(lambda x: x.inputs[0:2] == b"\x12\x34", timeout=WAIT)
+        assert m.gateways() == [] and s.gateways() == []
