@@ -78,6 +78,7 @@ def first_event(port, query):
 def test_check_and_the_map_without_a_gateway(candp2_binary):
     rc, out = run(candp2_binary, "--config", CONFIG, "--check")
     assert rc == 0, out
+    assert "configuration OK (0 gateway(s), 2 generic slave(s), 0 bus(es), 0 warning(s))" in out
     rc, text = run(candp2_binary, "--config", CONFIG, "--print-modbus-map")
     assert rc == 0, text
     assert re.search(r"^  4, 0, 255  in1 \(generic slave\)$", text, re.M), text
