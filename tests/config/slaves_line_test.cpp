@@ -16,7 +16,7 @@ using json = nlohmann::json;
 const std::string kFile = CANDP2_SOURCE_DIR "/config/line.json";
 
 json line() {
-  return json::parse(R"({
+  return json::parse(R"json({
     "master": {"address": 1, "cycle_ms": 10},
     "slaves": [
       {"name": "in1", "address": 4, "gsd": "gsd/CDP2C0A.GSD", "field_unit": 104,
@@ -24,7 +24,7 @@ json line() {
       {"name": "in2", "address": 5, "gsd": "gsd/CDP2C0A.GSD", "field_unit": 105,
        "input_address": 8, "output_address": 8, "parameters": {"Filter time (ms)": 5}}
     ]
-  })");
+  })json");
 }
 
 Result<DaemonConfig> parse(const json& j) {
