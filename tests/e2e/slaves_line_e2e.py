@@ -5,7 +5,9 @@ to free ports, a pcapng capture is added) and its faces answer outside clients: 
 PLC outputs of slave in1 (unit 4) and reads them back on its field side (unit 104), writes in2's
 field inputs (unit 105) and reads them in the PLC image through unit 0; /api/v1/status has both
 slaves in Data_Exch and no gateway or bus, the first SSE event their tiles, /metrics their DP
-state, the page is served; the capture holds the DP telegrams. Both wire roles (docs/profibus.md)
+state, the page is served; the capture holds the DP telegrams. In Debian's headless chromium
+(cdp.py; $CHROMIUM names it) the page opens on the overview: two slave tiles, no gateway count;
+a click opens in1's panel with its module. Both wire roles (docs/profibus.md)
 without a gateway: a candp2d in role "slaves" serves the two slaves on a pty, a second one in role
 "master" drives them there as remote stations, and the PLC image goes both ways. pytest on the
 candp2 package (ctest e2e_slaves_line).
@@ -20,6 +22,7 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from cdp import Browser  # noqa: E402
 from http_common import ROOT, Daemon  # noqa: E402
 
 import candp2  # noqa: E402  (http_common put python/ on the path)
@@ -161,3 +164,28 @@ def test_both_wire_roles_without_a_gateway(candp2_binary, tmp_path):
         s.slave("in1").field_inputs[0:2] = b"\x12\x34"  # S's field inputs reach M's image
         m.slave("in1").wait_until(lambda x: x.inputs[0:2] == b"\x12\x34", timeout=WAIT)
         assert m.gateways() == [] and s.gateways() == []
+
+
+def test_the_page_opens_on_the_overview(candp2_binary):
+    d = Daemon(candp2_binary, config=line_config())
+    browser = None
+    try:
+        d.wait_for("both slaves in Data_Exch",
+                   lambda s: [x["dp_state"] for x in s["slaves"]] == ["Data_Exch"] * 2)
+        browser = Browser(os.environ.get("CHROMIUM", "/usr/bin/chromium"))
+        browser.call("Page.enable")
+        browser.call("Page.navigate", url=d.base + "/")
+        browser.wait_for("two slave tiles and nothing else",
+                         "document.querySelectorAll('#tiles .tile').length === 2 && "
+                         "document.querySelectorAll('#tiles .tile.slave').length === 2 && "
+                         "document.getElementById('scount').textContent === '2'")
+        assert browser.evaluate("location.hash") == "", "opened a panel instead of the overview"
+        assert browser.evaluate("document.getElementById('count').parentElement.hidden") is True
+        browser.evaluate("document.getElementById('tile-4').click()")
+        browser.wait_for("in1's panel with its one module",
+                         "location.hash === '#slave=4' && "
+                         "document.querySelectorAll('#slave-4 .modules tbody tr').length === 1")
+    finally:
+        if browser:
+            browser.close()
+        d.stop()
