@@ -118,13 +118,13 @@ TEST(SlavesLine, WrongTypesAndADriveWithoutItsBus) {
 
 TEST(SlavesLine, AGatewayStillNeedsItsBus) {
   json j = line();
-  j["gateways"] = json::array({{{"name", "gw3"},
-                                {"address", 3},
-                                {"bus", "can0"},
-                                {"slots", json::array({{{"io", "output"},
-                                                        {"address", 20},
-                                                        {"length", 1},
-                                                        {"comment", "07,F8,00"}}})}}});
+  j["gateways"] = json::array(
+      {{{"name", "gw3"},
+        {"address", 3},
+        {"bus", "can0"},
+        {"slots",
+         json::array(
+             {{{"io", "output"}, {"address", 20}, {"length", 1}, {"comment", "07,F8,00"}}})}}});
   const ConfigError e = bad(j);
   EXPECT_EQ(e.json_path, "$");
   EXPECT_NE(e.message.find("buses"), std::string::npos) << e.message;

@@ -46,15 +46,14 @@ TEST(SlavesLineReplay, ImageAndSlaveStepsRunWithoutAGateway) {
 }
 
 TEST(SlavesLineReplay, AGatewayStepIsRefused) {
-  for (const char* step : {R"({"expect_frame": "201#00", "within_ms": 10})",
-                           R"({"force_can_state": "bus-off"})", R"({"drop_rx": 2})",
-                           R"({"expect_counters": {"rx_frames": 0}})"}) {
+  for (const char* step :
+       {R"({"expect_frame": "201#00", "within_ms": 10})", R"({"force_can_state": "bus-off"})",
+        R"({"drop_rx": 2})", R"({"expect_counters": {"rx_frames": 0}})"}) {
     const auto e = error(R"({"note": "first"}, )" + std::string(step));
     EXPECT_EQ(e.file, kFile);
     EXPECT_EQ(e.json_path, "$.steps[1]") << step;
     EXPECT_NE(e.message.find("concerns a gateway, and "), std::string::npos) << e.message;
-    EXPECT_NE(e.message.find("slaves-line.json configures none"), std::string::npos)
-        << e.message;
+    EXPECT_NE(e.message.find("slaves-line.json configures none"), std::string::npos) << e.message;
   }
 }
 
