@@ -108,6 +108,13 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   bool start_exports(std::string* error);
   void start_capture();
   bool start_line(std::string* error);
+  // "1 gateway(s)", "0 gateway(s), 2 generic slave(s)": the stations of the log lines.
+  std::string stations() const {
+    return std::to_string(config_.gateways.size()) + " gateway(s)" +
+           (config_.slaves.empty()
+                ? std::string()
+                : ", " + std::to_string(config_.slaves.size()) + " generic slave(s)");
+  }
   bool start_modbus(std::string* error);
   bool start_http(std::string* error);
   bool after_dispatch();  // the deferred hook
@@ -277,8 +284,7 @@ bool DaemonImpl::start(std::string* error) {
   rearm_plant();
   if (plant_->master_runs())
     log_.info("master " + std::to_string(config_.master_address) + ": cycle " +
-              std::to_string(config_.cycle_ms) + " ms, " + std::to_string(config_.gateways.size()) +
-              " gateway(s)");
+              std::to_string(config_.cycle_ms) + " ms, " + stations());
   return true;
 }
 
@@ -351,15 +357,16 @@ bool DaemonImpl::start_line(std::string* error) {
     slave_port_ =
         profibus_line::SlaveLinePort::open(*config_.profibus, *line, loop_, log_sink_, error);
     if (!slave_port_) return false;
-    log_.info("PROFIBUS line " + slave_port_->describe() + ": " +
-              std::to_string(plant_->gateways().size()) + " gateway(s) answer an external master");
+    log_.info("PROFIBUS line " + slave_port_->describe() + ": " + stations() +
+              " answer an external master");
   } else if (auto* mline = plant_->master_line()) {
     master_port_ =
         profibus_line::MasterLinePort::open(*config_.profibus, *mline, loop_, log_sink_, error);
     if (!master_port_) return false;
     log_.info("PROFIBUS line " + master_port_->describe() + ": master " +
               std::to_string(config_.master_address) + " drives " +
-              std::to_string(config_.gateways.size()) + " remote station(s)");
+              std::to_string(config_.gateways.size() + config_.slaves.size()) +
+              " remote station(s)");
   }
   return true;
 }

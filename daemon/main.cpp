@@ -180,6 +180,9 @@ int main(int argc, char** argv) {
   }
   if (check) {
     std::cout << config.file << ": configuration OK (" << config.gateways.size() << " gateway(s), "
+              << (config.slaves.empty()
+                      ? std::string()
+                      : std::to_string(config.slaves.size()) + " generic slave(s), ")
               << config.buses.size() << " bus(es), " << config.warnings.size() << " warning(s))\n";
     return 0;
   }

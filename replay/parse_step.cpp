@@ -268,6 +268,18 @@ void resolve_gateway(Step& s, const Object& o, const std::string& path, const st
   std::vector<std::string> names;
   for (const auto& g : gateways) names.push_back(g.name);
   const json* g = o.find("gateway");
+  if (!g && gateways.empty()) {
+    // A line of generic slaves alone (docs/replay-format.md "Version 2"): the image steps need
+    // no gateway (the image is the master's), the gateway's own steps have none to act on.
+    const bool image = s.action == Action::Write || s.action == Action::ExpectInput ||
+                       s.action == Action::ExpectOutput;
+    if (!image)
+      fail(path, "\"" + key + "\" concerns a gateway, and " +
+                     (sc.config_file.empty() ? "the scenario" : sc.config_file) +
+                     " configures none" +
+                     (station_step(s.action) ? " (give \"slave\" for a generic slave)" : ""));
+    return;
+  }
   if (!g) {
     if (gateways.size() > 1)
       fail(path,

@@ -136,7 +136,12 @@ function renderHeader(s) {
   setText(cyc, text);
   setClass(cyc, c.missed ? 'warn' : '');
   if (s.modbus) setText(document.getElementById('modbus'), s.modbus.requests + ' req · ' + s.modbus.clients + ' client(s)');
-  if (s.gateway_count !== undefined) setText(document.getElementById('count'), s.gateway_count);
+  if (s.gateway_count !== undefined) {
+    const count = document.getElementById('count');
+    setText(count, s.gateway_count);
+    // A line of generic slaves alone (docs/slaves.md): no gateways to count.
+    count.parentElement.hidden = s.gateway_count === 0 && !!s.slave_count;
+  }
   if (s.slave_count !== undefined) {
     setText(document.getElementById('scount'), s.slave_count);
     document.getElementById('slaves').hidden = false;
