@@ -445,7 +445,7 @@ void DaemonImpl::after_cycle(Time now) {
     const auto& prm = g->gateway().user_prm();
     link->supervisor->update(
         link->member,
-        prm ? std::optional<std::uint32_t>(gw::kBitrates.at(prm->bitrate_index)) : std::nullopt,
+        prm ? gw::bitrate_bps(prm->bitrate_index) : std::nullopt,
         now);
   }
   if (http_) http_->after_cycle(now);

@@ -10,12 +10,6 @@ namespace candp2::gsd {
 
 namespace {
 
-std::string hex8(unsigned v) {
-  char buf[8];
-  std::snprintf(buf, sizeof buf, "0x%02X", v & 0xFFu);
-  return buf;
-}
-
 std::string hex_id(std::uint32_t v, int digits) {
   char buf[16];
   std::snprintf(buf, sizeof buf, "0x%0*X", digits, v);

@@ -4,21 +4,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include "common/hex.hpp"
 #include "drive_sim/unitek_drive.hpp"
 #include "http/documents.hpp"
 
 namespace candp2::http {
-
-std::string hex_bytes(std::span<const std::uint8_t> bytes) {
-  std::string out;
-  out.reserve(bytes.size() * 3);
-  char b[4];
-  for (std::size_t i = 0; i < bytes.size(); ++i) {
-    std::snprintf(b, sizeof b, i ? " %02X" : "%02X", bytes[i]);
-    out += b;
-  }
-  return out;
-}
 
 namespace {
 
@@ -139,7 +129,7 @@ json StatusModel::gateway_head(std::size_t index, Time now) const {
   const auto user = gw::encode_user_prm(p);
   j["parameters"] = {
       {"accepted", accepted},
-      {"bitrate", p.bitrate_index < gw::kBitrates.size() ? gw::kBitrates[p.bitrate_index] : 0},
+      {"bitrate", gw::bitrate_bps(p.bitrate_index).value_or(0)},
       {"bitrate_index", p.bitrate_index},
       {"comm_window", p.comm_window},
       {"send_rtr", p.send_rtr},

@@ -39,9 +39,6 @@ namespace candp2::http {
 // or 54 + 8 * DLC (29-bit); remote frames carry no data bytes.
 std::uint32_t frame_bits_stuffed(const can::Frame& f);
 
-// "0A 1B 2C": bytes as the JSON shows them.
-std::string hex_bytes(std::span<const std::uint8_t> bytes);
-
 using modbus::get32;  // the status block's 32-bit counters (modbus/registers.hpp)
 
 // Every frame on one bus, counted and kept for the live trace. Fed by the daemon exactly once per

@@ -3,6 +3,7 @@
 // (gsd_slave::GsdSlave) and from its Modbus face (the status block and the whole diagnosis), so
 // the page, Modbus and /metrics can never disagree.
 
+#include "common/hex.hpp"
 #include "gsd/cfg.hpp"
 #include "http/http_status.hpp"
 #include "profibus_sim/dp/dp_telegram.hpp"

@@ -1,4 +1,5 @@
 #include "can/frame.hpp"
+#include "common/hex.hpp"
 
 #include <gtest/gtest.h>
 
