@@ -1,7 +1,8 @@
 #include "can/frame.hpp"
-#include "common/hex.hpp"
 
 #include <gtest/gtest.h>
+
+#include "common/hex.hpp"
 
 namespace candp2::can {
 namespace {
