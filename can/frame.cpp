@@ -97,10 +97,8 @@ ParseResult parse_candump(std::string_view text) {
 }
 
 std::string format_candump(const Frame& f) {
-  char buf[40];
-  int n = f.extended ? std::snprintf(buf, sizeof buf, "%08X#", static_cast<unsigned>(f.id))
-                     : std::snprintf(buf, sizeof buf, "%03X#", static_cast<unsigned>(f.id));
-  std::string out(buf, static_cast<std::size_t>(n));
+  std::string out = ident_text(ident_of(f));
+  out += '#';
   if (f.remote) {
     out += 'R';
     if (f.dlc != 0) out += static_cast<char>('0' + f.dlc);

@@ -71,9 +71,7 @@ void append_hex_byte(std::string& out, std::uint8_t b, bool upper, bool pad) {
 }
 
 std::string format_id(const Frame& f) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, f.extended ? "%08X" : "%03X", static_cast<unsigned>(f.id));
-  return buf;
+  return ident_text(ident_of(f));  // socketcand writes `%03X` / `%08X`, as candump does
 }
 
 }  // namespace
