@@ -20,11 +20,11 @@
 #include <string>
 #include <vector>
 
+#include "bitrate/bitrate_status.hpp"
 #include "can/can_link.hpp"
 #include "common/log.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
-#include "modbus/modbus_map.hpp"
 
 namespace candp2::bitrate {
 
@@ -51,7 +51,7 @@ class BitrateSupervisor {
   std::size_t add_gateway(std::string name);
   // The gateway's accepted Set_Prm bit rate (bit/s), nullopt while it has none.
   void update(std::size_t gateway, std::optional<std::uint32_t> bitrate, Time now);
-  modbus::BitrateStatus status(std::size_t gateway) const;
+  BitrateStatus status(std::size_t gateway) const;
   std::optional<std::uint32_t> interface_bitrate() const { return interface_bitrate_; }
 
  private:

@@ -278,8 +278,8 @@ Result<GatewayConfig> parse_gateway(const json& j, const std::string& file,
 
 std::optional<std::uint32_t> configured_bitrate(const GatewayConfig& g) {
   const auto prm = set_prm_bytes(g);
-  if (prm.size() <= gw::kPrmBitrate || prm[gw::kPrmBitrate] > gw::kBitrateMax) return std::nullopt;
-  return gw::kBitrates[prm[gw::kPrmBitrate]];  // docs/dp-slave.md "User parameters" byte 8
+  if (prm.size() <= gw::kPrmBitrate) return std::nullopt;
+  return gw::bitrate_bps(prm[gw::kPrmBitrate]);  // docs/dp-slave.md "User parameters" byte 8
 }
 
 std::vector<std::uint8_t> set_prm_bytes(const GatewayConfig& g) {

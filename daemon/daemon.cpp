@@ -13,7 +13,7 @@
 #include "drive_sim/file_parameter_store.hpp"
 #include "event_loop/deadline_timer.hpp"
 #include "http/http_server.hpp"
-#include "http/http_status.hpp"
+#include "http/plant_sources.hpp"
 #include "modbus/modbus_server.hpp"
 #include "modbus/plant_faces.hpp"
 #include "profibus_line/line_port.hpp"
@@ -138,7 +138,6 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   std::vector<std::unique_ptr<drive::FileParameterStore>> drive_stores_;
   std::vector<std::unique_ptr<Export>> exports_;
   std::vector<Watched> watched_;
-  std::vector<http::BusMonitor> monitors_;  // per bus: counts, bus load, trace (HTTP face)
   capture::CanLog can_log_;
   capture::CanLogTap can_log_tap_;
   std::unique_ptr<capture::PcapngTap> pcapng_;  // capture section (docs/capture.md)
@@ -150,6 +149,7 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   std::vector<int> fds_;
   EventLoop::DeferredId deferred_ = 0;
   std::unique_ptr<DeadlineTimer> plant_timer_;
+  std::unique_ptr<http::BusMonitors> monitors_;  // the HTTP face's tap: per bus counts and trace
   std::unique_ptr<http::StatusModel> status_model_;  // declared last: destroyed first
   std::unique_ptr<http::HttpServer> http_;
 };
@@ -198,7 +198,6 @@ std::optional<modbus::BitrateStatus> DaemonImpl::bitrate(std::size_t gateway) co
 // -------------------------------------------------------------------------------- observers
 
 void DaemonImpl::on_can(const plant::CanRecord& r) {
-  if (r.bus < monitors_.size()) monitors_[r.bus].on_frame(r.frame, r.time);
   // Frames the clients sent were already forwarded to the other clients by the server
   // (can/socketcand_server.hpp).
   for (auto& e : exports_)
@@ -247,7 +246,6 @@ bool DaemonImpl::start(std::string* error) {
     if (const auto it = link_of_.find(g->name()); it != link_of_.end())
       links_[g->index()] = it->second;
   link_of_.clear();
-  monitors_.resize(plant_->buses().size());
   plant_->add_tap(this);
   plant_->add_tap(&can_log_tap_);
   if (config_.capture) start_capture();
@@ -394,28 +392,10 @@ bool DaemonImpl::start_http(std::string* error) {
   if (at.host.rfind("127.", 0) != 0)
     log_.warn("http.listen " + at.to_string() +
               ": not a loopback address; the status page and API are readable from the network");
-  http::StatusSources src;
-  src.master = &plant_->master();
-  src.cycle_ms = config_.cycle_ms;
-  src.cycle = &plant_->cycle_stats();
-  src.modbus = modbus_.get();
-  for (auto& g : plant_->gateways())
-    src.gateways.push_back({&g->config(), &g->gateway(), faces_.gateways.at(g->index()).get()});
-  for (auto& b : plant_->buses()) {
-    http::BusSource bs{&b->config(), &monitors_[b->index()], 0};
-    for (auto& g : plant_->gateways())  // manual table 5.1.1: the bit rate the gateway is set to
-      if (&g->bus() == b.get() && !bs.bitrate &&
-          g->config().parameters.bitrate_index < gw::kBitrates.size())
-        bs.bitrate = gw::kBitrates[g->config().parameters.bitrate_index];
-    src.buses.push_back(bs);
-  }
-  for (auto& d : plant_->drives()) src.drives.push_back({&d->config(), &d->drive().drive()});
-  // The generic slaves with their Modbus faces (docs/slaves.md "Front panel and HTTP API").
-  for (auto& s : plant_->slaves())
-    for (auto& f : faces_.gateways)
-      if (f->dp_address() == s->config().address)
-        src.slaves.push_back({&s->config(), &s->slave(), f.get(), plant_->slave_line() != nullptr});
-  status_model_ = std::make_unique<http::StatusModel>(std::move(src));
+  monitors_ = std::make_unique<http::BusMonitors>(plant_->buses().size());
+  plant_->add_tap(monitors_.get());
+  status_model_ = std::make_unique<http::StatusModel>(
+      http::make_sources(*plant_, faces_, monitors_.get(), modbus_.get()));
   std::string e;
   http_ = http::HttpServer::listen(
       {.host = at.host,
@@ -466,10 +446,8 @@ void DaemonImpl::after_cycle(Time now) {
     const auto& link = links_[g->index()];
     if (!link) continue;
     const auto& prm = g->gateway().user_prm();
-    link->supervisor->update(
-        link->member,
-        prm ? std::optional<std::uint32_t>(gw::kBitrates.at(prm->bitrate_index)) : std::nullopt,
-        now);
+    link->supervisor->update(link->member, prm ? gw::bitrate_bps(prm->bitrate_index) : std::nullopt,
+                             now);
   }
   if (http_) http_->after_cycle(now);
   check_stored();

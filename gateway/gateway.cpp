@@ -194,7 +194,7 @@ void Gateway::on_data_exchange(std::span<const std::uint8_t> outputs,
   // The frames of this Data_Exchange occupy the bus from now on; a SYNC falling due meanwhile waits
   // until they are out (manual §5.3.3, command 20 note).
   if (tx_frames_ != tx_before && prm_) {
-    const std::uint64_t bitrate = kBitrates[prm_->bitrate_index];
+    const std::uint64_t bitrate = bitrate_bps(prm_->bitrate_index).value();  // Set_Prm checked it
     const auto busy = microseconds((std::uint64_t{burst_bits_} * 1000000u + bitrate - 1) / bitrate);
     if (now >= bus_busy_until_) {
       busy_from_ = now;

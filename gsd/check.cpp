@@ -39,7 +39,7 @@ std::string q(std::string_view s) {
 
 class Checker {
  public:
-  explicit Checker(const Model& m) : m_(m) {}
+  Checker(const Model& m, const DeviceReader* reader) : m_(m), reader_(reader) {}
 
   std::vector<Diagnostic> run() {
     mandatory();
@@ -299,7 +299,7 @@ class Checker {
 
   void modules() {
     const Limits l = m_.limits();
-    const bool candp2 = m_.ident_number() == kCanDp2Ident;
+    const bool device = reader_ && reader_->applies(m_.ident_number());
     std::map<std::int64_t, int> refs;
     for (const auto& mod : m_.modules) {
       const std::string name = "Module " + q(mod.name);
@@ -327,12 +327,12 @@ class Checker {
       if (l.max_data_len &&
           static_cast<std::int64_t>(dec.input_len + dec.output_len) > *l.max_data_len)
         err(mod.line, name + ": data exceeds Max_Data_Len " + std::to_string(*l.max_data_len));
-      if (candp2 && !is_universal_module(mod.config)) {
+      if (device && !is_universal_module(mod.config)) {
         for (const auto& e : dec.entries) {
-          const CanDp2Slot s = describe_candp2(e);
-          if (s.problem)
-            err(mod.line, name + ": the CAN-DP/2 rejects this entry (" + *s.problem +
-                              "; manual §7, docs/slots.md)");
+          const EntryVerdict v = reader_->read(e);
+          if (v.problem)
+            err(mod.line, name + ": the " + reader_->device + " rejects this entry (" + *v.problem +
+                              "; " + reader_->rules + ")");
         }
       }
       if (!mod.prm.empty() || mod.ext_module_prm_data_len)
@@ -371,13 +371,14 @@ class Checker {
   }
 
   const Model& m_;
+  const DeviceReader* reader_;
   std::vector<Diagnostic> out_;
 };
 
 }  // namespace
 
-std::vector<Diagnostic> check(const Model& model) {
-  return Checker(model).run();
+std::vector<Diagnostic> check(const Model& model, const DeviceReader* reader) {
+  return Checker(model, reader).run();
 }
 
 }  // namespace candp2::gsd

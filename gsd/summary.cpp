@@ -75,7 +75,7 @@ void parameters(std::ostringstream& os, const Model& m, const PrmLayout& lay,
 
 }  // namespace
 
-std::string summary(const Model& m) {
+std::string summary(const Model& m, const DeviceReader* reader) {
   std::ostringstream os;
   os << shown(m.vendor_name()) << ' ' << shown(m.model_name()) << '\n';
   auto line = [&](const char* label, const std::string& value) {
@@ -132,7 +132,7 @@ std::string summary(const Model& m) {
   parameters(os, m, m.user_prm, enc, "  ");
 
   os << "\nModules: " << m.modules.size() << '\n';
-  const bool candp2 = m.ident_number() == kCanDp2Ident;
+  const bool device = reader && reader->applies(m.ident_number());
   for (const auto& mod : m.modules) {
     std::string quoted(1, '"');  // not `"\"" + ...`: GCC 12's false -Wrestrict at -O3
     quoted += shown(mod.name);
@@ -148,9 +148,10 @@ std::string summary(const Model& m) {
     const CfgDecode dec = decode_config(mod.config);
     for (const auto& e : dec.entries) {
       os << "      " << describe(e) << '\n';
-      if (candp2) {
-        const CanDp2Slot s = describe_candp2(e);
-        os << "      CAN-DP/2: " << (s.problem ? "rejected, " + *s.problem : s.text) << '\n';
+      if (device) {
+        const EntryVerdict v = reader->read(e);
+        os << "      " << reader->device << ": " << (v.problem ? "rejected, " + *v.problem : v.text)
+           << '\n';
       }
     }
     if (dec.error) os << "      ! malformed: " << *dec.error << '\n';

@@ -179,7 +179,7 @@ bool MetricsBuild::step(Time now) {
   if (rows_.size() < gateways.size()) {
     for (std::size_t n = 0; n < kGatewaysPerStep && rows_.size() < gateways.size(); ++n) {
       const auto& g = gateways[rows_.size()];
-      rows_.push_back({"gateway=\"" + std::to_string(g.gateway->address()) + "\",bus=\"" +
+      rows_.push_back({"gateway=\"" + std::to_string(g.face->dp_address()) + "\",bus=\"" +
                            g.cfg->bus + "\",name=\"" + g.cfg->name + "\"",
                        g.face->status(now)});
     }

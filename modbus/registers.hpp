@@ -11,6 +11,7 @@
 #include <string>
 #include <string_view>
 
+#include "bitrate/bitrate_status.hpp"
 #include "gateway/gateway.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
@@ -146,12 +147,7 @@ inline std::uint32_t get32(const StatusBlock& b, std::uint16_t at) {
 
 // Everything a status block shows, gathered by the owner of gateway and master.
 // The CAN bit rate group (kBitrate*): the daemon's view of the SocketCAN interface.
-struct BitrateStatus {
-  std::uint16_t mode = 0;        // 0 none, 1 check, 2 apply
-  std::uint32_t configured = 0;  // bit/s, 0 before the first Set_Prm
-  std::uint32_t interface = 0;   // bit/s, 0 = no bit timing (virtual) or not readable
-  bool mismatch = false;
-};
+using bitrate::BitrateStatus;
 
 struct StatusInputs {
   gw::GatewayStatus gateway;

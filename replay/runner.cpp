@@ -18,8 +18,6 @@ std::size_t RunResult::failures() const {
 
 namespace {
 constexpr std::string_view kTesterNode = "replay";
-constexpr std::string_view kGatewayPrefix = "gw:";  // endpoint names, as the plant names them
-constexpr std::string_view kDrivePrefix = "drive:";
 // Events at one instant before the runner declares a livelock (a timer that never moves on).
 constexpr int kMaxEventsPerInstant = 100000;
 }  // namespace
@@ -56,12 +54,12 @@ void Sim::on_can(const plant::CanRecord& r) {
   t.time = r.time;
   t.frame = r.frame;
   t.bus = r.bus;
-  if (r.sender.starts_with(kGatewayPrefix)) {
+  if (r.sender_kind == plant::SenderKind::Gateway) {
     t.from_gateway = true;
-    t.gateway = std::string(r.sender.substr(kGatewayPrefix.size()));
-    if (auto* g = plant_->gateway(t.gateway)) gw_frames_[g->index()].push_back(res_.traffic.size());
-  } else if (r.sender.starts_with(kDrivePrefix)) {
-    t.drive = std::string(r.sender.substr(kDrivePrefix.size()));
+    t.gateway = plant_->gateways().at(r.sender_index)->name();
+    gw_frames_.at(r.sender_index).push_back(res_.traffic.size());
+  } else if (r.sender_kind == plant::SenderKind::Drive) {
+    t.drive = plant_->drives().at(r.sender_index)->name();
   }
   res_.traffic.push_back(std::move(t));
 }

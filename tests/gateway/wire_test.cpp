@@ -59,6 +59,9 @@ TEST(Bitrates, TextAsTable511NamesThem) {
     EXPECT_EQ(bitrate_text_bps(kBitrates[i]), bitrate_text(i));
   }
   EXPECT_EQ(bitrate_text(1), "666.6 kbit/s");  // not "666 kbit/s"
+  EXPECT_EQ(bitrate_bps(0), 1000000u);         // the one checked look-up of the table
+  EXPECT_EQ(bitrate_bps(13), 10000u);
+  EXPECT_FALSE(bitrate_bps(14));
   EXPECT_EQ(bitrate_name(14), "?");
   EXPECT_EQ(bitrate_text(14), "?");
   EXPECT_EQ(bitrate_text_bps(800000), "800 kbit/s");    // an interface outside the table
