@@ -20,7 +20,7 @@ import os
 
 import pytest
 
-from gsd_slave_e2e import FC_DL, Gsd, Line
+from gsd_slave_e2e import FC_DL, Gsd, Line, serve_line
 from profibus_e2e import FdlMaster, slots_514
 
 ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
@@ -56,10 +56,7 @@ def gsd():
 
 @pytest.fixture
 def line(candp2d, tmp_path):
-    link = str(tmp_path / "pb")
-    daemon = candp2d(line_config(link))
-    assert os.path.islink(link), "no pty link at " + link
-    line = PresetLine(daemon, link)
+    line = serve_line(candp2d, tmp_path, line_config, PresetLine)
     yield line
     line.master.close()
 

@@ -226,12 +226,18 @@ def gsd():
             "simocode": Gsd(os.path.join(CORPUS, "SIEM8031.GSE"))}
 
 
+def serve_line(candp2d, tmp_path, config_of, make_line):
+    """candp2d serving config_of(link) in role slaves on a pty link, and make_line(daemon, link)
+    (the test's master on it); the caller closes line.master."""
+    link = str(tmp_path / "pb")
+    daemon = candp2d(config_of(link))
+    assert os.path.islink(link), "no pty link at " + link
+    return make_line(daemon, link)
+
+
 @pytest.fixture
 def line(candp2d, tmp_path):
-    link = str(tmp_path / "pb")
-    daemon = candp2d(line_config(link))
-    assert os.path.islink(link), "no pty link at " + link
-    line = Line(daemon, link)
+    line = serve_line(candp2d, tmp_path, line_config, Line)
     yield line
     line.master.close()
 
