@@ -50,6 +50,7 @@ class Checker {
     layout(m_.user_prm, "", declared_user_len(), 0);
     legacy_user_prm();
     modules();
+    presets();
     slots();
     areas();
     std::stable_sort(out_.begin(), out_.end(),
@@ -338,6 +339,22 @@ class Checker {
       if (!mod.prm.empty() || mod.ext_module_prm_data_len)
         layout(mod.prm, name + ": ", mod.ext_module_prm_data_len, mod.line);
     }
+  }
+
+  // Preset / FixPresetModules (docs/gsd.md "Preset modules").
+  void presets() {
+    const auto fix = m_.number("FixPresetModules");
+    const int fix_line = line_of("FixPresetModules");
+    if (fix && *fix != 0 && *fix != 1)
+      err(fix_line, "FixPresetModules expects 0 or 1, found " + std::to_string(*fix));
+    const auto presets = m_.preset_modules();
+    if (m_.fix_preset_modules() && presets.empty())
+      warn(fix_line, "FixPresetModules = 1, but no module has Preset = 1");
+    const Limits l = m_.limits();
+    if (l.max_module && static_cast<std::int64_t>(presets.size()) > *l.max_module)
+      err(m_.modules[presets[static_cast<std::size_t>(*l.max_module)]].line,
+          std::to_string(presets.size()) + " modules have Preset = 1, more than Max_Module " +
+              std::to_string(*l.max_module) + ": no configuration can hold them");
   }
 
   void slots() {

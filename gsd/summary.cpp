@@ -132,6 +132,9 @@ std::string summary(const Model& m, const DeviceReader* reader) {
   parameters(os, m, m.user_prm, enc, "  ");
 
   os << "\nModules: " << m.modules.size() << '\n';
+  if (const auto presets = m.preset_modules(); !presets.empty())
+    os << "  " << presets.size() << " with Preset = 1, put first into every configuration"
+       << (m.fix_preset_modules() ? " and fixed there (FixPresetModules = 1)" : "") << '\n';
   const bool device = reader && reader->applies(m.ident_number());
   for (const auto& mod : m.modules) {
     std::string quoted(1, '"');  // not `"\"" + ...`: GCC 12's false -Wrestrict at -O3
@@ -139,6 +142,7 @@ std::string summary(const Model& m, const DeviceReader* reader) {
     quoted += '"';
     os << "  " << pad(std::move(quoted), 36) << ' ' << hex_bytes(mod.config);
     if (mod.reference) os << "  (ref " << *mod.reference << ")";
+    if (mod.preset) os << "  (preset)";
     os << '\n';
     if (is_universal_module(mod.config)) {
       os << "      universal module: type, length and comment bytes are set in the "

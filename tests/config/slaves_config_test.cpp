@@ -183,5 +183,72 @@ TEST(SlavesConfig, WhatTheSlaveWouldRejectIsAWarning) {
                   "the slave will reject this Set_Prm: \"Class\" (byte 16) = 40"));
 }
 
+// The project's own modular test device (docs/slaves.md "Preset modules"): "Head module" has
+// Preset = 1 and the GSD FixPresetModules = 1.
+const std::string kPresetGsd = CANDP2_SOURCE_DIR "/tests/gsd_slave/data/preset_modular.gsd";
+
+json preset_slave(const json& modules) {
+  return with_slave(json{{"gsd", kPresetGsd}, {"modules", modules}});
+}
+
+TEST(SlavesConfigPresets, APresetModuleLeftOutIsAddedFirst) {
+  const auto c = ok(preset_slave({"Output 2 bytes", "Input 1 byte"}));
+  const SlaveConfig& s = c.slaves[0];
+  ASSERT_EQ(s.modules.size(), 3u);
+  EXPECT_EQ(s.modules[0].name, "Head module");
+  EXPECT_TRUE(s.modules[0].added);
+  EXPECT_EQ(s.modules[0].json_path, "$.slaves[0].modules");
+  EXPECT_EQ(s.modules[1].name, "Output 2 bytes");
+  EXPECT_FALSE(s.modules[1].added);
+  EXPECT_EQ(s.modules[1].json_path, "$.slaves[0].modules[0]");
+  EXPECT_EQ(s.modules[2].json_path, "$.slaves[0].modules[1]");
+  // What the master sends and what the slave has: the head module's entry first.
+  EXPECT_EQ(hex_bytes(chk_cfg_bytes(s)), "90 21 10");
+  std::string error;
+  auto slave = gsd_slave::GsdSlave::create(s.setup(), &error);
+  ASSERT_TRUE(slave) << error;
+  EXPECT_EQ(hex_bytes(slave->configuration().bytes), "90 21 10");
+  EXPECT_TRUE(s.warnings.empty());  // the dry run: accepted
+  // A note, not a warning: it says what was added, where, and why.
+  ASSERT_EQ(s.notes.size(), 1u);
+  EXPECT_EQ(s.notes[0].json_path, "$.slaves[0].modules");
+  EXPECT_TRUE(has(s.notes[0].message, "preset module \"Head module\" of " + kPresetGsd +
+                                          " added at slot 0, as configuration tools do "
+                                          "(Preset = 1, FixPresetModules = 1"))
+      << s.notes[0].message;
+  EXPECT_TRUE(c.warnings.empty());
+}
+
+TEST(SlavesConfigPresets, APresetModuleListedFirstStands) {
+  const auto c = ok(preset_slave({"Head module", "Output 2 bytes", "Input 1 byte"}));
+  const SlaveConfig& s = c.slaves[0];
+  ASSERT_EQ(s.modules.size(), 3u);
+  EXPECT_FALSE(s.modules[0].added);
+  EXPECT_EQ(s.modules[0].json_path, "$.slaves[0].modules[0]");
+  EXPECT_EQ(hex_bytes(chk_cfg_bytes(s)), "90 21 10");  // the same configuration
+  EXPECT_TRUE(s.notes.empty());
+}
+
+TEST(SlavesConfigPresets, AFixedModuleMovedOrRepeatedIsAnError) {
+  struct Case {
+    json modules;
+    std::string path;
+  };
+  const Case cases[] = {
+      {{"Output 2 bytes", "Head module"}, "$.slaves[0].modules[1]"},
+      {{"Head module", "Input 1 byte", "head module"}, "$.slaves[0].modules[2]"},
+  };
+  for (const auto& k : cases) {
+    SCOPED_TRACE(k.modules.dump());
+    const ConfigError e = bad(preset_slave(k.modules));
+    EXPECT_EQ(e.file, kFile);
+    EXPECT_EQ(e.json_path, k.path);
+    EXPECT_TRUE(has(e.message, kPresetGsd + ": \"Head module\" is a fixed preset module: it "
+                                            "belongs at slot 0 and cannot be moved "
+                                            "(FixPresetModules = 1)"))
+        << e.message;
+  }
+}
+
 }  // namespace
 }  // namespace candp2::config

@@ -58,6 +58,7 @@ class Gsd:
             cur = ""
         self.ident = None
         self.modules = {}          # name (trimmed) -> config bytes
+        self.presets = []          # the modules with Preset = 1, in GSD order
         self.prm_data = {}         # ExtUserPrmData ref -> (type, bits, default)
         self.consts, self.refs = [], []
         self.user_prm_len, self.user_prm_data = 0, b""
@@ -71,6 +72,8 @@ class Gsd:
             if block and block[0] == "module":
                 if k == "endmodule":
                     block = None
+                elif k == "preset" and int(value, 0) == 1:
+                    self.presets.append(block[1])
                 continue
             if block and block[0] == "ext":
                 if k == "endextuserprmdata":
@@ -82,7 +85,7 @@ class Gsd:
                 m = re.match(r'"([^"]*)"\s*(.*)', value)
                 cfg = m.group(2).replace(" ", "").split(",")
                 self.modules[m.group(1).strip()] = bytes(int(x, 0) for x in cfg if x)
-                block = ("module",)
+                block = ("module", m.group(1).strip())
             elif k == "extuserprmdata":
                 block = ("ext", int(value.split()[0], 0))
             elif k == "ident_number":
@@ -137,6 +140,11 @@ class Gsd:
 
     def chk_cfg(self, names):
         return b"".join(self.modules[n] for n in names)
+
+    def tool_chk_cfg(self, names):
+        """Chk_Cfg as configuration tools build it (pyprofibus, STEP 7; docs/slaves.md "Preset
+        modules"): the preset modules first, in GSD order, then the user's modules."""
+        return self.chk_cfg(self.presets + list(names))
 
 
 # ------------------------------------------------------------------ the line
@@ -217,12 +225,18 @@ def gsd():
             "starter": Gsd(os.path.join(GSD_DATA, "CP2MOTOR.GSD"))}
 
 
+def serve_line(candp2d, tmp_path, config_of, make_line):
+    """candp2d serving config_of(link) in role slaves on a pty link, and make_line(daemon, link)
+    (the test's master on it); the caller closes line.master."""
+    link = str(tmp_path / "pb")
+    daemon = candp2d(config_of(link))
+    assert os.path.islink(link), "no pty link at " + link
+    return make_line(daemon, link)
+
+
 @pytest.fixture
 def line(candp2d, tmp_path):
-    link = str(tmp_path / "pb")
-    daemon = candp2d(line_config(link))
-    assert os.path.islink(link), "no pty link at " + link
-    line = Line(daemon, link)
+    line = serve_line(candp2d, tmp_path, line_config, Line)
     yield line
     line.master.close()
 
