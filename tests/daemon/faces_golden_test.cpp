@@ -78,7 +78,8 @@ void expect_golden(const std::string& name, const std::string& actual, bool whol
 // tests/e2e/http_common.py line_config(10): 122 gateways (DP 3..124) × 24 output and 24 input
 // slots of 6 bytes, each gateway on its own virtual bus.
 std::string line_config() {
-  nlohmann::ordered_json gws = nlohmann::ordered_json::array(), buses = nlohmann::ordered_json::object();
+  nlohmann::ordered_json gws = nlohmann::ordered_json::array(),
+                         buses = nlohmann::ordered_json::object();
   for (int i = 0; i < 122; ++i) {
     const int a = 3 + i;
     const std::string bus = "can" + std::to_string(a);
