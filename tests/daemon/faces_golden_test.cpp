@@ -11,11 +11,8 @@
 
 #include <cstdint>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <variant>
 
 #include "config/config.hpp"
@@ -25,6 +22,7 @@
 #include "modbus/map_report.hpp"
 #include "modbus/plant_faces.hpp"
 #include "plant/plant.hpp"
+#include "tests/golden_file.hpp"
 
 namespace candp2 {
 namespace {
@@ -32,23 +30,6 @@ namespace {
 namespace fs = std::filesystem;
 
 const fs::path kGolden = fs::path(CANDP2_SOURCE_DIR) / "tests/daemon/golden";
-
-bool updating() {
-  const char* u = std::getenv("CANDP2_UPDATE_GOLDEN");
-  return u && std::string(u) == "1";
-}
-
-std::string read_file(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-void write_file(const fs::path& p, const std::string& text) {
-  fs::create_directories(p.parent_path());
-  std::ofstream(p, std::ios::binary) << text;
-}
 
 // The text as it is kept for a large document: its length and 64-bit FNV-1a digest.
 std::string digest(const std::string& text) {
@@ -65,14 +46,8 @@ std::string digest(const std::string& text) {
 
 // Compares `actual` with golden file `name` (whole, or its digest when `whole` is false).
 void expect_golden(const std::string& name, const std::string& actual, bool whole) {
-  const fs::path actual_path = fs::current_path() / "golden-actual" / name;
-  write_file(actual_path, actual);
-  const std::string kept = whole ? actual : digest(actual);
-  const fs::path golden = kGolden / (whole ? name : name + ".digest");
-  if (updating()) write_file(golden, kept);
-  ASSERT_TRUE(fs::exists(golden)) << golden << " missing (CANDP2_UPDATE_GOLDEN=1)";
-  EXPECT_TRUE(read_file(golden) == kept)
-      << name << " differs from " << golden << "; the actual text: " << actual_path;
+  test::expect_golden_file(kGolden / (whole ? name : name + ".digest"), name, actual,
+                           whole ? actual : digest(actual));
 }
 
 // tests/e2e/http_common.py line_config(10): 122 gateways (DP 3..124) × 24 output and 24 input

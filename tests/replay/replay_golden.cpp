@@ -5,15 +5,16 @@
 // CANDP2_UPDATE_GOLDEN=1 and review the diff before committing.
 #include <gtest/gtest.h>
 
-#include <cstdlib>
+#include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
+#include <string>
 #include <variant>
+#include <vector>
 
 #include "replay/report.hpp"
 #include "replay/runner.hpp"
 #include "replay/scenario.hpp"
+#include "tests/golden_file.hpp"
 
 namespace candp2::replay {
 namespace {
@@ -22,26 +23,8 @@ namespace fs = std::filesystem;
 
 const fs::path kGolden = fs::path(CANDP2_SOURCE_DIR) / "tests/replay/golden";
 
-std::string read_file(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 void expect_golden(const std::string& name, const std::string& actual) {
-  const fs::path golden = kGolden / name;
-  const char* u = std::getenv("CANDP2_UPDATE_GOLDEN");
-  if (u && std::string(u) == "1") {
-    fs::create_directories(kGolden);
-    std::ofstream(golden, std::ios::binary) << actual;
-  }
-  const fs::path actual_path = fs::current_path() / "golden-actual" / name;
-  fs::create_directories(actual_path.parent_path());
-  std::ofstream(actual_path, std::ios::binary) << actual;
-  ASSERT_TRUE(fs::exists(golden)) << golden << " missing (CANDP2_UPDATE_GOLDEN=1)";
-  EXPECT_TRUE(read_file(golden) == actual)
-      << name << " differs: diff -u " << golden << " " << actual_path;
+  test::expect_golden_file(kGolden / name, name, actual, actual);
 }
 
 // A scenario loaded from the repository's root, so that the paths in its report stay relative.
