@@ -20,13 +20,15 @@
 #include <string>
 #include <vector>
 
-#include "bitrate/bitrate_status.hpp"
 #include "can/can_link.hpp"
 #include "common/log.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
+#include "station/status.hpp"
 
 namespace candp2::bitrate {
+
+using BitrateStatus = station::BitrateStatus;  // docs/transports.md "Bit rate"
 
 class LinkOps {
  public:

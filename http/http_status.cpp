@@ -113,13 +113,13 @@ json StatusModel::gateway_head(std::size_t index, Time now) const {
   j["bus_state"] = std::string(can::to_string(st.bus_state));
   j["released"] = st.released;
   j["nmt"] = std::string(gw::to_string(st.nmt));
-  j["counters"] = {{"rx_frames", get32(block, kRxFrames)},
-                   {"tx_frames", get32(block, kTxFrames)},
-                   {"irq_lost", get32(block, kIrqLost)},
-                   {"msg_lost", get32(block, kMsgLost)},
-                   {"data_exchanges", get32(block, kDataExchanges)},
-                   {"parameterizations", get32(block, kParameterizations)},
-                   {"master_data_exchanges", view ? view->data_exchanges : 0u}};
+  // The gateway's counters of the station table (station/status.hpp), and the master's count.
+  json counters = json::object();
+  for (const auto& f : station::fields())
+    if (f.shown & station::kGatewayCounters)
+      counters[std::string(f.name)] = modbus::field_value(block, f);
+  counters["master_data_exchanges"] = view ? view->data_exchanges : 0u;
+  j["counters"] = std::move(counters);
   j["fifo"] = {{"level", st.fifo_level}, {"high_water", st.fifo_high_water}};
   j["sync_ms"] = st.sync_ms;
   j["wakeup_s"] = st.wakeup_s;

@@ -133,9 +133,12 @@ json StatusModel::slave_json(std::size_t index, Time now) const {
                    {"addressed", view->addressed},
                    {"station_lost", view->station_lost}};
   else
-    j["master"] = nullptr;  // no built-in master drives it (profibus role slaves)
-  j["counters"] = {{"data_exchanges", get32(block, kDataExchanges)},
-                   {"parameterizations", get32(block, kParameterizations)}};
+    j["master"] = nullptr;         // no built-in master drives it (profibus role slaves)
+  json counters = json::object();  // the station table's (station/status.hpp)
+  for (const auto& f : station::fields())
+    if (f.shown & station::kSlaveCounters)
+      counters[std::string(f.name)] = modbus::field_value(block, f);
+  j["counters"] = std::move(counters);
 
   // The whole diagnosis (docs/slaves.md "Diagnosis"): 6 standard bytes, then Ext_Diag_Data.
   json bits = json::array();
