@@ -186,6 +186,10 @@ void Gateway::on_data_exchange(std::span<const std::uint8_t> outputs,
     page_.on_output_page(outputs.first(page_.output_page_len()), now, *this);
   } else {
     slots_.on_outputs(outputs, *this, now);
+    if (rtr_pending_ && tx_active()) {  // after the release's Tx slots (docs/canopen.md)
+      rtr_pending_ = false;
+      send_rtr_frames();
+    }
   }
   if (cfg_->cw_out) {
     const Slot& s = cfg_->slots[*cfg_->cw_out];
@@ -306,8 +310,15 @@ void Gateway::release(Time now, std::string_view why) {
     page_.on_release(now, *this);
   else
     slots_.on_release(now, *this);
-  // manual table 5.1.2: RTR-Frames only with a CANopen role (ignored in layer-2 mode).
-  if (role() != CanopenRole::None && prm_->send_rtr) send_rtr_frames();
+  // manual table 5.1.2: RTR-Frames only with a CANopen role (ignored in layer-2 mode). They follow
+  // the Tx slots (docs/canopen.md "CANopen master"): a Tx slot still without data sends with the
+  // first Data_Exchange's outputs, and the remote frames wait for it.
+  if (role() != CanopenRole::None && prm_->send_rtr) {
+    if (!cfg_->page_mode && slots_.tx_waiting_for_data())
+      rtr_pending_ = true;
+    else
+      send_rtr_frames();
+  }
   schedule_sync(now);
 }
 
@@ -332,6 +343,7 @@ void Gateway::send_rtr_frames() {
 void Gateway::halt(std::string_view why) {
   if (released_) log_.info("CAN transmission halted: " + std::string(why));
   released_ = false;
+  rtr_pending_ = false;
   next_sync_.reset();
 }
 
@@ -472,6 +484,7 @@ void Gateway::power_cycle(Time now) {
   input_image_.clear();
   power_on_ = now;
   released_ = false;
+  rtr_pending_ = false;
   boot_sent_ = false;
   nmt_ = NmtState::Initialising;
   sync_ms_ = 0;

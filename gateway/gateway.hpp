@@ -140,6 +140,7 @@ class Gateway final : private dp::SlaveApplication, private CwHost {
   // CAN release (docs/canopen.md).
   Time power_on_{0};
   bool released_ = false;
+  bool rtr_pending_ = false;  // the release's RTR frames wait for the Tx slots' first data
   NmtState nmt_ = NmtState::Initialising;
   bool boot_sent_ = false;
   std::uint8_t stored_wakeup_s_ = 0;
