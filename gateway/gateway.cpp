@@ -221,7 +221,7 @@ dp::DeviceDiag Gateway::device_diag() const {
     // manual table 3.4.5: bus state, IRQ_LOST, MSG_LOST (both saturate at 255,
     // docs/dp-slave.md "Diagnosis").
     d.bytes = {bus_state_code(bus_state_),
-               static_cast<std::uint8_t>(std::min<std::uint32_t>(irq_lost_, 255)),
+               static_cast<std::uint8_t>(std::min<std::uint32_t>(irq_lost(), 255)),
                static_cast<std::uint8_t>(std::min<std::uint32_t>(cw_.msg_lost(), 255))};
     d.ext_diag = bus_state_ != can::BusState::Ok;
   }
@@ -263,7 +263,11 @@ void Gateway::set_controller_status(can::BusState state, std::uint32_t rx_lost_t
     log_.warn("CAN bus state " + std::string(can::to_string(bus_state_)) + " -> " +
               std::string(can::to_string(state)));
   bus_state_ = state;
-  irq_lost_ = rx_lost_total;
+  // The transport counts from its own start; a power cycle restarts IRQ_LOST at 0
+  // (docs/faults.md "Power cycle and re-parameterization"). A total below the base means the
+  // transport restarted its count: it counts from there.
+  if (rx_lost_total < irq_lost_base_) irq_lost_base_ = 0;
+  irq_lost_total_ = rx_lost_total;
 }
 
 // -------------------------------------------------------------- release, CANopen (docs/canopen.md)
@@ -480,7 +484,7 @@ void Gateway::power_cycle(Time now) {
   accepted_prm_.reset();
   slots_.clear();
   cw_.reset();
-  page_.configure(SlotConfig{});
+  page_.power_on();
   input_image_.clear();
   power_on_ = now;
   released_ = false;
@@ -492,6 +496,7 @@ void Gateway::power_cycle(Time now) {
   bus_busy_until_ = busy_from_ = Time{0};
   burst_bits_ = 0;
   rx_frames_ = tx_frames_ = data_exchanges_ = 0;
+  irq_lost_base_ = irq_lost_total_;  // IRQ_LOST starts at 0 (the CW's MSG_LOST: cw_.reset())
 }
 
 GatewayStatus Gateway::status() const {
@@ -502,7 +507,7 @@ GatewayStatus Gateway::status() const {
   s.nmt = nmt_;
   s.rx_frames = rx_frames_;
   s.tx_frames = tx_frames_;
-  s.irq_lost = irq_lost_;
+  s.irq_lost = irq_lost();
   s.msg_lost = cw_.msg_lost();
   s.fifo_level = static_cast<std::uint32_t>(cw_.fifo_level());
   s.fifo_high_water = static_cast<std::uint32_t>(cw_.fifo_high_water());

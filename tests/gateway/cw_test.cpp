@@ -423,6 +423,41 @@ TEST_F(CommWindowTest, MsgLostSaturatesInDiagnosis) {
   EXPECT_EQ(gw->comm_window().fifo_level(), 255u);
 }
 
+TEST_F(CommWindowTest, PowerCycleStartsEveryCounterAtZero) {
+  // docs/faults.md "Power cycle and re-parameterization": a restarted gateway starts every counter
+  // at 0 - frames, Data_Exchanges, IRQ_LOST (diagnosis byte 9), MSG_LOST (byte 10), the FIFO.
+  UserPrm p = cw_prm();
+  p.can_diagnosis = true;
+  ASSERT_TRUE(setup(p));
+  command(kCwEnable, Std(0x100));
+  for (int i = 0; i < 256; ++i) rx("100#01");  // the 256th is lost at the full FIFO
+  command(kCwSend, Std(0x12), {1});
+  gw->set_controller_status(can::BusState::Ok, 7);  // the transport lost 7 frames
+  GatewayStatus st = gw->status();
+  ASSERT_EQ(st.irq_lost, 7u);
+  ASSERT_EQ(st.msg_lost, 1u);
+  const auto before = diag();
+  ASSERT_EQ(hex(std::span(before).subspan(8)), "00 07 01");
+
+  gw->power_cycle(now);
+  st = gw->status();
+  EXPECT_EQ(st.rx_frames, 0u);
+  EXPECT_EQ(st.tx_frames, 0u);
+  EXPECT_EQ(st.irq_lost, 0u);
+  EXPECT_EQ(st.msg_lost, 0u);
+  EXPECT_EQ(st.fifo_level, 0u);
+  EXPECT_EQ(st.fifo_high_water, 0u);
+  EXPECT_EQ(st.data_exchanges, 0u);
+  // The transport's own count runs on: only what it loses after the restart counts.
+  gw->set_controller_status(can::BusState::Ok, 7);
+  EXPECT_EQ(gw->status().irq_lost, 0u);
+  gw->set_controller_status(can::BusState::Ok, 9);
+  EXPECT_EQ(gw->status().irq_lost, 2u);
+  ASSERT_TRUE(setup(p));
+  const auto d = diag();
+  EXPECT_EQ(hex(std::span(d).subspan(8)), "00 02 00");
+}
+
 TEST_F(CommWindowTest, FramesStoredWhileTheDpMasterIsAway) {
   // Reception is asynchronous to the PLC (manual §5.3.3 command 3): frames are stored between
   // Data_Exchanges, also after a watchdog drop; the same configuration keeps them
