@@ -71,10 +71,16 @@ std::optional<std::uint16_t> ignored_input_cycle(const Slot& s, const UserPrm& p
 
 EntryReading read_cfg_entry(std::span<const std::uint8_t> entry) {
   // Companion entries (see the header for the order of the contexts).
-  const dp::CfgEntry dummy_tx =
-      dp::special_output(1, false,
-                         {static_cast<std::uint8_t>(kDummyTxId >> 8),
-                          static_cast<std::uint8_t>(kDummyTxId & 0xFF), 0x00});  // manual §5.1.4
+  const auto dummy = [](std::uint8_t len) {
+    return dp::special_output(
+        len, false,
+        {static_cast<std::uint8_t>(kDummyTxId >> 8), static_cast<std::uint8_t>(kDummyTxId & 0xFF),
+         0x00});  // manual §5.1.4
+  };
+  const dp::CfgEntry dummy_tx = dummy(1);
+  // With the Tx-Counter on the dummy needs a data byte besides the counter byte (docs/slots.md
+  // "Cfg fault codes" code 3).
+  const dp::CfgEntry dummy_tx_counter = dummy(2);
   const std::vector<std::uint8_t> cw_comment = {kCommWindowIdHigh, kCommWindowIdLow, 0x00};
   const auto cw_len = static_cast<std::uint8_t>(kCommWindowLen);
   const auto seg_len = static_cast<std::uint8_t>(kSegmentLen);
@@ -94,7 +100,7 @@ EntryReading read_cfg_entry(std::span<const std::uint8_t> entry) {
   // 32 bytes (codes 3, 4).
   const Context contexts[] = {
       {"", {}, {}, {dummy_tx}, {}},
-      {"", counters, {}, {dummy_tx}, {kCfgWrongLength}},
+      {"", counters, {}, {dummy_tx_counter}, {kCfgWrongLength}},
       {"Communication Window on",
        cw,
        {},

@@ -20,7 +20,8 @@ namespace candp2::gw {
 // Communication Window needs both directions; table 6.4.1: Page-Mode segments). The contexts are
 // tried in this order and the first one the gateway accepts describes the entry:
 //   1. default parameters, the entry, then the manual §5.1.4 dummy output (83 00 07 F8 00);
-//   2. the same with Rx-/Tx-Counter on (a 9-byte slot, manual §5.1.2);
+//   2. the same with Rx-/Tx-Counter on (a 9-byte slot, manual §5.1.2), the dummy 2 bytes long
+//      (83 01 07 F8 00: with the counter on, 1 byte would be the counter alone);
 //   3./4. Communication Window flag on, the entry, then a CW input / CW output (manual §5.3.2);
 //   5. Page-Mode on, a 32-byte input and a 32-byte output segment, then the entry (as the last
 // segment of its direction, which may be shorter; manual table 6.4.1,
