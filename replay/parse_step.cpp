@@ -276,10 +276,11 @@ void resolve_gateway(Step& s, const Object& o, const std::string& path, const st
     const bool image = s.action == Action::Write || s.action == Action::ExpectInput ||
                        s.action == Action::ExpectOutput;
     if (!image)
-      fail(path, "\"" + key + "\" concerns a gateway, and " +
-                     (sc.config_file.empty() ? "the scenario" : sc.config_file) +
-                     " configures none" +
-                     (station_step(s.action) ? " (give \"slave\" for a generic slave)" : ""));
+      fail(path,
+           "\"" + key + "\" concerns a gateway, and " +
+               (sc.config_file.empty() ? "the scenario" : sc.config_file) + " configures none" +
+               (spec(s.action).target == Target::Station ? " (give \"slave\" for a generic slave)"
+                                                         : ""));
     return;
   }
   if (!g) {
