@@ -150,7 +150,7 @@ void DpMaster::set_diag(Entry& e, std::vector<std::uint8_t> d) {
   e.diag_bytes = std::move(d);
 }
 
-void DpMaster::lost(Entry& e, std::string_view what) {
+void DpMaster::lost(Entry& e, Time now, std::string_view what) {
   // What a real master's diagnosis shows for a station that does not answer: Station_Non_Existent
   // (manual table 3.4.3, diag byte 0 bit 0, set by the master), no master address.
   std::vector<std::uint8_t> d(kDiagStdLen, 0);
@@ -163,6 +163,11 @@ void DpMaster::lost(Entry& e, std::string_view what) {
               ": station lost");
   }
   set_diag(e, std::move(d));
+  if (options_.lost_waits_retry) {
+    e.retry_at = now + options_.retry_delay;
+    e.diag_due = false;
+    return go(e, MasterSlaveState::Retry, "no response to " + std::string(what));
+  }
   go(e, MasterSlaveState::Init, "no response to " + std::string(what));
 }
 
@@ -183,9 +188,9 @@ void DpMaster::fault(Entry& e, Time now, std::string_view why) {
   go(e, MasterSlaveState::Retry, why);
 }
 
-bool DpMaster::answered(Entry& e, const Response& r, Time /*now*/, std::string_view what) {
+bool DpMaster::answered(Entry& e, const Response& r, Time now, std::string_view what) {
   if (r.status != Response::Status::NoResponse) return true;
-  lost(e, what);
+  lost(e, now, what);
   return false;
 }
 

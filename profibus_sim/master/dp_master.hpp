@@ -92,6 +92,9 @@ std::string_view to_string(MasterSlaveState s);
 struct MasterOptions {
   std::uint8_t address = 1;
   Duration retry_delay = milliseconds(1000);  // between parameterization attempts after a fault
+  // A lost station (no answer) is parameterized again after retry_delay too (a line in time,
+  // docs/profibus.md "The line in time"); false: from the next cycle on (the ideal line).
+  bool lost_waits_retry = false;
 };
 
 class DpMaster {
@@ -188,7 +191,7 @@ class DpMaster {
   void go(Entry& e, MasterSlaveState next, std::string_view why);
   void set_diag(Entry& e, std::vector<std::uint8_t> d);
   void fault(Entry& e, Time now, std::string_view why);
-  void lost(Entry& e, std::string_view what);
+  void lost(Entry& e, Time now, std::string_view what);
   void invalid(Entry& e, Time now, std::string_view why);
 
   MasterOptions options_;
