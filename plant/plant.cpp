@@ -78,7 +78,8 @@ bool Plant::build_parts(std::string* error) {
   master_ = std::make_unique<dp::DpMaster>(
       dp::MasterOptions{.address = config_.master_address,
                         .retry_delay = milliseconds(config_.retry_ms),
-                        .lost_waits_retry = timed},
+                        .lost_waits_retry = timed,
+                        .parameterize_in_one_go = timed},
       log_sink_);
   if (timed) {
     timed_line_ = std::make_unique<TimedLine>(config_.line->baud, config_.line->params,

@@ -83,11 +83,14 @@ void TimedLine::end_issue(Time now) {
       queue_.begin() + static_cast<std::ptrdiff_t>(sorted_from_), queue_.end(),
       [](const Job& a, const Job& b) { return a.station->address() < b.station->address(); });
   if (phase_ == Phase::Idle) start_next(start_bit(now));
+  advance(now);  // a request that starts now shows on the tap now
 }
 
 void TimedLine::enqueue(Job job, Time now) {
   queue_.push_back(std::move(job));
-  if (!holding_ && phase_ == Phase::Idle) start_next(start_bit(now));
+  if (holding_ || phase_ != Phase::Idle) return;
+  start_next(start_bit(now));
+  advance(now);
 }
 
 std::optional<std::uint8_t> TimedLine::next_gap_address() {
@@ -142,9 +145,23 @@ void TimedLine::put_request(OnLine o, std::uint64_t at_bit) {
   const std::uint64_t start = std::max(at_bit, free_bit_);
   if (rotating_ && !rotation_start_) rotation_start_ = start;
   request_start_ = start;
-  event_bit_ = start + kBitsPerChar * o.request.size();
+  request_end_ = start + kBitsPerChar * o.request.size();
+  event_bit_ = start;
   current_ = std::move(o);
+  phase_ = Phase::Sync;
+}
+
+void TimedLine::on_request_start() {
+  // Its first character: the tap sees it now, stamped with this bit (docs/capture.md).
+  emit(current_->request, true, request_start_, request_end_);
   phase_ = Phase::Request;
+  event_bit_ = request_end_;
+}
+
+void TimedLine::on_response_start() {
+  phase_ = Phase::Response;
+  event_bit_ = response_start_ + kBitsPerChar * current_->response.size();
+  emit(current_->response, false, response_start_, event_bit_);
 }
 
 // ------------------------------------------------------------------------------------ events
@@ -158,8 +175,14 @@ void TimedLine::advance(Time now) {
   while (phase_ != Phase::Idle && time_of(event_bit_) <= now) {
     holding_ = true;
     switch (phase_) {
+      case Phase::Sync:
+        on_request_start();
+        break;
       case Phase::Request:
         on_request_end();
+        break;
+      case Phase::Tsdr:
+        on_response_start();
         break;
       case Phase::Response:
         on_response_end();
@@ -189,7 +212,6 @@ void TimedLine::emit(std::span<const std::uint8_t> bytes, bool from_master, std:
 void TimedLine::on_request_end() {
   OnLine& o = *current_;
   const std::uint64_t end = event_bit_;
-  emit(o.request, true, request_start_, end);
   if (!o.job) {
     if (o.telegram.kind == fdl::Kind::SD4) {  // the token: nobody answers; TID2
       phase_ = Phase::Unanswered;
@@ -228,15 +250,14 @@ void TimedLine::on_request_end() {
   }
   o.response = fdl::encode(*answer);
   response_start_ = end + s.tsdr();
-  event_bit_ = response_start_ + kBitsPerChar * o.response.size();
-  phase_ = Phase::Response;
+  event_bit_ = response_start_;
+  phase_ = Phase::Tsdr;
 }
 
 void TimedLine::on_response_end() {
   OnLine o = std::move(*current_);
   current_.reset();
   phase_ = Phase::Idle;
-  emit(o.response, false, response_start_, event_bit_);
   free_bit_ = event_bit_ + fdl::tid1_bits(params_);
   Station& s = *o.job->station;
   if (o.fdl_status) {

@@ -102,7 +102,10 @@ class TimedLine {
     dp::Request request;
     dp::Completion done;
   };
-  enum class Phase : std::uint8_t { Idle, Request, Response, SlotTime, Unanswered };
+  // Idle: nothing on the line. Sync: the idle before a request (ends when it starts); Request: its
+  // characters; Tsdr: the station's delay; Response: the answer's characters; SlotTime: nobody
+  // answered yet; Unanswered: TID2 after a telegram without an answer.
+  enum class Phase : std::uint8_t { Idle, Sync, Request, Tsdr, Response, SlotTime, Unanswered };
   struct OnLine {
     std::optional<Job> job;   // none: FDL_Status to a GAP address or the token
     bool fdl_status = false;  // this telegram is the FDL_Status before the job
@@ -116,7 +119,9 @@ class TimedLine {
   void enqueue(Job job, Time now);
   void start_next(std::uint64_t at_bit);
   void put_request(OnLine o, std::uint64_t at_bit);
+  void on_request_start();
   void on_request_end();
+  void on_response_start();
   void on_response_end();
   void on_slot_expired();
   void on_unanswered_end();
@@ -145,6 +150,7 @@ class TimedLine {
   bool token_sent_ = false;
   bool gap_done_ = false;                                 // this rotation looked after its GAP
   std::uint64_t request_start_ = 0, response_start_ = 0;  // of the telegrams on the line
+  std::uint64_t request_end_ = 0;
   std::optional<std::uint64_t> rotation_start_;
   std::uint64_t rotations_ = 0;
   std::uint8_t gap_next_ = 0;

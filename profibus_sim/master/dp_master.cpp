@@ -226,6 +226,7 @@ void DpMaster::on_init(Entry& e, Time now) {
 void DpMaster::init_answered(Entry& e, const Response& r, Time now) {
   if (!take_diag(e, r, now)) return;
   go(e, MasterSlaveState::SetPrm, "slave answers");
+  if (options_.parameterize_in_one_go) on_set_prm(e, now);
 }
 
 void DpMaster::on_set_prm(Entry& e, Time now) {
@@ -237,6 +238,7 @@ void DpMaster::set_prm_answered(Entry& e, const Response& r, Time now) {
   if (!answered(e, r, now, to_string(Service::SetPrm))) return;
   if (r.status != Response::Status::Ok) return fault(e, now, "Set_Prm refused");
   go(e, MasterSlaveState::ChkCfg, "Set_Prm sent");
+  if (options_.parameterize_in_one_go) on_chk_cfg(e, now);
 }
 
 void DpMaster::on_chk_cfg(Entry& e, Time now) {
@@ -247,6 +249,7 @@ void DpMaster::chk_cfg_answered(Entry& e, const Response& r, Time now) {
   if (!answered(e, r, now, to_string(Service::ChkCfg))) return;
   if (r.status != Response::Status::Ok) return fault(e, now, "Chk_Cfg refused");
   go(e, MasterSlaveState::CheckDiag, "Chk_Cfg sent");
+  if (options_.parameterize_in_one_go) on_check_diag(e, now);
 }
 
 namespace {

@@ -95,6 +95,11 @@ struct MasterOptions {
   // A lost station (no answer) is parameterized again after retry_delay too (a line in time,
   // docs/profibus.md "The line in time"); false: from the next cycle on (the ideal line).
   bool lost_waits_retry = false;
+  // Slave_Diag → Set_Prm → Chk_Cfg → Slave_Diag → Data_Exchange one after the other, each as soon
+  // as the last one was answered (a line in time: a parameterization spread over several slow
+  // rotations would let a short watchdog expire between Set_Prm and Chk_Cfg); false: one step a
+  // cycle (the ideal line).
+  bool parameterize_in_one_go = false;
 };
 
 class DpMaster {
