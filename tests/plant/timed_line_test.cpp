@@ -136,6 +136,8 @@ TEST(TimedLine, RetryAndLostStationWhenTheSlotTimeSays) {
   TimedLine& line = rig.line();
   rig.run_until(Time{100'000});
   ASSERT_EQ(rig.plant->master().slave(3)->state, dp::MasterSlaveState::DataExch);
+  // Between two rotations: no request of the station is on the line when it goes.
+  while (line.rotating()) rig.plant->advance(*rig.plant->next_deadline());
   line.set_record(true);
   rig.plant->gateways()[0]->gateway().dp().set_offline(true);
   rig.run_until(Time{600'000});
@@ -184,7 +186,7 @@ TEST(TimedLine, WatchdogExpiresWhenTheCycleOutgrowsIt) {
       EXPECT_GT(cycle.max, milliseconds(20));
       EXPECT_GT(v->parameterizations, 3u);  // parameterized again after every expiry
     } else {
-      EXPECT_LT(cycle.max, milliseconds(1));
+      EXPECT_LT(cycle.last, milliseconds(1));
       EXPECT_EQ(v->parameterizations, 1u);
       EXPECT_EQ(v->state, dp::MasterSlaveState::DataExch);
     }
