@@ -331,8 +331,8 @@ TEST(ReplayRun, EveryExampleScenarioPasses) {
 // docs/profibus.md "The line in time": the watchdog expiry at 9.6 kbit/s happens on the line in
 // time only; the same scenario on the ideal line (master.baud removed) fails.
 TEST(ReplayRun, WatchdogScenarioNeedsTheLineInTime) {
-  auto loaded = load_scenario(std::string(CANDP2_SOURCE_DIR) +
-                              "/config/scenarios/line-watchdog-9600.json");
+  auto loaded =
+      load_scenario(std::string(CANDP2_SOURCE_DIR) + "/config/scenarios/line-watchdog-9600.json");
   ASSERT_TRUE(std::holds_alternative<Scenario>(loaded))
       << std::get<config::ConfigError>(loaded).to_string();
   const auto& timed = std::get<Scenario>(loaded);
