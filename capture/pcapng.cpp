@@ -3,6 +3,7 @@
 #include "capture/pcapng.hpp"
 
 #include <algorithm>
+#include <array>
 
 namespace candp2::capture::pcapng {
 
@@ -76,7 +77,7 @@ std::vector<std::uint8_t> section_header(std::string_view application, std::stri
 }
 
 std::vector<std::uint8_t> interface_description(std::uint16_t linktype, std::string_view name,
-                                                std::string_view description) {
+                                                std::string_view description, std::uint64_t speed) {
   std::vector<std::uint8_t> out;
   const std::size_t b = open_block(out, kInterfaceDescriptionBlock);
   le16(out, linktype);
@@ -84,6 +85,11 @@ std::vector<std::uint8_t> interface_description(std::uint16_t linktype, std::str
   le32(out, 0);  // snaplen: no limit
   if (!name.empty()) option(out, kIfName, name);
   if (!description.empty()) option(out, kIfDescription, description);
+  if (speed != 0) {
+    std::array<std::uint8_t, 8> v{};
+    for (std::size_t i = 0; i < v.size(); ++i) v[i] = static_cast<std::uint8_t>(speed >> (8 * i));
+    option(out, kIfSpeed, v);
+  }
   const std::uint8_t tsresol = 9;  // 10^-9 s
   option(out, kIfTsresol, std::span(&tsresol, 1));
   end_of_options(out);

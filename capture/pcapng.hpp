@@ -29,6 +29,7 @@ inline constexpr std::uint16_t kShbOs = 3;
 inline constexpr std::uint16_t kShbUserAppl = 4;
 inline constexpr std::uint16_t kIfName = 2;
 inline constexpr std::uint16_t kIfDescription = 3;
+inline constexpr std::uint16_t kIfSpeed = 8;    // the interface's speed in bit/s (u64)
 inline constexpr std::uint16_t kIfTsresol = 9;  // value 9: time stamps in nanoseconds
 inline constexpr std::uint16_t kEpbFlags = 2;
 
@@ -57,10 +58,11 @@ enum class Direction : std::uint8_t { Unknown = 0, Inbound = 1, Outbound = 2 };
 // ---- Blocks -------------------------------------------------------------------------------
 // One section, length unknown (-1); shb_userappl = application, shb_os = os (both optional).
 std::vector<std::uint8_t> section_header(std::string_view application, std::string_view os = {});
-// An interface: link type, if_name, if_description (optional), if_tsresol = 9 (ns), snaplen 0
-// (no limit).
+// An interface: link type, if_name, if_description (optional), if_speed (bit/s, when not 0),
+// if_tsresol = 9 (ns), snaplen 0 (no limit).
 std::vector<std::uint8_t> interface_description(std::uint16_t linktype, std::string_view name,
-                                                std::string_view description = {});
+                                                std::string_view description = {},
+                                                std::uint64_t speed = 0);
 // A packet on interface `interface_id` at `time_ns` (ns since the Unix epoch, as if_tsresol 9
 // says), with epb_flags carrying the direction and an optional opt_comment. Appends to `out`.
 void enhanced_packet(std::vector<std::uint8_t>& out, std::uint32_t interface_id,

@@ -51,7 +51,8 @@ void PcapngTap::check_writer() {
 }
 
 std::optional<std::uint32_t> PcapngTap::interface(Side side, std::uint16_t index,
-                                                  std::string_view name, std::uint64_t ns) {
+                                                  std::string_view name, std::uint64_t speed,
+                                                  std::uint64_t ns) {
   const auto key = std::pair(side, index);
   if (const auto it = interfaces_.find(key); it != interfaces_.end()) return it->second;
   std::vector<std::uint8_t> idb;
@@ -64,7 +65,7 @@ std::optional<std::uint32_t> PcapngTap::interface(Side side, std::uint16_t index
       idb = pcapng::interface_description(options_.profibus == ProfibusLinktype::ProfibusDl
                                               ? pcapng::kLinktypeProfibusDl
                                               : pcapng::kLinktypeWiresharkUpperPdu,
-                                          name, "PROFIBUS side " + std::to_string(index));
+                                          name, "PROFIBUS side " + std::to_string(index), speed);
       break;
     case Side::Notes:
       idb = pcapng::interface_description(pcapng::kLinktypeWiresharkUpperPdu, kNotesInterface,
@@ -96,7 +97,8 @@ void PcapngTap::packet(std::uint32_t interface_id, std::uint64_t ns,
 void PcapngTap::on_can(const plant::CanRecord& r) {
   if (writer_.stopped()) return check_writer();
   const std::uint64_t ns = time_ns(r.time);
-  const auto id = interface(Side::Can, r.bus, r.interface.empty() ? r.bus_name : r.interface, ns);
+  const auto id =
+      interface(Side::Can, r.bus, r.interface.empty() ? r.bus_name : r.interface, 0, ns);
   if (!id) {
     ++not_announced_;
     return;
@@ -107,10 +109,10 @@ void PcapngTap::on_can(const plant::CanRecord& r) {
 
 void PcapngTap::write_dp(Time time, std::uint16_t line, std::string_view line_name,
                          std::span<const std::uint8_t> telegram, bool from_emulation,
-                         std::string_view comment) {
+                         std::string_view comment, std::uint32_t baud) {
   if (writer_.stopped()) return check_writer();
   const std::uint64_t ns = time_ns(time);
-  const auto id = interface(Side::Dp, line, line_name, ns);
+  const auto id = interface(Side::Dp, line, line_name, baud, ns);
   if (!id) {
     ++not_announced_;
     return;
@@ -125,13 +127,13 @@ void PcapngTap::write_dp(Time time, std::uint16_t line, std::string_view line_na
 }
 
 void PcapngTap::on_dp(const plant::DpRecord& r) {
-  write_dp(r.time, r.line, r.line_name, r.telegram, r.from_emulation, {});
+  write_dp(r.time, r.line, r.line_name, r.telegram, r.from_emulation, {}, r.baud);
 }
 
 void PcapngTap::on_note(const plant::NoteRecord& r) {
   if (writer_.stopped()) return check_writer();
   const std::uint64_t ns = time_ns(r.time);
-  const auto id = interface(Side::Notes, 0, kNotesInterface, ns);
+  const auto id = interface(Side::Notes, 0, kNotesInterface, 0, ns);
   if (!id) {
     ++not_announced_;
     return;

@@ -66,7 +66,7 @@ class PcapngTap final : public plant::Tap {
   // optional comment (e.g. the parser's error for an abandoned candidate).
   void write_dp(Time time, std::uint16_t line, std::string_view line_name,
                 std::span<const std::uint8_t> telegram, bool from_emulation,
-                std::string_view comment);
+                std::string_view comment, std::uint32_t baud = 0);
 
   PcapngTapStats stats() const;
   // Waits until every packet so far is in the file (tests and shutdown; never the event loop).
@@ -77,7 +77,7 @@ class PcapngTap final : public plant::Tap {
   enum class Side : std::uint8_t { Can, Dp, Notes };
   // The interface's id, announcing it first; nullopt when it could not be announced now.
   std::optional<std::uint32_t> interface(Side side, std::uint16_t index, std::string_view name,
-                                         std::uint64_t time_ns);
+                                         std::uint64_t speed, std::uint64_t time_ns);
   void packet(std::uint32_t interface_id, std::uint64_t time_ns, std::span<const std::uint8_t> data,
               pcapng::Direction direction, std::string_view comment);
   void check_writer();

@@ -22,6 +22,7 @@
 #include "config/slaves_config.hpp"
 #include "config/warning_kind.hpp"
 #include "gateway/user_prm.hpp"
+#include "profibus_sim/fdl/line_timing.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::config {
@@ -127,6 +128,14 @@ struct ProfibusConfig {
   std::string json_path = "$.profibus";
 };
 
+// docs/profibus.md "The line in time": the in-process line with a baud rate ($.master.baud) and
+// its bus parameters ($.master.bus_parameters, each defaulting to the DP profile of the rate).
+struct LineConfig {
+  std::uint32_t baud = 0;
+  fdl::BusParameters params;
+  std::string json_path = "$.master.baud";
+};
+
 struct DaemonConfig {
   std::string file;  // where it was loaded from
   Endpoint modbus_listen{"127.0.0.1", 1502};
@@ -137,8 +146,9 @@ struct DaemonConfig {
   std::uint32_t modbus_idle_timeout_s = 60;  // close clients silent this long; 0 = never
   std::uint8_t master_address = 1;
   std::uint32_t cycle_ms = 10;
-  std::uint32_t retry_ms = 1000;  // between parameterization attempts after a fault
-  std::vector<BusConfig> buses;   // sorted by name
+  std::uint32_t retry_ms = 1000;   // between parameterization attempts after a fault
+  std::optional<LineConfig> line;  // $.master.baud; none: the ideal (infinitely fast) line
+  std::vector<BusConfig> buses;    // sorted by name
   std::vector<GatewayConfig> gateways;
   std::vector<SlaveConfig> slaves;  // generic DP-V0 slaves from a GSD (config/slaves_config.hpp)
   std::vector<DriveConfig> drives;

@@ -30,6 +30,10 @@ E get_enum(const Object& o, const std::string& key, E fallback,
   fail(o.path(key), "expected one of " + join(quoted) + ", got " + kind_of(*j));
 }
 
+// $.master.baud and $.master.bus_parameters (config/line_config.cpp; docs/profibus.md "The line in
+// time"); after $.profibus was read, whose keys of role master must not say the same again.
+void parse_line(const Object& master, const json* profibus, DaemonConfig& c);
+
 inline Endpoint get_endpoint(const json& j, const std::string& path) {
   const std::string text = as_string(j, path, "\"HOST:PORT\"");
   std::string error;

@@ -204,6 +204,14 @@ struct Model {
   bool fix_preset_modules() const;
 };
 
+// A DP rate (bit/s) as the GSD names it in its keywords: 1500000 → "1.5M" ("1.5M_supp",
+// "MaxTsdr_1.5M"); nullopt for a rate without a keyword.
+std::optional<std::string_view> rate_name(std::uint32_t baud);
+// The GSD says the station supports `baud` (<rate>_supp = 1).
+bool supports_rate(const Model& m, std::uint32_t baud);
+// MaxTsdr_<rate>: the latest the station answers at `baud`, in bit times; nullopt when missing.
+std::optional<std::uint32_t> max_tsdr(const Model& m, std::uint32_t baud);
+
 struct ParseResult {
   Model model;
   std::vector<Diagnostic> diagnostics;  // in line order

@@ -175,4 +175,34 @@ bool Model::fix_preset_modules() const {
   return number("FixPresetModules").value_or(0) != 0;
 }
 
+namespace {
+struct RateName {
+  std::uint32_t baud;
+  std::string_view name;
+};
+constexpr RateName kRateNames[] = {{9600, "9.6"},    {19200, "19.2"},   {31250, "31.25"},
+                                   {45450, "45.45"}, {93750, "93.75"},  {187500, "187.5"},
+                                   {500000, "500"},  {1500000, "1.5M"}, {3000000, "3M"},
+                                   {6000000, "6M"},  {12000000, "12M"}};
+}  // namespace
+
+std::optional<std::string_view> rate_name(std::uint32_t baud) {
+  for (const auto& r : kRateNames)
+    if (r.baud == baud) return r.name;
+  return std::nullopt;
+}
+
+bool supports_rate(const Model& m, std::uint32_t baud) {
+  const auto n = rate_name(baud);
+  return n && m.number(std::string(*n) + "_supp").value_or(0) != 0;
+}
+
+std::optional<std::uint32_t> max_tsdr(const Model& m, std::uint32_t baud) {
+  const auto n = rate_name(baud);
+  if (!n) return std::nullopt;
+  const auto v = m.number("MaxTsdr_" + std::string(*n));
+  if (!v || *v < 0 || *v > 0xFFFF) return std::nullopt;
+  return static_cast<std::uint32_t>(*v);
+}
+
 }  // namespace candp2::gsd

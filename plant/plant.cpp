@@ -6,6 +6,7 @@
 #include "gsd/gsd.hpp"
 #include "plant/master_line.hpp"
 #include "plant/slave_line.hpp"
+#include "plant/timed_line.hpp"
 #include "profibus_sim/fdl/dp_wire.hpp"
 
 namespace candp2::plant {
@@ -67,10 +68,23 @@ std::unique_ptr<Plant> Plant::build(const config::DaemonConfig& config, Options 
 
 bool Plant::build_parts(std::string* error) {
   const bool line = config_.profibus && !options_.ignore_profibus;
+  // docs/profibus.md "The line in time": on a timed line a lost station is parameterized again
+  // after retry_ms; on the ideal line at once, as it always was.
+  const bool timed = config_.line && !line;  // the in-process master's line
   master_ = std::make_unique<dp::DpMaster>(
       dp::MasterOptions{.address = config_.master_address,
-                        .retry_delay = milliseconds(config_.retry_ms)},
+                        .retry_delay = milliseconds(config_.retry_ms),
+                        .lost_waits_retry = timed,
+                        .parameterize_in_one_go = timed},
       log_sink_);
+  if (timed) {
+    timed_line_ = std::make_unique<TimedLine>(config_.line->baud, config_.line->params,
+                                              config_.master_address, now_, log_sink_);
+    if (options_.wire_image)
+      timed_line_->set_tap([this](std::span<const std::uint8_t> t, bool /*from_master*/, Time at) {
+        tap_in_process(t, at, config_.line->baud);
+      });
+  }
   for (const auto& bc : config_.buses)
     if (!add_bus(bc, error)) return false;
   if (line && config_.profibus->role == config::ProfibusRole::Master) {
@@ -209,7 +223,9 @@ bool Plant::add_slave(const config::SlaveConfig& cfg, std::string* error) {
   if (slave_line_)
     slave_line_->add(u->slave_->dp(), config::slave_parameters(cfg), cfg.name);
   else
-    add_in_process(u->slave_->dp(), config::slave_parameters(cfg), cfg.address);
+    add_in_process(
+        u->slave_->dp(), config::slave_parameters(cfg), cfg.address,
+        config_.line && cfg.model ? gsd::max_tsdr(*cfg.model, config_.line->baud) : std::nullopt);
   log_.info("slave " + cfg.name + ": DP address " + std::to_string(cfg.address) + ", " +
             gsd::to_utf8(u->slave_->profile().model) + ", " +
             std::to_string(u->slave_->input_length()) + " input and " +
@@ -218,7 +234,9 @@ bool Plant::add_slave(const config::SlaveConfig& cfg, std::string* error) {
   return true;
 }
 
-void Plant::add_in_process(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t address) {
+void Plant::add_in_process(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t address,
+                           std::optional<std::uint32_t> max_tsdr) {
+  if (timed_line_) return add_timed(slave, std::move(params), address, max_tsdr);
   if (!options_.wire_image) {
     master_->add_slave(slave, std::move(params));
     return;
@@ -226,14 +244,7 @@ void Plant::add_in_process(dp::DpSlave& slave, dp::SlaveParameters params, std::
   auto inner = std::make_unique<dp::InProcessLink>(slave);
   auto wire = std::make_unique<fdl::WireImageLink>(
       *inner, [this](std::span<const std::uint8_t> telegram, bool /*from_master*/, Time t) {
-        if (taps_.empty()) return;
-        // docs/decisions.md "pcapng captures": in-process both ends are emulated.
-        const DpRecord r{.time = t,
-                         .line = 0,
-                         .line_name = "in-process",
-                         .telegram = telegram,
-                         .from_emulation = true};
-        for (Tap* tap : taps_) tap->on_dp(r);
+        tap_in_process(telegram, t);
       });
   master_->add_slave(*wire, std::move(params));
   wire_links_[address] = wire.get();
@@ -241,7 +252,19 @@ void Plant::add_in_process(dp::DpSlave& slave, dp::SlaveParameters params, std::
   links_.push_back(std::move(wire));
 }
 
+void Plant::add_timed(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t /*address*/,
+                      std::optional<std::uint32_t> max_tsdr) {
+  // A master writes the line's min_TSDR into every Set_Prm (byte 3, IEC 61158-6-3); the station
+  // answers no earlier (docs/profibus.md "The line in time").
+  if (params.prm.size() > 3)
+    params.prm[3] = static_cast<std::uint8_t>(std::min(config_.line->params.min_tsdr_bits, 255u));
+  auto inner = std::make_unique<dp::InProcessLink>(slave);
+  master_->add_slave(timed_line_->add_station(*inner, slave, max_tsdr), std::move(params));
+  links_.push_back(std::move(inner));
+}
+
 void Plant::restarted(std::uint8_t address) {
+  if (timed_line_) timed_line_->restarted(address);
   if (const auto it = wire_links_.find(address); it != wire_links_.end())
     static_cast<fdl::WireImageLink*>(it->second)->reset();
 }
@@ -265,7 +288,9 @@ bool Plant::add_remote_stations(std::string* /*error*/) {
 // -------------------------------------------------------------------------------------- time
 
 std::optional<Time> Plant::next_deadline() const {
-  std::optional<Time> next = next_cycle_;
+  // A rotation still on the timed line holds the next cycle back: the line says when it ends.
+  std::optional<Time> next;
+  if (!timed_line_ || !timed_line_->rotating()) next = next_cycle_;
   auto earliest = [&](std::optional<Time> d) {
     if (d && (!next || *d < *next)) next = d;
   };
@@ -273,6 +298,7 @@ std::optional<Time> Plant::next_deadline() const {
   for (const auto& d : drives_) earliest(d->drive_->next_deadline());
   for (const auto& sl : slaves_) earliest(sl->slave_->next_deadline());
   if (master_line_) earliest(master_line_->next_deadline());
+  if (timed_line_) earliest(timed_line_->next_deadline());
   return next;
 }
 
@@ -293,13 +319,17 @@ void Plant::run_timers(Time now) {
     if (const auto t = sl->slave_->next_deadline(); t && *t <= now) sl->slave_->advance(now);
   if (master_line_)
     if (const auto t = master_line_->next_deadline(); t && *t <= now) master_line_->advance(now);
+  if (timed_line_)
+    if (const auto t = timed_line_->next_deadline(); t && *t <= now) timed_line_->advance(now);
 }
 
 void Plant::advance(Time now) {
   set_now(now);
   run_timers(now_);
   deliver(now_);
-  if (now_ >= next_cycle_) {
+  // docs/profibus.md "The line in time": a cycle starts when the line's last rotation has ended;
+  // when that is later than its grid point the cycles run back to back (missed grid points count).
+  if (now_ >= next_cycle_ && !(timed_line_ && timed_line_->rotating())) {
     run_cycle(now_);
     deliver(now_);
   }
@@ -325,7 +355,9 @@ void Plant::run_cycle(Time now) {
   if (master_cycles_) {
     cycle_stats_.record(due, now, missed);
     log_misses(due, now, missed);
+    if (timed_line_) timed_line_->begin_rotation(now);
     master_->cycle(now);
+    if (timed_line_) timed_line_->end_issue(now);
     ++cycles_;
     if (master_line_) master_line_->check_presence(*master_);
   }
@@ -431,6 +463,18 @@ void Plant::tap_line(std::span<const std::uint8_t> telegram, bool from_emulation
                    .telegram = telegram,
                    .from_emulation = from_emulation};
   for (Tap* t : taps_) t->on_dp(r);
+}
+
+void Plant::tap_in_process(std::span<const std::uint8_t> telegram, Time time, std::uint32_t baud) {
+  if (taps_.empty()) return;
+  // docs/decisions.md "pcapng captures": in-process both ends are emulated.
+  const DpRecord r{.time = time,
+                   .line = 0,
+                   .line_name = "in-process",
+                   .telegram = telegram,
+                   .from_emulation = true,
+                   .baud = baud};
+  for (Tap* tap : taps_) tap->on_dp(r);
 }
 
 void Plant::tap_note(std::string text, Time now) {

@@ -45,6 +45,7 @@ namespace candp2::plant {
 
 class MasterLine;
 class SlaveLine;
+class TimedLine;
 class Plant;
 
 // A gateway's stored wake-up and SYNC values (docs/dp-slave.md "User parameters": they survive a
@@ -260,6 +261,10 @@ class Plant {
   // profibus role slaves / role master: the line's stations; nullptr otherwise.
   SlaveLine* slave_line() { return slave_line_.get(); }
   MasterLine* master_line() { return master_line_.get(); }
+  // With $.master.baud: the in-process line in time (plant/timed_line.hpp), whose bus_cycle() is
+  // the measured bus cycle; nullptr on the ideal line.
+  TimedLine* timed_line() { return timed_line_.get(); }
+  const TimedLine* timed_line() const { return timed_line_.get(); }
   LogSink* log_sink() const { return log_sink_; }
 
  private:
@@ -272,7 +277,11 @@ class Plant {
   bool add_slave(const config::SlaveConfig& cfg, std::string* error);
   // The built-in master reaches an emulated station in-process (through its wire image when
   // Options::wire_image); `power cycled` stations start again with FDL_Status there.
-  void add_in_process(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t address);
+  // On a timed line `max_tsdr` is the station's MaxTsdr at the line's rate (its GSD).
+  void add_in_process(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t address,
+                      std::optional<std::uint32_t> max_tsdr = std::nullopt);
+  void add_timed(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t address,
+                 std::optional<std::uint32_t> max_tsdr);
   void restarted(std::uint8_t address);
   bool add_remote_stations(std::string* error);
   void run_timers(Time now);
@@ -282,6 +291,7 @@ class Plant {
   // The emulated gateway or drive whose endpoint is named `sender`, or SenderKind::Outside.
   std::pair<SenderKind, std::size_t> sender_of(std::string_view sender) const;
   void tap_note(std::string text, Time now);
+  void tap_in_process(std::span<const std::uint8_t> telegram, Time time, std::uint32_t baud = 0);
   void tap_line(std::span<const std::uint8_t> telegram, bool from_emulation, Time time);
   std::string station_name(std::uint8_t address);
 
@@ -297,6 +307,7 @@ class Plant {
   std::unique_ptr<dp::DpMaster> master_;
   std::unique_ptr<SlaveLine> slave_line_;
   std::unique_ptr<MasterLine> master_line_;
+  std::unique_ptr<TimedLine> timed_line_;
   std::vector<std::unique_ptr<dp::SlaveLink>> links_;  // the master's in-process links
   std::map<std::uint8_t, dp::SlaveLink*> wire_links_;  // fdl::WireImageLink by DP address
   std::vector<Tap*> taps_;

@@ -52,6 +52,9 @@ struct DpRecord {
   // role slaves), or the built-in master's request on a line in role master (there the emulated
   // side is the master). In-process, the master's requests count as received by the gateway.
   bool from_emulation = false;
+  // The line's baud rate, when it is a line in time (docs/profibus.md "The line in time"): the
+  // time is then when the telegram's first character starts on the wire. 0: not stated.
+  std::uint32_t baud = 0;
 };
 
 // Something the operator or a test did to the plant (docs/faults.md): "gateway g1: CAN

@@ -261,6 +261,59 @@ std::string explain_diagnosis(const GatewayReport& g) {
   return state + ": the gateway accepts the parameters and the configuration";
 }
 
+namespace {
+
+// docs/validate.md "The line": the predicted bus cycle and the line's problems (timed lines only).
+void format_line(std::ostringstream& os, const LineReport& l) {
+  const auto& p = l.params;
+  os << "\nline: " << *l.baud << " bit/s, predicted bus cycle " << l.cycle.mean.count() << " us ("
+     << l.cycle.bits << " bit times; " << l.cycle.worst.count()
+     << " us with a GAP request), cycle_ms " << l.cycle_ms << "\n";
+  os << "  bus parameters: slot_time " << p.slot_time_bits << ", min_tsdr " << p.min_tsdr_bits
+     << ", max_tsdr " << p.max_tsdr_bits << ", tset " << p.tset_bits << ", tqui " << p.tqui_bits
+     << ", gap_factor " << p.gap_factor << ", hsa " << p.hsa << ", retry_limit " << p.retry_limit
+     << ", ttr " << p.ttr_bits << "\n";
+  os << "  problems:";
+  if (l.problems.empty()) os << " none";
+  os << "\n";
+  for (const auto& x : l.problems)
+    os << "    " << (x.error ? "error: " : "") << x.json_path << ": " << x.message << "\n";
+}
+
+json line_json(const LineReport& l) {
+  json o;
+  o["ideal"] = !l.baud;
+  if (!l.baud) {
+    o["baud"] = nullptr;
+    o["bus_cycle_us"] = nullptr;
+    return o;
+  }
+  const auto& p = l.params;
+  o["baud"] = *l.baud;
+  o["bus_cycle_us"] = l.cycle.mean.count();
+  o["bus_cycle_bits"] = l.cycle.bits;
+  o["bus_cycle_gap_us"] = l.cycle.worst.count();
+  o["cycle_ms"] = l.cycle_ms;
+  o["bus_parameters"] = {{"slot_time_bits", p.slot_time_bits},
+                         {"min_tsdr_bits", p.min_tsdr_bits},
+                         {"max_tsdr_bits", p.max_tsdr_bits},
+                         {"tset_bits", p.tset_bits},
+                         {"tqui_bits", p.tqui_bits},
+                         {"gap_factor", p.gap_factor},
+                         {"hsa", p.hsa},
+                         {"retry_limit", p.retry_limit},
+                         {"ttr_bits", p.ttr_bits}};
+  json problems = json::array();
+  for (const auto& x : l.problems)
+    problems.push_back({{"severity", x.error ? "error" : "warning"},
+                        {"json_path", x.json_path},
+                        {"message", x.message}});
+  o["problems"] = problems;
+  return o;
+}
+
+}  // namespace
+
 std::string format_text(const Report& r) {
   std::ostringstream os;
   os << "candp2 validate " << r.file << "\n";
@@ -300,10 +353,12 @@ std::string format_text(const Report& r) {
     if (!s.valid()) ++invalid;
     format_slave(os, s);
   }
+  if (r.line.baud) format_line(os, r.line);
   os << "\n";
   // "1 gateway" or, with generic slaves, "1 gateway, 2 slaves".
   std::string stations = plural(r.gateways.size(), "gateway");
   if (!r.slaves.empty()) stations += ", " + plural(r.slaves.size(), "slave");
+  if (!r.line.valid()) ++invalid;
   if (invalid == 0)
     os << "result: valid (" << stations << ", " << plural(r.warning_count(), "warning") << ")\n";
   else
@@ -379,6 +434,7 @@ json to_json(const Report& r, int exit_code) {
     for (const auto& s : r.slaves) slaves.push_back(slave_json(s));
     j["slaves"] = slaves;
   }
+  j["line"] = line_json(r.line);
   return j;
 }
 

@@ -226,14 +226,14 @@ bool Report::valid() const {
     if (!g.valid()) return false;
   for (const auto& s : slaves)
     if (!s.valid()) return false;
-  return true;
+  return line.valid();
 }
 
 std::size_t Report::warning_count() const {
   std::size_t n = 0;
   for (const auto& g : gateways) n += g.warnings.size();
   for (const auto& s : slaves) n += s.warnings.size();
-  return n;
+  return n + line.warnings();
 }
 
 int exit_code(const Report& r, bool strict) {

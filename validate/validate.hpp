@@ -19,6 +19,7 @@
 #include "gateway/user_prm.hpp"
 #include "profibus_sim/dp/dp_slave.hpp"
 #include "profibus_sim/master/dp_master.hpp"
+#include "validate/line.hpp"
 #include "validate/slaves.hpp"
 #include "validate/warning.hpp"
 
@@ -86,6 +87,7 @@ struct Report {
   std::string gsd_name;  // "esd CAN-DP/2, Ident_Number 0x04A4"
   std::vector<GatewayReport> gateways;
   std::vector<SlaveReport> slaves;  // generic DP-V0 slaves (validate/slaves.hpp)
+  LineReport line;                  // the line in time (validate/line.hpp); no baud: ideal
 
   bool valid() const;
   std::size_t warning_count() const;

@@ -150,7 +150,7 @@ void DpMaster::set_diag(Entry& e, std::vector<std::uint8_t> d) {
   e.diag_bytes = std::move(d);
 }
 
-void DpMaster::lost(Entry& e, std::string_view what) {
+void DpMaster::lost(Entry& e, Time now, std::string_view what) {
   // What a real master's diagnosis shows for a station that does not answer: Station_Non_Existent
   // (manual table 3.4.3, diag byte 0 bit 0, set by the master), no master address.
   std::vector<std::uint8_t> d(kDiagStdLen, 0);
@@ -163,6 +163,11 @@ void DpMaster::lost(Entry& e, std::string_view what) {
               ": station lost");
   }
   set_diag(e, std::move(d));
+  if (options_.lost_waits_retry) {
+    e.retry_at = now + options_.retry_delay;
+    e.diag_due = false;
+    return go(e, MasterSlaveState::Retry, "no response to " + std::string(what));
+  }
   go(e, MasterSlaveState::Init, "no response to " + std::string(what));
 }
 
@@ -183,9 +188,9 @@ void DpMaster::fault(Entry& e, Time now, std::string_view why) {
   go(e, MasterSlaveState::Retry, why);
 }
 
-bool DpMaster::answered(Entry& e, const Response& r, Time /*now*/, std::string_view what) {
+bool DpMaster::answered(Entry& e, const Response& r, Time now, std::string_view what) {
   if (r.status != Response::Status::NoResponse) return true;
-  lost(e, what);
+  lost(e, now, what);
   return false;
 }
 
@@ -221,6 +226,7 @@ void DpMaster::on_init(Entry& e, Time now) {
 void DpMaster::init_answered(Entry& e, const Response& r, Time now) {
   if (!take_diag(e, r, now)) return;
   go(e, MasterSlaveState::SetPrm, "slave answers");
+  if (options_.parameterize_in_one_go) on_set_prm(e, now);
 }
 
 void DpMaster::on_set_prm(Entry& e, Time now) {
@@ -232,6 +238,7 @@ void DpMaster::set_prm_answered(Entry& e, const Response& r, Time now) {
   if (!answered(e, r, now, to_string(Service::SetPrm))) return;
   if (r.status != Response::Status::Ok) return fault(e, now, "Set_Prm refused");
   go(e, MasterSlaveState::ChkCfg, "Set_Prm sent");
+  if (options_.parameterize_in_one_go) on_chk_cfg(e, now);
 }
 
 void DpMaster::on_chk_cfg(Entry& e, Time now) {
@@ -242,6 +249,7 @@ void DpMaster::chk_cfg_answered(Entry& e, const Response& r, Time now) {
   if (!answered(e, r, now, to_string(Service::ChkCfg))) return;
   if (r.status != Response::Status::Ok) return fault(e, now, "Chk_Cfg refused");
   go(e, MasterSlaveState::CheckDiag, "Chk_Cfg sent");
+  if (options_.parameterize_in_one_go) on_check_diag(e, now);
 }
 
 namespace {

@@ -92,6 +92,14 @@ std::string_view to_string(MasterSlaveState s);
 struct MasterOptions {
   std::uint8_t address = 1;
   Duration retry_delay = milliseconds(1000);  // between parameterization attempts after a fault
+  // A lost station (no answer) is parameterized again after retry_delay too (a line in time,
+  // docs/profibus.md "The line in time"); false: from the next cycle on (the ideal line).
+  bool lost_waits_retry = false;
+  // Slave_Diag → Set_Prm → Chk_Cfg → Slave_Diag → Data_Exchange one after the other, each as soon
+  // as the last one was answered (a line in time: a parameterization spread over several slow
+  // rotations would let a short watchdog expire between Set_Prm and Chk_Cfg); false: one step a
+  // cycle (the ideal line).
+  bool parameterize_in_one_go = false;
 };
 
 class DpMaster {
@@ -188,7 +196,7 @@ class DpMaster {
   void go(Entry& e, MasterSlaveState next, std::string_view why);
   void set_diag(Entry& e, std::vector<std::uint8_t> d);
   void fault(Entry& e, Time now, std::string_view why);
-  void lost(Entry& e, std::string_view what);
+  void lost(Entry& e, Time now, std::string_view what);
   void invalid(Entry& e, Time now, std::string_view why);
 
   MasterOptions options_;

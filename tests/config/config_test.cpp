@@ -714,3 +714,51 @@ TEST(ConfigProfibusErrors, TimingRangesAndUnknownKeys) {
 
 }  // namespace
 }  // namespace candp2::config
+
+// ------------------------------------------------------------------- the line in time
+
+namespace candp2::config {
+namespace {
+
+// docs/profibus.md "The line in time", docs/configuration.md "master".
+TEST(ConfigLine, BaudAndBusParameters) {
+  EXPECT_FALSE(ok(base()).line);  // no baud: the ideal line
+  json j = base();
+  j["master"]["baud"] = 1500000;
+  auto c = ok(j);
+  ASSERT_TRUE(c.line);
+  EXPECT_EQ(c.line->baud, 1500000u);
+  EXPECT_EQ(c.line->params, *fdl::default_bus_parameters(1500000));
+  j["master"]["bus_parameters"] = {{"slot_time_bits", 400}, {"retry_limit", 3}};
+  c = ok(j);
+  EXPECT_EQ(c.line->params.slot_time_bits, 400u);
+  EXPECT_EQ(c.line->params.retry_limit, 3u);
+  EXPECT_EQ(c.line->params.max_tsdr_bits, 150u);  // the rest: the rate's defaults
+}
+
+TEST(ConfigLine, ErrorsNameTheFileAndPath) {
+  json j = base();
+  j["master"]["baud"] = 115200;
+  auto e = bad(j);
+  EXPECT_EQ(e.json_path, "$.master.baud");
+  EXPECT_NE(e.message.find("9600, 19200, 45450"), std::string::npos) << e.message;
+  j["master"]["baud"] = 12000000;
+  j["master"]["bus_parameters"] = {{"slot_time_bits", 814}};  // max_TSDR 800 + 15 > 814
+  e = bad(j);
+  EXPECT_EQ(e.file, "test.json");
+  EXPECT_EQ(e.json_path, "$.master.bus_parameters.slot_time_bits");
+  j["master"]["bus_parameters"] = {{"tset_bits", 400}};  // 35 + 800 > max_TSDR 800 (a default)
+  e = bad(j);
+  EXPECT_EQ(e.json_path, "$.master.bus_parameters");  // the broken rule's key was not given
+  EXPECT_NE(e.message.find("max_TSDR 800"), std::string::npos) << e.message;
+  j["master"]["bus_parameters"] = {{"gap_factor", 0}};
+  EXPECT_EQ(bad(j).json_path, "$.master.bus_parameters.gap_factor");
+  j["master"]["bus_parameters"] = {{"slot", 1}};
+  EXPECT_EQ(bad(j).json_path, "$.master.bus_parameters.slot");
+  j = base();
+  j["master"]["bus_parameters"] = {{"retry_limit", 2}};  // no baud: no line to set up
+  EXPECT_EQ(bad(j).json_path, "$.master.bus_parameters");
+}
+
+}  // namespace
+}  // namespace candp2::config

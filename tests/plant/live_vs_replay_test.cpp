@@ -68,9 +68,11 @@ std::vector<std::string> frames_of_log(const fs::path& file) {
   return out;
 }
 
-TEST(OnePlant, LiveAndReplayGiveTheSameFramesInTheSameOrder) {
+// `baud`: the demo on a line in time (docs/profibus.md "The line in time"); none: the ideal line.
+void live_and_replay(std::optional<std::uint32_t> baud) {
   const fs::path dir =
-      fs::temp_directory_path() / ("candp2-one-plant-" + std::to_string(::getpid()));
+      fs::temp_directory_path() /
+      ("candp2-one-plant-" + std::to_string(::getpid()) + "-" + std::to_string(baud.value_or(0)));
   fs::create_directories(dir);
   // The demo configuration with free ports and a CAN log.
   std::ifstream demo(std::string(CANDP2_SOURCE_DIR) + "/config/demo.json");
@@ -79,6 +81,7 @@ TEST(OnePlant, LiveAndReplayGiveTheSameFramesInTheSameOrder) {
   j.erase("http");
   j["buses"]["can0"]["socketcand"] = "127.0.0.1:0";
   j["log"]["can_log"] = (dir / "can.log").string();
+  if (baud) j["master"]["baud"] = *baud;
   std::ofstream(dir / "line.json") << j.dump(2);
 
   // Live: candp2d on its event loop, a Modbus client as the PLC.
@@ -141,6 +144,14 @@ TEST(OnePlant, LiveAndReplayGiveTheSameFramesInTheSameOrder) {
   EXPECT_GE(live.size(), kWrites.size() + 2);  // the release frames, the writes, the answers
   EXPECT_EQ(live, replayed);
   fs::remove_all(dir);
+}
+
+TEST(OnePlant, LiveAndReplayGiveTheSameFramesInTheSameOrder) {
+  live_and_replay(std::nullopt);
+}
+
+TEST(OnePlant, LiveAndReplayAgreeOnALineInTime) {
+  live_and_replay(187500);
 }
 
 }  // namespace

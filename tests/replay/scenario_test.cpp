@@ -328,6 +328,23 @@ TEST(ReplayRun, EveryExampleScenarioPasses) {
   EXPECT_GE(n, 2u);
 }
 
+// docs/profibus.md "The line in time": the watchdog expiry at 9.6 kbit/s happens on the line in
+// time only; the same scenario on the ideal line (master.baud removed) fails.
+TEST(ReplayRun, WatchdogScenarioNeedsTheLineInTime) {
+  auto loaded =
+      load_scenario(std::string(CANDP2_SOURCE_DIR) + "/config/scenarios/line-watchdog-9600.json");
+  ASSERT_TRUE(std::holds_alternative<Scenario>(loaded))
+      << std::get<config::ConfigError>(loaded).to_string();
+  const auto& timed = std::get<Scenario>(loaded);
+  ASSERT_TRUE(timed.installation.line);
+  const auto r = run(timed);
+  EXPECT_TRUE(r.passed()) << format_report(timed, r);
+  Scenario ideal = timed;
+  ideal.installation.line.reset();
+  const auto i = run(ideal);
+  EXPECT_FALSE(i.passed()) << format_report(ideal, i);
+}
+
 TEST(ReplayRun, JunitEscapesAndUnreadableScenario) {
   const auto e = format_junit_error("a<b>.json", {"a<b>.json", "$.x", "bad \"thing\" & more"});
   EXPECT_NE(e.find(R"(errors="1")"), std::string::npos);

@@ -6,6 +6,7 @@
 //   demo_capture OUT.pcapng                 the walk-through: enable axis1 (Q 0..4 = 51 00 00 ..),
 //                                           read its speed every 100 ms (3D A8 64), 30 % speed
 //                                           (31 66 26), ~5 s
+//   demo_capture OUT.pcapng --baud RATE     the walk-through on a line in time at RATE bit/s
 //   demo_capture OUT.pcapng --frames N      then more of the same, with re-parameterizations,
 //                                           power cycles, forced CAN controller states and two
 //                                           faulty gateways (a Prm and a Cfg fault), until the
@@ -125,14 +126,17 @@ bool more(plant::Plant& p, capture::PcapngTap& tap, std::uint64_t frames) {
 }
 
 int run(int argc, char** argv) {
-  if (argc != 2 && !(argc == 4 && std::string(argv[2]) == "--frames")) {
-    std::fprintf(stderr, "usage: demo_capture OUT.pcapng [--frames N]\n");
+  const std::string option = argc == 4 ? argv[2] : "";
+  if (argc != 2 && !(argc == 4 && (option == "--frames" || option == "--baud"))) {
+    std::fprintf(stderr, "usage: demo_capture OUT.pcapng [--frames N | --baud RATE]\n");
     return 1;
   }
-  const bool long_run = argc == 4;
+  const bool long_run = option == "--frames";
   std::ifstream demo(CANDP2_SOURCE_DIR "/config/demo.json");
   auto json = nlohmann::json::parse(demo);
   if (long_run) add_faulty_gateways(json);
+  // docs/profibus.md "The line in time": the walk-through on a line with a baud rate.
+  if (option == "--baud") json["master"]["baud"] = std::strtoul(argv[3], nullptr, 10);
   const auto loaded = config::parse_daemon(json.dump(), "demo.json");
   if (const auto* e = std::get_if<config::ConfigError>(&loaded)) {
     std::fprintf(stderr, "%s\n", e->to_string().c_str());

@@ -14,6 +14,8 @@ own code writes (docs/capture.md "Tests"). One case per run:
               the README's walk-through: the same timeline as the demo case, from the daemon
   daemon-slaves candp2d in profibus role slaves on a pty with a capture; a master writes the
               spec's telegrams: Set_Prm ident 04A4 and the Chk_Cfg slots decoded, both directions
+  timed-line  demo_capture --baud 187500 (docs/profibus.md "The line in time"): telegrams never
+              overlap, TSYN before every request, min_TSDR before every answer
 
 Every tshark run is bounded (timeout) and checks that the Lua script loaded without an error.
 """
@@ -143,6 +145,42 @@ def check_demo(cap, notes, changed, least):
     for f in filters:
         if count(cap, f) == 0:
             fail(f"display filter {f!r} matches nothing")
+
+
+def case_timed_line(tmp):
+    """docs/profibus.md "The line in time": the demo walk-through on a 187.5 kbit/s line. Each
+    telegram is stamped with its first character: consecutive telegrams never overlap, the idle
+    before a request or token is at least TSYN (33 bit times), an answer starts no earlier than
+    min_TSDR (11 bit times) after its request's last character."""
+    baud = 187500
+    cap = os.path.join(tmp, "timed.pcapng")
+    run([ARGS.demo_capture, cap, "--baud", str(baud)])
+    rows = fields(cap, ["frame.time_epoch", "fdl.sd", "fdl.le", "fdl.fc.req"], "fdl")
+    if len(rows) < 200:
+        fail(f"only {len(rows)} telegrams")
+    chars = {"0x10": lambda r: 6, "0x68": lambda r: int(r["fdl.le"]) + 6, "0xa2": lambda r: 14,
+             "0xdc": lambda r: 3, "0xe5": lambda r: 1}
+    bit = 1.0 / baud
+    slack = 1e-6  # stamps are whole microseconds, rounded up from the bit
+    prev_end, prev_request = None, None
+    tokens = 0
+    for r in rows:
+        t = float(r["frame.time_epoch"])
+        length = chars[r["fdl.sd"]](r) * 11 * bit
+        request = r["fdl.sd"] == "0xdc" or r["fdl.fc.req"] in ("1", "True")
+        tokens += r["fdl.sd"] == "0xdc"
+        if prev_end is not None:
+            idle = t - prev_end
+            if idle < -slack:
+                fail(f"telegram at {t:.6f} overlaps the one before (ends {prev_end:.6f})")
+            if request and idle < 33 * bit - slack:
+                fail(f"request at {t:.6f}: idle {idle * 1e6:.1f} us < TSYN")
+            if not request and prev_request and idle < 11 * bit - slack:
+                fail(f"answer at {t:.6f}: {idle * 1e6:.1f} us after its request < min_TSDR")
+        prev_end, prev_request = t + length, request
+    if tokens == 0:
+        fail("no token (SD4) on the line")
+    print(f"timed-line: {len(rows)} telegrams, {tokens} tokens, no overlap, TSYN and min_TSDR kept")
 
 
 PI_ERROR = 0x00800000  # Wireshark's expert severity "error" (epan/proto.h PI_ERROR)
@@ -339,7 +377,7 @@ def main():
     global ARGS
     ap = argparse.ArgumentParser()
     ap.add_argument("case", choices=["demo", "malformed", "sniff-file", "sniff-pty",
-                                     "daemon-demo", "daemon-slaves"])
+                                     "daemon-demo", "daemon-slaves", "timed-line"])
     ap.add_argument("--candp2d")
     ap.add_argument("--tshark", default="tshark")
     ap.add_argument("--lua", required=True)
@@ -350,7 +388,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         {"demo": case_demo, "malformed": case_malformed, "sniff-file": case_sniff_file,
          "sniff-pty": case_sniff_pty, "daemon-demo": case_daemon_demo,
-         "daemon-slaves": case_daemon_slaves}[ARGS.case](tmp)
+         "daemon-slaves": case_daemon_slaves, "timed-line": case_timed_line}[ARGS.case](tmp)
     print(ARGS.case + ": ok")
     return 0
 

@@ -58,6 +58,32 @@ std::string device_name(const gsd::Model& m) {
          ident;
 }
 
+// docs/validate.md "The line": the stations as the line sees them (a gateway's GSD is --gsd, when
+// given; a generic slave's its own).
+validate::LineInput line_input(const config::DaemonConfig& cfg, const gsd::Model* gateway_gsd,
+                               const std::string& gateway_gsd_name) {
+  validate::LineInput in;
+  in.baud = cfg.line->baud;
+  in.baud_path = cfg.line->json_path;
+  in.params = cfg.line->params;
+  in.master_address = cfg.master_address;
+  in.cycle_ms = cfg.cycle_ms;
+  auto add = [&](const std::string& name, const std::string& path, std::uint8_t address,
+                 const dp::SlaveParameters& params, std::uint32_t watchdog_ms,
+                 const gsd::Model* model, const std::string& gsd_name) {
+    const dp::ImageMap map = dp::map_image(params);
+    in.stations.push_back(
+        {name, path, address, map.out_len, map.in_len, watchdog_ms, model, "the GSD " + gsd_name});
+  };
+  for (const auto& g : cfg.gateways)
+    add(g.name, g.json_path, g.dp_address(), config::slave_parameters(g), g.watchdog_ms,
+        gateway_gsd, gateway_gsd_name);
+  for (const auto& s : cfg.slaves)
+    add(s.name, s.json_path, s.address, config::slave_parameters(s), s.watchdog_ms, s.model.get(),
+        s.gsd);
+  return in;
+}
+
 int run_validate(const ValidateArgs& a) {
   auto loaded = config::load_daemon(a.config);
   if (const auto* e = std::get_if<config::ConfigError>(&loaded))
@@ -140,6 +166,9 @@ int run_validate(const ValidateArgs& a) {
     report.slaves.push_back(validate::check_slave(std::move(in)));
   }
   validate::check_slave_overlaps(report.gateways, report.slaves);
+  if (cfg.line)
+    report.line =
+        validate::check_line(line_input(cfg, gsd_file ? &gsd_file->model : nullptr, a.gsd));
 
   const int rc = validate::exit_code(report, a.strict);
   if (a.json)

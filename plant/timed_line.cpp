@@ -1,0 +1,326 @@
+// The in-process PROFIBUS line in time (docs/profibus.md "The line in time").
+#include "plant/timed_line.hpp"
+
+#include <algorithm>
+
+namespace candp2::plant {
+
+using fdl::kBitsPerChar;
+
+class TimedLine::Station final : public dp::SlaveLink {
+ public:
+  Station(TimedLine& line, dp::SlaveLink& inner, const dp::DpSlave& slave,
+          std::optional<std::uint32_t> max_tsdr)
+      : line_(line), inner_(inner), slave_(slave), max_tsdr_(max_tsdr) {}
+  TimedLine& line_;
+  std::uint8_t address() const override { return inner_.address(); }
+  void request(dp::Request req, Time now, dp::Completion done) override {
+    line_.enqueue(Job{this, std::move(req), std::move(done)}, now);
+  }
+  std::uint32_t tsdr() const {
+    const std::uint32_t t = std::max<std::uint32_t>(min_tsdr_, 11);
+    return max_tsdr_ ? std::min(t, *max_tsdr_) : t;
+  }
+
+  dp::SlaveLink& inner_;
+  const dp::DpSlave& slave_;
+  std::optional<std::uint32_t> max_tsdr_;
+  std::uint32_t min_tsdr_ = 11;  // IEC 61158-6-3: 11 bit times until Set_Prm sets another
+  bool known_ = false;           // FDL_Status answered since the start or the last loss
+  fdl::FcbSequence seq_;
+};
+
+TimedLine::TimedLine(std::uint32_t baud, fdl::BusParameters params, std::uint8_t master,
+                     Time origin, LogSink* log)
+    : baud_(baud),
+      params_(params),
+      master_(master),
+      origin_(origin),
+      log_(log, "line"),
+      gap_next_(static_cast<std::uint8_t>(master + 1)) {}
+
+TimedLine::~TimedLine() = default;
+
+dp::SlaveLink& TimedLine::add_station(dp::SlaveLink& inner, const dp::DpSlave& slave,
+                                      std::optional<std::uint32_t> max_tsdr_bits) {
+  auto s = std::make_unique<Station>(*this, inner, slave, max_tsdr_bits);
+  Station& ref = *s;
+  stations_[inner.address()] = std::move(s);
+  return ref;
+}
+
+void TimedLine::restarted(std::uint8_t address) {
+  if (const auto it = stations_.find(address); it != stations_.end()) {
+    it->second->known_ = false;
+    it->second->min_tsdr_ = 11;
+  }
+}
+
+std::uint32_t TimedLine::tsdr_bits(std::uint8_t address) const {
+  const auto it = stations_.find(address);
+  return it == stations_.end() ? 11 : it->second->tsdr();
+}
+
+std::uint64_t TimedLine::start_bit(Time t) const {
+  if (t <= time_of(free_bit_)) return free_bit_;
+  return fdl::time_to_bits(baud_, t - origin_);
+}
+
+// ---------------------------------------------------------------------------------- rotation
+
+void TimedLine::begin_rotation(Time /*now*/) {
+  rotating_ = true;
+  token_sent_ = false;
+  rotation_start_.reset();
+  holding_ = true;
+  sorted_from_ = queue_.size();
+}
+
+void TimedLine::end_issue(Time now) {
+  holding_ = false;
+  // docs/profibus.md "The line in time": the master polls its stations in address order.
+  std::stable_sort(
+      queue_.begin() + static_cast<std::ptrdiff_t>(sorted_from_), queue_.end(),
+      [](const Job& a, const Job& b) { return a.station->address() < b.station->address(); });
+  if (phase_ == Phase::Idle) start_next(start_bit(now));
+  advance(now);  // a request that starts now shows on the tap now
+}
+
+void TimedLine::enqueue(Job job, Time now) {
+  queue_.push_back(std::move(job));
+  if (holding_ || phase_ != Phase::Idle) return;
+  start_next(start_bit(now));
+  advance(now);
+}
+
+std::optional<std::uint8_t> TimedLine::next_gap_address() {
+  // The GAP: the addresses above the master's own up to HSA that are not in the ring.
+  const unsigned first = master_ + 1u, hsa = std::min<unsigned>(params_.hsa, 126);
+  if (first > hsa) return std::nullopt;
+  const unsigned span = hsa - first + 1;
+  for (unsigned i = 0; i < span; ++i) {
+    unsigned a = gap_next_ < first || gap_next_ > hsa ? first : gap_next_;
+    a = first + (a - first + i) % span;
+    if (stations_.count(static_cast<std::uint8_t>(a))) continue;
+    gap_next_ = static_cast<std::uint8_t>(a + 1);
+    return static_cast<std::uint8_t>(a);
+  }
+  return std::nullopt;
+}
+
+void TimedLine::start_next(std::uint64_t at_bit) {
+  if (phase_ != Phase::Idle) return;
+  if (!queue_.empty()) {
+    OnLine o;
+    o.job = std::move(queue_.front());
+    queue_.pop_front();
+    if (sorted_from_ > 0) --sorted_from_;
+    o.fdl_status = !o.job->station->known_;
+    return put_request(std::move(o), at_bit);
+  }
+  if (!rotating_ || token_sent_) return;
+  OnLine o;
+  // Every gap_factor rotations one FDL_Status into the GAP (docs/profibus.md), then the token.
+  const std::uint32_t g = std::max<std::uint32_t>(params_.gap_factor, 1);
+  if (!gap_done_ && rotations_ % g == g - 1) {
+    gap_done_ = true;
+    if (const auto a = next_gap_address()) {
+      ++gap_polls_;
+      o.telegram = fdl::fdl_status_request(*a, master_);
+      return put_request(std::move(o), at_bit);
+    }
+  }
+  token_sent_ = true;
+  o.telegram = fdl::Telegram::token(master_, master_);
+  put_request(std::move(o), at_bit);
+}
+
+void TimedLine::put_request(OnLine o, std::uint64_t at_bit) {
+  if (o.job) {
+    Station& s = *o.job->station;
+    o.telegram = o.fdl_status ? fdl::fdl_status_request(s.address(), master_)
+                              : fdl::dp_request(o.job->request, s.address(), master_, s.seq_);
+  }
+  o.request = fdl::encode(o.telegram);
+  const std::uint64_t start = std::max(at_bit, free_bit_);
+  if (rotating_ && !rotation_start_) rotation_start_ = start;
+  request_start_ = start;
+  request_end_ = start + kBitsPerChar * o.request.size();
+  event_bit_ = start;
+  current_ = std::move(o);
+  phase_ = Phase::Sync;
+}
+
+void TimedLine::on_request_start() {
+  // Its first character: the tap sees it now, stamped with this bit (docs/capture.md).
+  emit(current_->request, true, request_start_, request_end_);
+  phase_ = Phase::Request;
+  event_bit_ = request_end_;
+}
+
+void TimedLine::on_response_start() {
+  phase_ = Phase::Response;
+  event_bit_ = response_start_ + kBitsPerChar * current_->response.size();
+  emit(current_->response, false, response_start_, event_bit_);
+}
+
+// ------------------------------------------------------------------------------------ events
+
+std::optional<Time> TimedLine::next_deadline() const {
+  if (phase_ == Phase::Idle) return std::nullopt;
+  return time_of(event_bit_);
+}
+
+void TimedLine::advance(Time now) {
+  while (phase_ != Phase::Idle && time_of(event_bit_) <= now) {
+    holding_ = true;
+    switch (phase_) {
+      case Phase::Sync:
+        on_request_start();
+        break;
+      case Phase::Request:
+        on_request_end();
+        break;
+      case Phase::Tsdr:
+        on_response_start();
+        break;
+      case Phase::Response:
+        on_response_end();
+        break;
+      case Phase::SlotTime:
+        on_slot_expired();
+        break;
+      case Phase::Unanswered:
+        on_unanswered_end();
+        break;
+      case Phase::Idle:
+        break;
+    }
+    holding_ = false;
+    if (phase_ == Phase::Idle) start_next(event_bit_);
+  }
+}
+
+void TimedLine::emit(std::span<const std::uint8_t> bytes, bool from_master, std::uint64_t start,
+                     std::uint64_t end) {
+  if (record_)
+    recorded_.push_back(
+        {start, end, from_master, std::vector<std::uint8_t>(bytes.begin(), bytes.end())});
+  if (tap_) tap_(bytes, from_master, time_of(start));
+}
+
+void TimedLine::on_request_end() {
+  OnLine& o = *current_;
+  const std::uint64_t end = event_bit_;
+  if (!o.job) {
+    if (o.telegram.kind == fdl::Kind::SD4) {  // the token: nobody answers; TID2
+      phase_ = Phase::Unanswered;
+      event_bit_ = end + fdl::tid2_bits(params_);
+    } else {  // FDL_Status into the GAP: nobody there; the slot time runs out
+      phase_ = Phase::SlotTime;
+      event_bit_ = end + params_.slot_time_bits;
+    }
+    return;
+  }
+  Station& s = *o.job->station;
+  std::optional<fdl::Telegram> answer;
+  if (o.fdl_status) {
+    if (!s.slave_.offline()) answer = fdl::short_answer(o.telegram, fdl::kFcOk);
+  } else {
+    const dp::Service service = o.job->request.service;
+    if (service == dp::Service::SetPrm && o.job->request.data.size() > 3 &&
+        o.job->request.data[3] != 0)
+      s.min_tsdr_ = o.job->request.data[3];  // min_TSDR, Set_Prm byte 3 (IEC 61158-6-3)
+    // The station gets the request now: its last character has arrived.
+    std::optional<dp::Response> r;
+    s.inner_.request(o.job->request, time_of(end),
+                     [&r](const dp::Response& resp, Time /*at*/) { r = resp; });
+    o.answer = r.value_or(dp::Response{});
+    answer = fdl::dp_answer(o.telegram, service, *o.answer);
+    if (service == dp::Service::GlobalControl) {  // SDN: no answer; TID2
+      phase_ = Phase::Unanswered;
+      event_bit_ = end + fdl::tid2_bits(params_);
+      return;
+    }
+  }
+  if (!answer) {
+    phase_ = Phase::SlotTime;
+    event_bit_ = end + params_.slot_time_bits;
+    return;
+  }
+  o.response = fdl::encode(*answer);
+  response_start_ = end + s.tsdr();
+  event_bit_ = response_start_;
+  phase_ = Phase::Tsdr;
+}
+
+void TimedLine::on_response_end() {
+  OnLine o = std::move(*current_);
+  current_.reset();
+  phase_ = Phase::Idle;
+  free_bit_ = event_bit_ + fdl::tid1_bits(params_);
+  Station& s = *o.job->station;
+  if (o.fdl_status) {
+    // Known now: the DP request follows after TID1, its FCB sequence starts afresh.
+    s.known_ = true;
+    s.seq_.restart();
+    o.fdl_status = false;
+    o.attempt = 0;
+    return put_request(std::move(o), free_bit_);
+  }
+  s.seq_.advance();
+  o.job->done(*o.answer, time_of(event_bit_));
+}
+
+void TimedLine::on_slot_expired() {
+  OnLine& o = *current_;
+  free_bit_ = event_bit_;  // the line has been idle for the slot time (> TSYN)
+  if (!o.job) {            // the GAP: nobody answered; the token follows
+    current_.reset();
+    phase_ = Phase::Idle;
+    return;
+  }
+  if (o.attempt < params_.retry_limit) {
+    ++o.attempt;
+    ++retries_;
+    OnLine again = std::move(o);
+    current_.reset();
+    phase_ = Phase::Idle;
+    return put_request(std::move(again), free_bit_);
+  }
+  // Retries exhausted: the station is lost; FDL_Status again before its next request.
+  OnLine lost = std::move(o);
+  current_.reset();
+  phase_ = Phase::Idle;
+  lost.job->station->known_ = false;
+  if (log_.enabled(LogLevel::Debug))
+    log_.debug("station " + std::to_string(lost.job->station->address()) +
+               ": no answer within the slot time after " + std::to_string(params_.retry_limit) +
+               " retries");
+  lost.job->done(dp::Response{}, time_of(free_bit_));
+}
+
+void TimedLine::on_unanswered_end() {
+  OnLine o = std::move(*current_);
+  current_.reset();
+  phase_ = Phase::Idle;
+  free_bit_ = event_bit_;
+  if (o.job) {  // Global_Control: done when the idle after it has passed
+    o.job->done(*o.answer, time_of(event_bit_));
+    return;
+  }
+  // The token: the rotation ends with its TID2.
+  rotating_ = false;
+  gap_done_ = false;
+  ++rotations_;
+  if (rotation_start_) {
+    const Duration d = fdl::bits_to_time(baud_, event_bit_ - *rotation_start_);
+    cycles_.last = d;
+    cycles_.min = cycles_.count ? std::min(cycles_.min, d) : d;
+    cycles_.max = std::max(cycles_.max, d);
+    cycles_.sum += d;
+    ++cycles_.count;
+  }
+}
+
+}  // namespace candp2::plant

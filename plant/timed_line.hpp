@@ -1,0 +1,161 @@
+// The in-process PROFIBUS line in time (docs/profibus.md "The line in time"): the built-in master
+// and the emulated stations share one line with a baud rate and bus parameters. One scheduler owns
+// the line's time and puts one telegram after the other on it:
+//
+//   request (after TID1/TID2 idle) ─ last character: the station gets it ─ TSDR ─ response ─ TID1
+//
+// A station's DP services run when the request's last character has arrived (a gateway applies
+// its outputs then and sends its CAN frames from then on); the master's request completes when the
+// response's last character has arrived. No answer within the slot time: the request is repeated up
+// to retry_limit times, then it completes with NoResponse. A station is asked for its FDL_Status
+// before its first DP request and after it was lost. When the master's requests of a rotation are
+// done it passes the token to itself (SD4) and, every gap_factor rotations, asks one address of
+// its GAP (above its own, up to HSA) for its FDL_Status, where nobody answers within the slot time.
+//
+// Time is counted in bit times from the line's origin, so TSYN, TSDR, TID1/TID2 and the slot time
+// hold to the bit; events are stamped with the first microsecond at or after their bit. One event
+// per telegram (the request's end, the response's end), none per bit. Pure: time passed in.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "common/log.hpp"
+#include "common/time.hpp"
+#include "profibus_sim/dp/slave_link.hpp"
+#include "profibus_sim/fdl/dp_wire.hpp"
+#include "profibus_sim/fdl/line_timing.hpp"
+
+namespace candp2::plant {
+
+class TimedLine {
+ public:
+  // One telegram as it is on the wire, stamped with the time its first character starts.
+  using TapFn =
+      std::function<void(std::span<const std::uint8_t> telegram, bool from_master, Time start)>;
+  // One telegram on the line in bit times from the origin (tests, the capture check).
+  struct Telegram {
+    std::uint64_t start_bit = 0, end_bit = 0;
+    bool from_master = false;
+    std::vector<std::uint8_t> bytes;
+  };
+
+  TimedLine(std::uint32_t baud, fdl::BusParameters params, std::uint8_t master, Time origin,
+            LogSink* log = nullptr);
+  ~TimedLine();
+  TimedLine(const TimedLine&) = delete;
+  TimedLine& operator=(const TimedLine&) = delete;
+
+  // The station behind `inner` (a dp::InProcessLink: it completes within its call) as the link
+  // the master uses. `max_tsdr_bits`: the GSD's MaxTsdr at this rate; it answers no later.
+  // `slave` says whether it is on the bus (an offline station answers nothing, FDL_Status neither).
+  dp::SlaveLink& add_station(dp::SlaveLink& inner, const dp::DpSlave& slave,
+                             std::optional<std::uint32_t> max_tsdr_bits);
+  // The station restarted: its next request starts with FDL_Status again.
+  void restarted(std::uint8_t address);
+  void set_tap(TapFn tap) { tap_ = std::move(tap); }
+  // Keeps every telegram (bit times) for tests; off by default.
+  void set_record(bool on) { record_ = on; }
+  const std::vector<Telegram>& record() const { return recorded_; }
+
+  // The master's rotation: begin_rotation() before DpMaster::cycle(), end_issue() after it (the
+  // requests of the cycle are polled in address order). The rotation ends after the token.
+  void begin_rotation(Time now);
+  void end_issue(Time now);
+  bool rotating() const { return rotating_; }
+
+  std::optional<Time> next_deadline() const;
+  void advance(Time now);
+
+  std::uint32_t baud() const { return baud_; }
+  const fdl::BusParameters& parameters() const { return params_; }
+  Time time_of(std::uint64_t bit) const { return origin_ + fdl::bits_to_time(baud_, bit); }
+  // The bit a request that is ready at `t` starts at: the line's free bit when `t` is the time
+  // stamp of that bit (cycles back to back), else the first whole bit at or after `t`.
+  std::uint64_t start_bit(Time t) const;
+  // The station's answer delay (min_TSDR of its last Set_Prm, at most its MaxTsdr).
+  std::uint32_t tsdr_bits(std::uint8_t address) const;
+
+  // The measured bus cycle: one rotation from its first telegram to the end of the idle after the
+  // token (docs/profibus.md "The line in time").
+  struct CycleTimes {
+    std::uint64_t count = 0;
+    Duration last{0}, min{0}, max{0}, sum{0};
+    Duration mean() const {
+      return count ? Duration(sum.count() / static_cast<std::int64_t>(count)) : Duration(0);
+    }
+  };
+  const CycleTimes& bus_cycle() const { return cycles_; }
+  std::uint64_t retries() const { return retries_; }
+  std::uint64_t gap_polls() const { return gap_polls_; }
+
+ private:
+  class Station;
+  struct Job {
+    Station* station = nullptr;
+    dp::Request request;
+    dp::Completion done;
+  };
+  // Idle: nothing on the line. Sync: the idle before a request (ends when it starts); Request: its
+  // characters; Tsdr: the station's delay; Response: the answer's characters; SlotTime: nobody
+  // answered yet; Unanswered: TID2 after a telegram without an answer.
+  enum class Phase : std::uint8_t { Idle, Sync, Request, Tsdr, Response, SlotTime, Unanswered };
+  struct OnLine {
+    std::optional<Job> job;   // none: FDL_Status to a GAP address or the token
+    bool fdl_status = false;  // this telegram is the FDL_Status before the job
+    std::vector<std::uint8_t> request;
+    fdl::Telegram telegram;
+    std::uint32_t attempt = 0;
+    std::optional<dp::Response> answer;
+    std::vector<std::uint8_t> response;
+  };
+
+  void enqueue(Job job, Time now);
+  void start_next(std::uint64_t at_bit);
+  void put_request(OnLine o, std::uint64_t at_bit);
+  void on_request_start();
+  void on_request_end();
+  void on_response_start();
+  void on_response_end();
+  void on_slot_expired();
+  void on_unanswered_end();
+  void finish(dp::Response r);
+  void emit(std::span<const std::uint8_t> bytes, bool from_master, std::uint64_t start,
+            std::uint64_t end);
+  std::optional<std::uint8_t> next_gap_address();
+
+  std::uint32_t baud_;
+  fdl::BusParameters params_;
+  std::uint8_t master_;
+  Time origin_;
+  Logger log_;
+  TapFn tap_;
+  bool record_ = false;
+  std::vector<Telegram> recorded_;
+  std::map<std::uint8_t, std::unique_ptr<Station>> stations_;
+  std::deque<Job> queue_;
+  std::size_t sorted_from_ = 0;  // queue_ index where the requests of this cycle start
+  Phase phase_ = Phase::Idle;
+  std::optional<OnLine> current_;
+  std::uint64_t event_bit_ = 0;  // the bit the current phase ends at
+  std::uint64_t free_bit_ = 0;   // the earliest bit the next request may start at
+  bool rotating_ = false;
+  bool holding_ = false;  // issuing or handling an event: new requests wait in the queue
+  bool token_sent_ = false;
+  bool gap_done_ = false;                                 // this rotation looked after its GAP
+  std::uint64_t request_start_ = 0, response_start_ = 0;  // of the telegrams on the line
+  std::uint64_t request_end_ = 0;
+  std::optional<std::uint64_t> rotation_start_;
+  std::uint64_t rotations_ = 0;
+  std::uint8_t gap_next_ = 0;
+  std::uint64_t retries_ = 0, gap_polls_ = 0;
+  CycleTimes cycles_;
+};
+
+}  // namespace candp2::plant

@@ -1,0 +1,243 @@
+// The in-process line in time (docs/profibus.md "The line in time"), in virtual time: TSYN, TSDR,
+// TID1/TID2 and the slot time to the bit, retries and a lost station when the slot time says, a
+// watchdog that expires when the cycle outgrows it, and the bus cycle as the prediction has it.
+// Expected times come from the bus parameters and the telegrams' lengths, not from the output.
+#include "plant/timed_line.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <variant>
+
+#include "config/config.hpp"
+#include "plant/plant.hpp"
+#include "profibus_sim/fdl/dp_wire.hpp"
+#include "profibus_sim/fdl/line_timing.hpp"
+
+namespace candp2 {
+namespace {
+
+using plant::TimedLine;
+
+// `n` gateways at DP addresses 3.., one output slot of 2 bytes each.
+std::string config_text(std::size_t n, std::string master, std::string parameters_extra = "") {
+  std::string gws;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i) gws += ",\n";
+    gws += R"({ "name": "gw)" + std::to_string(i) + R"(", "address": )" + std::to_string(3 + i) +
+           R"(, "bus": "can0", "parameters": { "can_bitrate": "500k" )" + parameters_extra +
+           R"( }, "slots": [ { "io": "output", "address": )" + std::to_string(2 * i) +
+           R"(, "length": 2, "comment": "02,01,00" } ] })";
+  }
+  return R"({ "master": )" + master + R"(, "buses": { "can0": { "type": "virtual" } },
+              "gateways": [ )" +
+         gws + "] }";
+}
+
+struct Rig {
+  explicit Rig(const std::string& text) {
+    auto parsed = config::parse_daemon(text, "line.json");
+    if (auto* e = std::get_if<config::ConfigError>(&parsed)) {
+      ADD_FAILURE() << e->message;
+      return;
+    }
+    cfg = std::get<config::DaemonConfig>(parsed);
+    std::string error;
+    plant::Options o;
+    o.log = &log;
+    o.first_cycle_at_start = true;
+    plant = plant::Plant::build(cfg, std::move(o), Time{0}, &error);
+    EXPECT_TRUE(plant) << error;
+  }
+  void run_until(Time end) {
+    while (const auto next = plant->next_deadline()) {
+      if (*next > end) break;
+      plant->advance(*next);
+    }
+    if (plant->now() < end) plant->advance(end);
+  }
+  TimedLine& line() { return *plant->timed_line(); }
+  config::DaemonConfig cfg;
+  MemoryLog log;
+  std::unique_ptr<plant::Plant> plant;
+};
+
+fdl::Telegram decoded(const TimedLine::Telegram& t) {
+  return fdl::decode(t.bytes).telegram.value_or(fdl::Telegram{});
+}
+
+TEST(TimedLine, IdealLineWithoutBaud) {
+  Rig rig(config_text(1, R"({ "cycle_ms": 10 })"));
+  ASSERT_TRUE(rig.plant);
+  EXPECT_EQ(rig.plant->timed_line(), nullptr);
+}
+
+// 9.6 kbit/s, cycle 1 ms: the line is always the bottleneck, rotations run back to back, so every
+// idle is exactly what the standard asks for.
+TEST(TimedLine, KeepsTsynTsdrTidAndSlotTimeToTheBit) {
+  Rig rig(config_text(1, R"({ "cycle_ms": 1, "baud": 9600,
+                              "bus_parameters": { "min_tsdr_bits": 20, "gap_factor": 3 } })"));
+  ASSERT_TRUE(rig.plant);
+  TimedLine& line = rig.line();
+  line.set_record(true);
+  rig.run_until(Time{3'000'000});
+  const auto& p = line.parameters();
+  const auto& tg = line.record();
+  ASSERT_GT(tg.size(), 40u);
+  const std::uint64_t tid1 = 33 + 2 + 2 * p.tset_bits + p.tqui_bits;  // min_TSDR 20 < 37
+  const std::uint64_t tid2 = std::max<std::uint64_t>(tid1, p.max_tsdr_bits);
+  bool prm_seen = false;
+  std::size_t tokens = 0, gaps = 0, exchanges = 0;
+  for (std::size_t i = 0; i < tg.size(); ++i) {
+    const auto& t = tg[i];
+    EXPECT_EQ(t.end_bit - t.start_bit, 11 * t.bytes.size()) << i;
+    const fdl::Telegram d = decoded(t);
+    if (!t.from_master) {
+      // The answer starts TSDR after the request's last character: 11 until Set_Prm set 20.
+      ASSERT_GT(i, 0u);
+      EXPECT_EQ(t.start_bit - tg[i - 1].end_bit, prm_seen ? 20u : 11u) << i;
+      continue;
+    }
+    if (d.dsap == fdl::kSapSetPrm) prm_seen = true;
+    if (d.kind == fdl::Kind::SD4) {
+      ++tokens;
+      EXPECT_EQ(d.da, 1);
+      EXPECT_EQ(d.sa, 1);
+    }
+    if (d.kind == fdl::Kind::SD2 && !d.dsap && d.da == 3) ++exchanges;
+    if (i == 0) continue;
+    const auto& prev = tg[i - 1];
+    const std::uint64_t idle = t.start_bit - prev.end_bit;
+    EXPECT_GE(idle, fdl::kTsynBits) << i;
+    const fdl::Telegram pd = decoded(prev);
+    if (!prev.from_master) {
+      EXPECT_EQ(idle, tid1) << i;  // after an answer: TID1
+    } else if (pd.kind == fdl::Kind::SD4) {
+      EXPECT_EQ(idle, tid2) << i;  // after the token: TID2
+    } else {
+      // A request nobody answered (the GAP's FDL_Status): the slot time, then the token at once.
+      EXPECT_EQ(pd.function(), fdl::kFcFdlStatus) << i;
+      EXPECT_NE(pd.da, 3) << i;
+      EXPECT_EQ(idle, p.slot_time_bits) << i;
+      EXPECT_EQ(d.kind, fdl::Kind::SD4) << i;
+      ++gaps;
+    }
+  }
+  EXPECT_GT(exchanges, 10u);
+  // Every third rotation (gap_factor 3) asks one GAP address (2, 4, 5, ... not the gateway at 3).
+  EXPECT_EQ(gaps, tokens / 3);
+}
+
+TEST(TimedLine, RetryAndLostStationWhenTheSlotTimeSays) {
+  Rig rig(config_text(1, R"({ "cycle_ms": 5, "retry_ms": 200, "baud": 187500,
+                              "bus_parameters": { "retry_limit": 2 } })"));
+  ASSERT_TRUE(rig.plant);
+  TimedLine& line = rig.line();
+  rig.run_until(Time{100'000});
+  ASSERT_EQ(rig.plant->master().slave(3)->state, dp::MasterSlaveState::DataExch);
+  // Between two rotations: no request of the station is on the line when it goes.
+  while (line.rotating()) rig.plant->advance(*rig.plant->next_deadline());
+  line.set_record(true);
+  rig.plant->gateways()[0]->gateway().dp().set_offline(true);
+  rig.run_until(Time{600'000});
+  const auto& p = line.parameters();
+  const auto& tg = line.record();
+  // The first request to station 3 without an answer, then its repetitions.
+  std::vector<std::size_t> to3;
+  for (std::size_t i = 0; i < tg.size(); ++i)
+    if (tg[i].from_master && decoded(tg[i]).da == 3) to3.push_back(i);
+  ASSERT_GE(to3.size(), 4u);
+  for (std::size_t k = 1; k <= p.retry_limit; ++k) {
+    const auto& a = tg[to3[k - 1]];
+    const auto& b = tg[to3[k]];
+    EXPECT_EQ(to3[k], to3[k - 1] + 1) << "nothing between a request and its repetition";
+    EXPECT_EQ(b.start_bit, a.end_bit + p.slot_time_bits);  // repeated when the slot time ends
+    EXPECT_EQ(b.bytes, a.bytes);                           // the same telegram, the same FCB
+  }
+  EXPECT_EQ(line.retries() % p.retry_limit, 0u);  // each loss after retry_limit repetitions
+  // After the last repetition's slot time the station is lost: the next telegram (the token)
+  // starts then, and the master asks again (FDL_Status) only after retry_ms.
+  const auto& last = tg[to3[p.retry_limit]];
+  const std::uint64_t lost_bit = last.end_bit + p.slot_time_bits;
+  EXPECT_EQ(tg[to3[p.retry_limit] + 1].start_bit, lost_bit);
+  EXPECT_EQ(rig.plant->master().slave(3)->station_lost, 1u);
+  const auto& again = tg[to3[p.retry_limit + 1]];
+  EXPECT_EQ(decoded(again).function(), fdl::kFcFdlStatus);
+  const Time lost_at = line.time_of(lost_bit);
+  EXPECT_GE(line.time_of(again.start_bit), lost_at + milliseconds(200));
+  EXPECT_LT(line.time_of(again.start_bit), lost_at + milliseconds(200 + 6));
+}
+
+// A watchdog of 20 ms: at 1.5 Mbit/s the master comes back every few hundred µs; at 9.6 kbit/s one
+// rotation takes longer than 20 ms and the gateway leaves Data_Exch (its watchdog expired).
+TEST(TimedLine, WatchdogExpiresWhenTheCycleOutgrowsIt) {
+  for (const std::uint32_t baud : {1500000u, 9600u}) {
+    SCOPED_TRACE(baud);
+    Rig rig(config_text(
+        1, R"({ "cycle_ms": 1, "retry_ms": 100, "baud": )" + std::to_string(baud) + " }",
+        R"(, "watchdog_ms": 20)"));
+    ASSERT_TRUE(rig.plant);
+    rig.run_until(Time{3'000'000});
+    const auto v = rig.plant->master().slave(3);
+    ASSERT_TRUE(v);
+    const auto cycle = rig.line().bus_cycle();
+    if (baud == 9600) {
+      EXPECT_GT(cycle.max, milliseconds(20));
+      EXPECT_GT(v->parameterizations, 3u);  // parameterized again after every expiry
+    } else {
+      EXPECT_LT(cycle.last, milliseconds(1));
+      EXPECT_EQ(v->parameterizations, 1u);
+      EXPECT_EQ(v->state, dp::MasterSlaveState::DataExch);
+    }
+  }
+}
+
+// The prediction (docs/profibus.md "The line in time") and the simulation agree within 2 %.
+TEST(TimedLine, PredictionAgreesWithTheSimulation) {
+  for (const std::size_t n : {1u, 8u, 32u, 122u}) {
+    for (const std::uint32_t baud : {9600u, 187500u, 1500000u, 12000000u}) {
+      SCOPED_TRACE(std::to_string(n) + " stations at " + std::to_string(baud));
+      Rig rig(config_text(n, R"({ "cycle_ms": 1, "baud": )" + std::to_string(baud) + " }"));
+      ASSERT_TRUE(rig.plant);
+      const auto p = *fdl::default_bus_parameters(baud);
+      std::vector<fdl::CycleStation> st(n, fdl::CycleStation{.outputs = 2, .inputs = 0});
+      const auto predicted = fdl::predict_cycle(baud, p, st);
+      // Until every station is in Data_Exch, then 100 rotations measured.
+      const Duration rotation = predicted.mean;
+      auto all_exchange = [&] {
+        for (const auto& v : rig.plant->master().slaves())
+          if (v.state != dp::MasterSlaveState::DataExch) return false;
+        return true;
+      };
+      for (int k = 0; k < 40 && !all_exchange(); ++k)
+        rig.run_until(rig.plant->now() + rotation * 2);
+      ASSERT_TRUE(all_exchange());
+      // A window of exactly 10 × gap_factor rotations, from the end of a rotation with a GAP
+      // request to the end of the tenth such rotation after it.
+      auto step_to_gap_rotation = [&] {
+        for (;;) {
+          const auto count = rig.line().bus_cycle().count;
+          const auto gaps = rig.line().gap_polls();
+          while (rig.line().bus_cycle().count == count)
+            rig.plant->advance(*rig.plant->next_deadline());
+          if (rig.line().gap_polls() != gaps) return;
+        }
+      };
+      step_to_gap_rotation();
+      const auto before = rig.line().bus_cycle();
+      for (int k = 0; k < 10; ++k) step_to_gap_rotation();
+      const auto after = rig.line().bus_cycle();
+      ASSERT_EQ(after.count - before.count, 10u * p.gap_factor);
+      const double measured = static_cast<double>((after.sum - before.sum).count()) /
+                              static_cast<double>(after.count - before.count);
+      const double want = static_cast<double>(predicted.mean.count());
+      EXPECT_NEAR(measured, want, want * 0.02);
+      std::printf("| %zu | %u | %.0f | %.0f | %+.2f %% |\n", n, baud, want, measured,
+                  100.0 * (measured - want) / want);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace candp2

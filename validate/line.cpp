@@ -1,0 +1,86 @@
+// The line in time for `candp2 validate` (docs/validate.md "The line").
+#include "validate/line.hpp"
+
+#include <algorithm>
+#include <cstdio>
+
+namespace candp2::validate {
+
+std::size_t LineReport::warnings() const {
+  return static_cast<std::size_t>(
+      std::count_if(problems.begin(), problems.end(), [](const auto& p) { return !p.error; }));
+}
+
+bool LineReport::valid() const {
+  return std::none_of(problems.begin(), problems.end(), [](const auto& p) { return p.error; });
+}
+
+namespace {
+std::string ms_text(Duration d) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.2f ms", static_cast<double>(d.count()) / 1000.0);
+  return b;
+}
+}  // namespace
+
+LineReport check_line(const LineInput& in) {
+  LineReport r;
+  r.baud = in.baud;
+  r.params = in.params;
+  r.cycle_ms = in.cycle_ms;
+  std::vector<fdl::CycleStation> st;
+  std::vector<bool> taken(128, false);
+  for (const auto& s : in.stations) {
+    st.push_back({.outputs = s.outputs, .inputs = s.inputs, .tsdr_bits = in.params.min_tsdr_bits});
+    taken[s.address & 0x7F] = true;
+  }
+  bool gap = false;  // a free address above the master's own up to HSA
+  for (unsigned a = in.master_address + 1u; a <= std::min(in.params.hsa, 126u); ++a)
+    gap = gap || !taken[a];
+  r.cycle = fdl::predict_cycle(in.baud, in.params, st, gap);
+  for (const auto& p : fdl::check_bus_parameters(in.params))
+    r.problems.push_back({true, in.bus_parameters_path + "." + p.key, p.message});
+  const auto rate = gsd::rate_name(in.baud);
+  for (const auto& s : in.stations) {
+    if (!s.gsd) continue;
+    if (!gsd::supports_rate(*s.gsd, in.baud)) {
+      r.problems.push_back({true, s.json_path,
+                            "station " + s.name + ": " + s.gsd_name + " does not support " +
+                                std::to_string(in.baud) + " bit/s (no " + std::string(*rate) +
+                                "_supp = 1); set " + in.baud_path + " to a rate it supports"});
+      continue;
+    }
+    const auto max = gsd::max_tsdr(*s.gsd, in.baud);
+    if (max && *max > in.params.max_tsdr_bits)
+      r.problems.push_back({false, in.bus_parameters_path + ".max_tsdr_bits",
+                            "station " + s.name + " answers as late as " + std::to_string(*max) +
+                                " bit times (MaxTsdr_" + std::string(*rate) + " of " + s.gsd_name +
+                                "), later than max_tsdr_bits " +
+                                std::to_string(in.params.max_tsdr_bits)});
+  }
+  const Duration grid = milliseconds(in.cycle_ms);
+  if (r.cycle.worst > grid)
+    r.problems.push_back({false, in.cycle_path,
+                          "cycle_ms " + std::to_string(in.cycle_ms) +
+                              " is shorter than the bus cycle the line needs: the cycles run back "
+                              "to back every " +
+                              ms_text(r.cycle.mean) + " (at most " + ms_text(r.cycle.worst) +
+                              "), and grid points are missed"});
+  // A watchdog must outlast the time between two visits: the cycle (at least cycle_ms) and the
+  // retries of an unanswered request before the master comes back.
+  for (const auto& s : in.stations) {
+    if (s.watchdog_ms == 0) continue;
+    const std::uint64_t retry_bits =
+        in.params.retry_limit *
+        (fdl::data_exchange_request_bits(s.outputs) + in.params.slot_time_bits);
+    const Duration visit = std::max(grid, r.cycle.worst) + fdl::bits_to_time(in.baud, retry_bits);
+    if (milliseconds(s.watchdog_ms) < visit)
+      r.problems.push_back({false, s.json_path + ".watchdog_ms",
+                            "station " + s.name + ": watchdog " + std::to_string(s.watchdog_ms) +
+                                " ms is shorter than the bus cycle with its retries (" +
+                                ms_text(visit) + "): it will expire"});
+  }
+  return r;
+}
+
+}  // namespace candp2::validate
