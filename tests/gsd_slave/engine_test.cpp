@@ -216,11 +216,11 @@ TEST_F(Simocode, WrongOutputLengthLeavesDataExch) {
   // docs/dp-slave.md "Wrong output length" (IEC 61158-6-3): no data, Wait_Prm, Prm_Req.
   ASSERT_TRUE(parameterize(*s, prm, cfg, now));
   exchange(*s, {1, 2, 3, 4}, now);
-  EXPECT_FALSE(s->dp().data_exchange(kMaster, {1, 2, 3}, now));
+  EXPECT_FALSE(s->dp().data_exchange(kMaster, std::vector<std::uint8_t>{1, 2, 3}, now));
   EXPECT_EQ(s->dp().state(), SlaveState::WaitPrm);
   EXPECT_EQ(hex(s->dp().diagnosis(now)), "02 05 00 02 80 31");
   EXPECT_EQ(hex(s->field_outputs()), "00 00 00 00");  // outputs in the safe state
-  EXPECT_FALSE(s->dp().data_exchange(kMaster, {1, 2, 3, 4}, now));
+  EXPECT_FALSE(s->dp().data_exchange(kMaster, std::vector<std::uint8_t>{1, 2, 3, 4}, now));
   EXPECT_TRUE(parameterize(*s, prm, cfg, now));
 }
 
