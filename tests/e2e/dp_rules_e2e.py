@@ -3,9 +3,10 @@ independent FDL masters over a pty (pytest on the candp2 package; ctest e2e_dp_r
 
 candp2d runs in role `"slaves"` on `pty:<tmp>/pb` with the CAN-DP/2 gateway 3 (the manual §5.1.4
 slots) and a generic slave at 8 from the project's example GSD (gsd/examples/CDP20C2D.GSD, modules
-"8 DI", "8 DO": one output byte). The test's FDL masters 2 and 5 (the one of profibus_e2e.py, Set_Prm
-and Chk_Cfg of the generic slave from the GSD reader of gsd_slave_e2e.py) share the link. Each rule
-is shown on both kinds of slave, through the telegrams and through candp2d's own view (Modbus):
+"8 DI", "8 DO": one output byte). The test's FDL masters 2 and 5 (the one of profibus_e2e.py;
+Set_Prm and Chk_Cfg of the generic slave from the GSD reader of gsd_slave_e2e.py) share the link.
+Each rule is shown on both kinds of slave, through the telegrams and through candp2d's own view
+(Modbus):
 
   * Lock: master 2 parameterizes the station with Lock_Req; master 5's Set_Prm with Lock_Req is
     acknowledged (SC) but not taken: the state stays Data_Exch, master 5's Slave_Diag shows master
