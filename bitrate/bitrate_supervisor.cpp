@@ -173,9 +173,9 @@ void BitrateSupervisor::report(std::size_t gateway) {
     log_.info("bit rate " + gw::bitrate_text_bps(s.interface) + " matches gateway " + m.name);
 }
 
-modbus::BitrateStatus BitrateSupervisor::status(std::size_t gateway) const {
+BitrateStatus BitrateSupervisor::status(std::size_t gateway) const {
   const Member& m = members_.at(gateway);
-  modbus::BitrateStatus s;
+  BitrateStatus s;
   s.mode = mode_ == config::BitrateMode::Apply ? 2 : 1;
   s.configured = m.bitrate.value_or(0);
   s.interface = interface_bitrate_.value_or(0);

@@ -24,9 +24,11 @@
 #include "common/log.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
-#include "modbus/modbus_map.hpp"
+#include "station/status.hpp"
 
 namespace candp2::bitrate {
+
+using BitrateStatus = station::BitrateStatus;  // docs/transports.md "Bit rate"
 
 class LinkOps {
  public:
@@ -51,7 +53,7 @@ class BitrateSupervisor {
   std::size_t add_gateway(std::string name);
   // The gateway's accepted Set_Prm bit rate (bit/s), nullopt while it has none.
   void update(std::size_t gateway, std::optional<std::uint32_t> bitrate, Time now);
-  modbus::BitrateStatus status(std::size_t gateway) const;
+  BitrateStatus status(std::size_t gateway) const;
   std::optional<std::uint32_t> interface_bitrate() const { return interface_bitrate_; }
 
  private:

@@ -1,5 +1,5 @@
-// The one abstract CAN channel (STYLE.md lesson 7). Implementations: the in-process virtual bus
-// endpoint, SocketCAN raw sockets, the socketcand client. One contract test suite runs against all.
+// The one abstract CAN channel. Implementations: the in-process virtual bus endpoint, SocketCAN
+// raw sockets, the socketcand client. One contract test suite runs against all of them.
 #pragma once
 
 #include <cstdint>

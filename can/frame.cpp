@@ -51,12 +51,10 @@ ParseResult parse_candump(std::string_view text) {
   if (id_text.size() != 3 && id_text.size() != 8)
     return fail(0, "identifier must have 3 (11-bit) or 8 (29-bit) hex digits, got " +
                        std::to_string(id_text.size()));
-  std::uint32_t id = 0;
-  for (std::size_t i = 0; i < id_text.size(); ++i) {
-    const int v = hex_digit(id_text[i]);
-    if (v < 0) return fail(i, std::string("not a hex digit: '") + id_text[i] + "'");
-    id = (id << 4) | static_cast<std::uint32_t>(v);
-  }
+  std::size_t bad = 0;
+  const auto parsed = parse_hex_u32(id_text, &bad);
+  if (!parsed) return fail(bad, std::string("not a hex digit: '") + id_text[bad] + "'");
+  const std::uint32_t id = *parsed;
   const bool extended = id_text.size() == 8;
   if (!extended && id > kMaxStdId) return fail(0, "11-bit identifier above 0x7FF");
   if (extended && id > kMaxExtId) return fail(0, "29-bit identifier above 0x1FFFFFFF");
@@ -99,10 +97,8 @@ ParseResult parse_candump(std::string_view text) {
 }
 
 std::string format_candump(const Frame& f) {
-  char buf[40];
-  int n = f.extended ? std::snprintf(buf, sizeof buf, "%08X#", static_cast<unsigned>(f.id))
-                     : std::snprintf(buf, sizeof buf, "%03X#", static_cast<unsigned>(f.id));
-  std::string out(buf, static_cast<std::size_t>(n));
+  std::string out = ident_text(ident_of(f));
+  out += '#';
   if (f.remote) {
     out += 'R';
     if (f.dlc != 0) out += static_cast<char>('0' + f.dlc);
@@ -164,10 +160,6 @@ std::string format_log_line(const LogLine& line) {
   std::snprintf(buf, sizeof buf, "(%lld.%06u) ", static_cast<long long>(line.sec),
                 static_cast<unsigned>(line.usec));
   return buf + line.interface + " " + format_candump(line.frame);
-}
-
-std::string hex_bytes(std::span<const std::uint8_t> bytes) {
-  return candp2::hex_bytes(bytes);
 }
 
 std::string ident_text(const Ident& id) {

@@ -86,7 +86,4 @@ struct LogParseResult {
 LogParseResult parse_log_line(std::string_view text);
 std::string format_log_line(const LogLine& line);
 
-// Hex helpers shared by logs and golden tests: "11 22 33" (upper case, space separated).
-std::string hex_bytes(std::span<const std::uint8_t> bytes);
-
 }  // namespace candp2::can

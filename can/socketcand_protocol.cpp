@@ -25,15 +25,9 @@ bool is_space(char c) {
 }
 
 bool parse_hex(std::string_view text, std::uint32_t* value) {
-  if (text.empty() || text.size() > 8) return false;
-  std::uint32_t v = 0;
-  for (char c : text) {
-    const int d = hex_digit(c);
-    if (d < 0) return false;
-    v = (v << 4) | static_cast<std::uint32_t>(d);
-  }
-  *value = v;
-  return true;
+  const auto v = parse_hex_u32(text);
+  if (v) *value = *v;
+  return v.has_value();
 }
 
 // socketcand: `%03X` for 11-bit, `%08X` for 29-bit; an 8-character identifier is 29-bit
@@ -77,9 +71,7 @@ void append_hex_byte(std::string& out, std::uint8_t b, bool upper, bool pad) {
 }
 
 std::string format_id(const Frame& f) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, f.extended ? "%08X" : "%03X", static_cast<unsigned>(f.id));
-  return buf;
+  return ident_text(ident_of(f));  // socketcand writes `%03X` / `%08X`, as candump does
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
 // The socketcand protocol (linux-can/socketcand, doc/protocol.md), raw mode: pure framing and
-// formatting, no sockets (STYLE.md: framing as pure functions apart from each transport). The
+// formatting, no sockets (framing as pure functions, apart from each transport). The
 // server (socketcand_server.hpp) and the client (socketcand_client.hpp) build on it; the wire
 // details and our deliberate differences are listed in socketcand.hpp.
 #pragma once

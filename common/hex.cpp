@@ -76,6 +76,21 @@ int hex_digit(char c) {
   return -1;
 }
 
+std::optional<std::uint32_t> parse_hex_u32(std::string_view text, std::size_t* bad) {
+  if (bad) *bad = 0;
+  if (text.empty() || text.size() > 8) return std::nullopt;
+  std::uint32_t v = 0;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const int d = hex_digit(text[i]);
+    if (d < 0) {
+      if (bad) *bad = i;
+      return std::nullopt;
+    }
+    v = (v << 4) | static_cast<std::uint32_t>(d);
+  }
+  return v;
+}
+
 std::optional<HexBytes> parse_hex_bytes(std::string_view text, HexForm form, std::string* error,
                                         bool allow_empty) {
   HexBytes out;

@@ -1,6 +1,7 @@
-// Hex bytes as text, both ways: the one writer for logs, reports and golden tests ("11 22 33",
-// upper case, space separated) and the one reader for bytes a user writes in hex (a slot's
-// comment field, prm_hex/cfg_hex, a replay scenario's byte patterns).
+// Hex as text, both ways: the one writer for logs, reports, the HTTP documents and golden tests
+// ("11 22 33", upper case, space separated; one byte as "0x1F") and the one reader for bytes a
+// user writes in hex (a slot's comment field, prm_hex/cfg_hex, a replay scenario's byte patterns)
+// and for a hex number (a CAN identifier).
 #pragma once
 
 #include <cstdint>
@@ -24,8 +25,21 @@ inline std::string hex_bytes(std::span<const std::uint8_t> bytes, char sep = ' '
   return out;
 }
 
+// One byte with its prefix, "0x1F" (the low 8 bits of v): a form byte, a Set_Prm byte in a
+// report or a finding.
+inline std::string hex8(unsigned v) {
+  const std::uint8_t b = static_cast<std::uint8_t>(v & 0xFFu);
+  return "0x" + hex_bytes(std::span(&b, 1));
+}
+
 // 0..15 for 0-9, a-f, A-F; -1 for anything else.
 int hex_digit(char c);
+
+// The value of 1 to 8 hex digits without prefix or sign ("181", "1FFFFFFF"): a CAN identifier in
+// candump or socketcand notation, an error class. nullopt for no digits, more than 8 digits or a
+// character that is not a hex digit; *bad (when given) is then that character's position (0 for
+// an empty or too long text).
+std::optional<std::uint32_t> parse_hex_u32(std::string_view text, std::size_t* bad = nullptr);
 
 // How the bytes are written. Spaces, commas and tabs separate bytes in every form.
 enum class HexForm : std::uint8_t {

@@ -1,5 +1,5 @@
-// A replaceable log sink with levels (STYLE.md lesson 9). Components take a LogSink*; a null
-// pointer or NullLog discards. The daemon installs a sink that writes through spdlog.
+// A replaceable log sink with levels, so tests read what was logged. Components take a LogSink*;
+// a null pointer or NullLog discards. The daemon installs a sink that writes through spdlog.
 #pragma once
 
 #include <string>

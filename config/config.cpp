@@ -269,9 +269,10 @@ void parse_settings(const Object& top, const std::string& file, DaemonConfig& c)
 }
 
 // "buses", and no two listeners of the configuration on one port.
-void parse_buses(const Object& top, DaemonConfig& c) {
-  // Role master: the gateways are remote stations; buses only serve simulated drives.
-  const bool remote = c.remote_gateways();
+void parse_buses(const Object& top, DaemonConfig& c, bool with_gateways) {
+  // Role master: the gateways are remote stations; buses only serve simulated drives. Without
+  // gateways (a line of generic slaves) no bus is needed either.
+  const bool remote = c.remote_gateways() || !with_gateways;
   static const json kNoBuses = json::object();
   const json& buses = remote && !top.has("buses") ? kNoBuses : top.at("buses");
   if (!buses.is_object() || (buses.empty() && !remote))
@@ -382,10 +383,19 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   if (const json* p = top.find("profibus"))
     c.profibus = parse_profibus(*p, top.path("profibus"), file);
   parse_settings(top, file, c);
-  parse_buses(top, c);
-  const json& gateways = top.at("gateways");
-  if (!gateways.is_array() || gateways.empty())
-    fail(top.path("gateways"), "expected a non-empty array of gateways, got " + kind_of(gateways));
+  // docs/configuration.md: a line of generic slaves alone needs no gateway (and then no bus);
+  // a configuration without either has nothing to emulate.
+  static const json kNone = json::array();
+  const json* g = top.find("gateways");
+  const json& gateways = g ? *g : kNone;
+  if (!gateways.is_array())
+    fail(top.path("gateways"), "expected an array of gateways, got " + kind_of(gateways));
+  const json* slaves = top.find("slaves");
+  if (gateways.empty() && (!slaves || (slaves->is_array() && slaves->empty())))
+    fail(top.path("gateways"),
+         "expected a non-empty array of gateways, or generic DP-V0 slaves in $.slaves "
+         "(docs/slaves.md); the file configures neither");
+  parse_buses(top, c, !gateways.empty());
   for (std::size_t i = 0; i < gateways.size(); ++i) {
     const std::string path = element(top.path("gateways"), i);
     GatewayConfig g = parse_gateway_or_throw(gateways[i], file, path);

@@ -20,6 +20,7 @@
 
 #include "config/capture_config.hpp"
 #include "config/slaves_config.hpp"
+#include "config/warning_kind.hpp"
 #include "gateway/user_prm.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
@@ -71,6 +72,7 @@ struct ConfigError {
   std::string file;
   std::string json_path;  // "$.gateways[0].slots[2].comment"; empty for file-level errors
   std::string message;    // what was expected
+  WarningKind kind = WarningKind::Other;  // as a warning
   std::string to_string() const {
     return file + ": " + (json_path.empty() ? "" : json_path + ": ") + message;
   }

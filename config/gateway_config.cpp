@@ -142,8 +142,8 @@ void check_with_gateway(const std::string& file, GatewayConfig& g) {
     void send(const can::Frame&) override {}
   } discard;
   gw::Gateway gateway({.address = g.address}, discard, Time{0});
-  auto warn = [&](std::string path, std::string message) {
-    g.warnings.push_back({file, std::move(path), std::move(message)});
+  auto warn = [&](std::string path, std::string message, WarningKind kind = WarningKind::Other) {
+    g.warnings.push_back({file, std::move(path), std::move(message), kind});
   };
   if (g.dp_address() != g.address)
     warn(g.json_path + ".address", "DP address " + std::to_string(g.address) + " is clamped to " +
@@ -153,12 +153,15 @@ void check_with_gateway(const std::string& file, GatewayConfig& g) {
   constexpr std::uint8_t kProbeMaster = 1;
   if (!gateway.dp().set_prm(kProbeMaster, prm, Time{0})) {
     if (const auto f = gateway.dp().prm_fault())
-      warn(prm_path, "the gateway will reject this Set_Prm (diagnosis 3D " +
-                         hex_bytes(std::array{f->byte, f->correct}) + ": telegram byte " +
-                         std::to_string(f->byte) + ", a correct value is 0x" +
-                         hex_bytes(std::array{f->correct}) + ")");
+      warn(prm_path,
+           "the gateway will reject this Set_Prm (diagnosis 3D " +
+               hex_bytes(std::array{f->byte, f->correct}) + ": telegram byte " +
+               std::to_string(f->byte) + ", a correct value is 0x" +
+               hex_bytes(std::array{f->correct}) + ")",
+           WarningKind::Rejected);
     else
-      warn(prm_path, "the gateway will reject this Set_Prm (Not_Supported: Sync_Req/Freeze_Req)");
+      warn(prm_path, "the gateway will reject this Set_Prm (Not_Supported: Sync_Req/Freeze_Req)",
+           WarningKind::Rejected);
     return;
   }
   const auto cfg = chk_cfg_bytes(g);
@@ -166,10 +169,12 @@ void check_with_gateway(const std::string& file, GatewayConfig& g) {
     const auto f = gateway.dp().cfg_fault().value_or(dp::CfgFault{});
     const std::string path =
         f.slot < g.slots.size() ? g.slots[f.slot].json_path : g.json_path + ".slots";
-    warn(path, "the gateway will reject this configuration (diagnosis 3E " +
-                   hex_bytes(std::array{f.slot, f.code}) + ": slot " + std::to_string(f.slot) +
-                   ", code " + std::to_string(f.code) + " = " +
-                   std::string(gw::cfg_code_text(f.code)) + ")");
+    warn(path,
+         "the gateway will reject this configuration (diagnosis 3E " +
+             hex_bytes(std::array{f.slot, f.code}) + ": slot " + std::to_string(f.slot) +
+             ", code " + std::to_string(f.code) + " = " + std::string(gw::cfg_code_text(f.code)) +
+             ")",
+         WarningKind::Rejected);
     return;
   }
   // Behaviour the manual states, which the validator reports (docs/slots.md "Chk_Cfg slots").
@@ -221,7 +226,8 @@ void check_overlaps(const std::string& file, const std::vector<GatewayConfig*>& 
                      std::to_string(s.begin) + ".." + std::to_string(s.end - 1) + " overlap " +
                      other.slot->json_path +
                      (input ? " (the later slot's bytes win in the PLC image, docs/modbus.md)"
-                            : " (both send the same PLC bytes, docs/modbus.md)")});
+                            : " (both send the same PLC bytes, docs/modbus.md)"),
+                 WarningKind::Overlap});
         list.push_back(s);
       }
     }
@@ -272,8 +278,8 @@ Result<GatewayConfig> parse_gateway(const json& j, const std::string& file,
 
 std::optional<std::uint32_t> configured_bitrate(const GatewayConfig& g) {
   const auto prm = set_prm_bytes(g);
-  if (prm.size() <= gw::kPrmBitrate || prm[gw::kPrmBitrate] > gw::kBitrateMax) return std::nullopt;
-  return gw::kBitrates[prm[gw::kPrmBitrate]];  // docs/dp-slave.md "User parameters" byte 8
+  if (prm.size() <= gw::kPrmBitrate) return std::nullopt;
+  return gw::bitrate_bps(prm[gw::kPrmBitrate]);  // docs/dp-slave.md "User parameters" byte 8
 }
 
 std::vector<std::uint8_t> set_prm_bytes(const GatewayConfig& g) {

@@ -55,6 +55,33 @@ std::string module_list(const gsd::Model& m) {
   return names.empty() ? "none" : join(names);
 }
 
+// The GSD's preset modules where a configuration tool puts them (docs/slaves.md "Preset
+// modules", gsd_slave::with_presets).
+void add_presets(const Object& o, SlaveConfig& s) {
+  const gsd::Model& m = *s.model;
+  std::vector<std::size_t> user;
+  for (const auto& mod : s.modules) user.push_back(mod.index);
+  const gsd_slave::WithPresets w = gsd_slave::with_presets(m, user);
+  if (w.problem)
+    fail(w.problem->position < user.size() ? s.modules[w.problem->position].json_path
+                                           : o.path("modules"),
+         s.gsd + ": " + w.problem->text);
+  std::vector<SlaveModuleConfig> mods;
+  for (std::size_t i = 0; i < w.added; ++i) {
+    const gsd::Module& mod = m.modules[w.modules[i]];
+    mods.push_back({trimmed(mod.name), w.modules[i], o.path("modules"), true});
+    s.notes.push_back(
+        {o.path("modules"),
+         "preset module \"" + trimmed(mod.name) + "\" of " + s.gsd + " added at slot " +
+             std::to_string(i) + ", as configuration tools do (Preset = 1" +
+             (m.fix_preset_modules() ? ", FixPresetModules = 1: it cannot be left out"
+                                     : "; name the preset modules in \"modules\" to place them") +
+             ", docs/slaves.md \"Preset modules\")"});
+  }
+  mods.insert(mods.end(), s.modules.begin(), s.modules.end());
+  s.modules = std::move(mods);
+}
+
 void parse_modules(const Object& o, SlaveConfig& s) {
   const gsd::Model& m = *s.model;
   if (const json* raw = o.find("cfg_hex")) {
@@ -72,7 +99,7 @@ void parse_modules(const Object& o, SlaveConfig& s) {
     // A compact station with one module: that module is its configuration.
     if (!s.profile.modular && m.modules.size() == 1) {
       s.modules.push_back({trimmed(m.modules[0].name), 0, o.path("modules")});
-      return;
+      return;  // its only module: a preset one stands where it is
     }
     fail(o.path(), "missing key \"modules\" (the slave's modules by their GSD names; its GSD has " +
                        module_list(m) + ") or \"cfg_hex\"");
@@ -90,6 +117,7 @@ void parse_modules(const Object& o, SlaveConfig& s) {
     s.modules.push_back(
         {trimmed(mod->name), static_cast<std::size_t>(mod - m.modules.data()), path});
   }
+  add_presets(o, s);
 }
 
 void parse_parameters(const Object& o, SlaveConfig& s) {
@@ -124,7 +152,8 @@ void dry_run(SlaveConfig& s) {
   std::string error;
   auto slave = gsd_slave::GsdSlave::create(s.setup(), &error);
   if (!slave) {
-    s.warnings.push_back({s.json_path, "cannot emulate this slave: " + error});
+    s.warnings.push_back(
+        {s.json_path, "cannot emulate this slave: " + error, WarningKind::Rejected});
     return;
   }
   constexpr std::uint8_t kProbeMaster = 1;
@@ -133,16 +162,19 @@ void dry_run(SlaveConfig& s) {
   if (!slave->dp().set_prm(kProbeMaster, set_prm_bytes(s), t0)) {
     const auto d = slave->dp().diagnosis(t0);
     s.warnings.push_back(
-        {prm_path, "the slave will reject this Set_Prm: " +
-                       (d[0] & dp::kDiag1NotSupported  ? std::string("Not_Supported (Sync_Req or "
-                                                                      "Freeze_Req)")
-                        : slave->prm_problem().empty() ? std::string("Prm_Fault")
-                                                       : slave->prm_problem())});
+        {prm_path,
+         "the slave will reject this Set_Prm: " +
+             (d[0] & dp::kDiag1NotSupported  ? std::string("Not_Supported (Sync_Req or "
+                                                            "Freeze_Req)")
+              : slave->prm_problem().empty() ? std::string("Prm_Fault")
+                                             : slave->prm_problem()),
+         WarningKind::Rejected});
     return;
   }
   if (!slave->dp().chk_cfg(kProbeMaster, chk_cfg_bytes(s), t0))
     s.warnings.push_back({s.cfg_hex ? s.json_path + ".cfg_hex" : s.json_path + ".modules",
-                          "the slave will reject this configuration: " + slave->cfg_problem()});
+                          "the slave will reject this configuration: " + slave->cfg_problem(),
+                          WarningKind::Rejected});
 }
 
 }  // namespace
@@ -259,7 +291,7 @@ void parse_slaves(const json* slaves, const std::string& file, DaemonConfig& c) 
         fail(path + ".address", "DP address " + std::to_string(s.address) +
                                     " is the Modbus unit ID of " + d.json_path +
                                     " (a slave's DP address is its Modbus unit)");
-    for (const auto& w : s.warnings) c.warnings.push_back({file, w.json_path, w.message});
+    for (const auto& w : s.warnings) c.warnings.push_back({file, w.json_path, w.message, w.kind});
     c.slaves.push_back(std::move(s));
   }
 }

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "config/warning_kind.hpp"
 #include "gsd/gsd.hpp"
 #include "gsd/prm.hpp"
 #include "gsd_slave/gsd_slave.hpp"
@@ -30,12 +31,14 @@ struct DaemonConfig;
 struct SlaveModuleConfig {
   std::string name;       // as in the GSD
   std::size_t index = 0;  // into model->modules
-  std::string json_path;  // "$.slaves[0].modules[2]"
+  std::string json_path;  // "$.slaves[0].modules[2]"; "$.slaves[0].modules" for an added one
+  bool added = false;     // a GSD preset module put in front (docs/slaves.md "Preset modules")
 };
 
 struct SlaveWarning {
   std::string json_path;
   std::string message;
+  WarningKind kind = WarningKind::Other;
 };
 
 struct SlaveConfig {
@@ -55,6 +58,9 @@ struct SlaveConfig {
   gsd_slave::SafeState safe_state = gsd_slave::SafeState::Zero;
   std::string json_path;  // "$.slaves[0]"
   std::vector<SlaveWarning> warnings;
+  // What the configuration completed on its own, as a configuration tool does (the preset modules
+  // it added): not a warning; `candp2 validate` shows them.
+  std::vector<SlaveWarning> notes;
 
   // What gsd_slave::GsdSlave::create needs to build the emulated slave.
   gsd_slave::SlaveSetup setup(LogSink* log = nullptr) const;

@@ -13,7 +13,7 @@
 #include "drive_sim/file_parameter_store.hpp"
 #include "event_loop/deadline_timer.hpp"
 #include "http/http_server.hpp"
-#include "http/http_status.hpp"
+#include "http/plant_sources.hpp"
 #include "modbus/modbus_server.hpp"
 #include "modbus/plant_faces.hpp"
 #include "profibus_line/line_port.hpp"
@@ -108,6 +108,13 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   bool start_exports(std::string* error);
   void start_capture();
   bool start_line(std::string* error);
+  // "1 gateway(s)", "0 gateway(s), 2 generic slave(s)": the stations of the log lines.
+  std::string stations() const {
+    return std::to_string(config_.gateways.size()) + " gateway(s)" +
+           (config_.slaves.empty()
+                ? std::string()
+                : ", " + std::to_string(config_.slaves.size()) + " generic slave(s)");
+  }
   bool start_modbus(std::string* error);
   bool start_http(std::string* error);
   bool after_dispatch();  // the deferred hook
@@ -123,14 +130,14 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   LogSink* log_sink_;
   Logger log_;
   std::unique_ptr<plant::Plant> plant_;
-  StoredMap stored_;  // what the state file holds
+  StoredMap stored_;        // what the state file holds
+  bool state_kept_ = true;  // false: the state file's folder cannot be written (logged once)
   std::map<std::string, std::unique_ptr<bitrate::BitrateSupervisor>> supervisors_;  // by interface
   std::map<std::string, LinkMember> link_of_;     // by gateway name, while the plant is built
   std::vector<std::optional<LinkMember>> links_;  // by gateway index, from link_of_ at start
   std::vector<std::unique_ptr<drive::FileParameterStore>> drive_stores_;
   std::vector<std::unique_ptr<Export>> exports_;
   std::vector<Watched> watched_;
-  std::vector<http::BusMonitor> monitors_;  // per bus: counts, bus load, trace (HTTP face)
   capture::CanLog can_log_;
   capture::CanLogTap can_log_tap_;
   std::unique_ptr<capture::PcapngTap> pcapng_;  // capture section (docs/capture.md)
@@ -142,6 +149,7 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   std::vector<int> fds_;
   EventLoop::DeferredId deferred_ = 0;
   std::unique_ptr<DeadlineTimer> plant_timer_;
+  std::unique_ptr<http::BusMonitors> monitors_;  // the HTTP face's tap: per bus counts and trace
   std::unique_ptr<http::StatusModel> status_model_;  // declared last: destroyed first
   std::unique_ptr<http::HttpServer> http_;
 };
@@ -190,7 +198,6 @@ std::optional<modbus::BitrateStatus> DaemonImpl::bitrate(std::size_t gateway) co
 // -------------------------------------------------------------------------------- observers
 
 void DaemonImpl::on_can(const plant::CanRecord& r) {
-  if (r.bus < monitors_.size()) monitors_[r.bus].on_frame(r.frame, r.time);
   // Frames the clients sent were already forwarded to the other clients by the server
   // (can/socketcand_server.hpp).
   for (auto& e : exports_)
@@ -212,8 +219,23 @@ bool DaemonImpl::start(std::string* error) {
   plant::Options o;
   o.log = log_sink_;
   o.environment = this;
-  if (config_.state_file) stored_ = load_state(*config_.state_file, log_);
+  if (config_.state_file) {
+    stored_ = load_state(*config_.state_file, log_);
+    std::string why;
+    state_kept_ = prepare_folder_of(*config_.state_file, &why);
+    if (!state_kept_)
+      log_.warn("state file " + *config_.state_file + ": " + why +
+                "; the gateways' stored wake-up and SYNC values are not kept across restarts");
+  }
   o.stored = stored_;
+  for (const auto* file : {config_.can_log ? &*config_.can_log : nullptr,
+                           config_.capture ? &config_.capture->pcapng : nullptr}) {
+    std::string why;
+    if (file && !prepare_folder_of(*file, &why)) {
+      *error = *file + ": " + why;
+      return false;
+    }
+  }
   if (config_.can_log && !can_log_.open(*config_.can_log, error)) return false;
   o.wire_image = config_.capture.has_value();  // the in-process DP side in the capture
   plant_ = plant::Plant::build(config_, std::move(o), loop_.now(), error);
@@ -224,7 +246,6 @@ bool DaemonImpl::start(std::string* error) {
     if (const auto it = link_of_.find(g->name()); it != link_of_.end())
       links_[g->index()] = it->second;
   link_of_.clear();
-  monitors_.resize(plant_->buses().size());
   plant_->add_tap(this);
   plant_->add_tap(&can_log_tap_);
   if (config_.capture) start_capture();
@@ -261,8 +282,7 @@ bool DaemonImpl::start(std::string* error) {
   rearm_plant();
   if (plant_->master_runs())
     log_.info("master " + std::to_string(config_.master_address) + ": cycle " +
-              std::to_string(config_.cycle_ms) + " ms, " + std::to_string(config_.gateways.size()) +
-              " gateway(s)");
+              std::to_string(config_.cycle_ms) + " ms, " + stations());
   return true;
 }
 
@@ -335,15 +355,16 @@ bool DaemonImpl::start_line(std::string* error) {
     slave_port_ =
         profibus_line::SlaveLinePort::open(*config_.profibus, *line, loop_, log_sink_, error);
     if (!slave_port_) return false;
-    log_.info("PROFIBUS line " + slave_port_->describe() + ": " +
-              std::to_string(plant_->gateways().size()) + " gateway(s) answer an external master");
+    log_.info("PROFIBUS line " + slave_port_->describe() + ": " + stations() +
+              " answer an external master");
   } else if (auto* mline = plant_->master_line()) {
     master_port_ =
         profibus_line::MasterLinePort::open(*config_.profibus, *mline, loop_, log_sink_, error);
     if (!master_port_) return false;
     log_.info("PROFIBUS line " + master_port_->describe() + ": master " +
               std::to_string(config_.master_address) + " drives " +
-              std::to_string(config_.gateways.size()) + " remote station(s)");
+              std::to_string(config_.gateways.size() + config_.slaves.size()) +
+              " remote station(s)");
   }
   return true;
 }
@@ -371,28 +392,10 @@ bool DaemonImpl::start_http(std::string* error) {
   if (at.host.rfind("127.", 0) != 0)
     log_.warn("http.listen " + at.to_string() +
               ": not a loopback address; the status page and API are readable from the network");
-  http::StatusSources src;
-  src.master = &plant_->master();
-  src.cycle_ms = config_.cycle_ms;
-  src.cycle = &plant_->cycle_stats();
-  src.modbus = modbus_.get();
-  for (auto& g : plant_->gateways())
-    src.gateways.push_back({&g->config(), &g->gateway(), faces_.gateways.at(g->index()).get()});
-  for (auto& b : plant_->buses()) {
-    http::BusSource bs{&b->config(), &monitors_[b->index()], 0};
-    for (auto& g : plant_->gateways())  // manual table 5.1.1: the bit rate the gateway is set to
-      if (&g->bus() == b.get() && !bs.bitrate &&
-          g->config().parameters.bitrate_index < gw::kBitrates.size())
-        bs.bitrate = gw::kBitrates[g->config().parameters.bitrate_index];
-    src.buses.push_back(bs);
-  }
-  for (auto& d : plant_->drives()) src.drives.push_back({&d->config(), &d->drive().drive()});
-  // The generic slaves with their Modbus faces (docs/slaves.md "Front panel and HTTP API").
-  for (auto& s : plant_->slaves())
-    for (auto& f : faces_.gateways)
-      if (f->dp_address() == s->config().address)
-        src.slaves.push_back({&s->config(), &s->slave(), f.get(), plant_->slave_line() != nullptr});
-  status_model_ = std::make_unique<http::StatusModel>(std::move(src));
+  monitors_ = std::make_unique<http::BusMonitors>(plant_->buses().size());
+  plant_->add_tap(monitors_.get());
+  status_model_ = std::make_unique<http::StatusModel>(
+      http::make_sources(*plant_, faces_, monitors_.get(), modbus_.get()));
   std::string e;
   http_ = http::HttpServer::listen(
       {.host = at.host,
@@ -443,17 +446,15 @@ void DaemonImpl::after_cycle(Time now) {
     const auto& link = links_[g->index()];
     if (!link) continue;
     const auto& prm = g->gateway().user_prm();
-    link->supervisor->update(
-        link->member,
-        prm ? std::optional<std::uint32_t>(gw::kBitrates.at(prm->bitrate_index)) : std::nullopt,
-        now);
+    link->supervisor->update(link->member, prm ? gw::bitrate_bps(prm->bitrate_index) : std::nullopt,
+                             now);
   }
   if (http_) http_->after_cycle(now);
   check_stored();
 }
 
 void DaemonImpl::check_stored() {
-  if (!config_.state_file) return;
+  if (!config_.state_file || !state_kept_) return;
   auto now = plant_->stored();
   if (now == stored_) return;
   stored_ = std::move(now);

@@ -17,6 +17,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <iostream>
+#include <map>
 
 #include "config/config.hpp"
 #include "daemon/daemon.hpp"
@@ -31,6 +32,9 @@
 namespace {
 
 constexpr int kExitStart = 1;
+// Warnings of one kind beyond this many are summed up in one line (docs/configuration.md
+// "Warnings"); `candp2 validate` lists them all.
+constexpr std::size_t kWarningsPerKind = 20;
 constexpr int kExitUsage = 2;
 
 // Messages written to stderr before the log sink exists: with a syslog priority prefix when
@@ -38,6 +42,30 @@ constexpr int kExitUsage = 2;
 std::string prefix(const char* priority) {
   static const bool journal = candp2::logsink::stderr_is_journal();
   return journal ? priority : "";
+}
+
+// Writes the configuration's warnings to stderr, at most kWarningsPerKind of a kind and then one
+// line with the count of the rest; with `rejected_are_errors` a station's rejection is an error
+// line. Returns how many warnings are rejections.
+std::size_t print_warnings(const candp2::config::DaemonConfig& config, bool rejected_are_errors) {
+  using candp2::config::WarningKind;
+  std::map<WarningKind, std::size_t> count;
+  std::size_t rejected = 0;
+  for (const auto& w : config.warnings) {
+    const bool error = rejected_are_errors && w.kind == WarningKind::Rejected;
+    rejected += w.kind == WarningKind::Rejected;
+    if (w.kind != WarningKind::Other && ++count[w.kind] > kWarningsPerKind && !error) continue;
+    std::cerr << prefix(error ? SD_ERR : SD_WARNING)
+              << "candp2d: " << (error ? "error: " : "warning: ") << w.to_string() << "\n";
+  }
+  for (const auto& [kind, n] : count)
+    if (n > kWarningsPerKind)
+      std::cerr << prefix(SD_WARNING) << "candp2d: warning: " << config.file << ": "
+                << n - kWarningsPerKind << " more warnings like these ("
+                << (kind == WarningKind::Overlap ? "overlapping PLC addresses"
+                                                 : "rejected stations")
+                << "); candp2 validate " << config.file << " lists them all\n";
+  return rejected;
 }
 
 int run(const candp2::config::DaemonConfig& config, candp2::LogLevel level) {
@@ -131,8 +159,10 @@ int main(int argc, char** argv) {
     return kExitUsage;
   }
   const auto& config = std::get<candp2::config::DaemonConfig>(loaded);
-  for (const auto& w : config.warnings)
-    std::cerr << prefix(SD_WARNING) << "candp2d: warning: " << w.to_string() << "\n";
+  // With --check a configuration a gateway or slave rejects is an error, the verdict of `candp2
+  // validate` (docs/validate.md "One verdict"); running, it is a warning: a test may configure a
+  // rejected station on purpose.
+  const auto rejected = print_warnings(config, check);
 
   const std::string level_name = level_override.empty() ? config.log_level : level_override;
   const auto level = candp2::logsink::parse_level(level_name);
@@ -142,8 +172,17 @@ int main(int argc, char** argv) {
               << level_name << "\"\n";
     return kExitUsage;
   }
+  if (check && rejected) {
+    std::cout << config.file << ": configuration invalid (" << rejected
+              << " station(s) would reject their parameters or configuration, as candp2 validate "
+                 "says)\n";
+    return kExitStart;
+  }
   if (check) {
     std::cout << config.file << ": configuration OK (" << config.gateways.size() << " gateway(s), "
+              << (config.slaves.empty()
+                      ? std::string()
+                      : std::to_string(config.slaves.size()) + " generic slave(s), ")
               << config.buses.size() << " bus(es), " << config.warnings.size() << " warning(s))\n";
     return 0;
   }

@@ -1,6 +1,10 @@
 #include "daemon/state_file.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -38,7 +42,7 @@ bool save_state(const std::string& path, const StoredMap& state, std::string* er
     std::ofstream out(tmp, std::ios::trunc);
     out << j.dump(2) << "\n";
     if (!out) {
-      *error = "cannot write " + tmp;
+      *error = "cannot write " + tmp + ": " + std::strerror(errno);
       return false;
     }
   }
@@ -46,6 +50,22 @@ bool save_state(const std::string& path, const StoredMap& state, std::string* er
   std::filesystem::rename(tmp, path, ec);
   if (ec) {
     *error = "cannot rename " + tmp + " to " + path + ": " + ec.message();
+    return false;
+  }
+  return true;
+}
+
+bool prepare_folder_of(const std::string& path, std::string* why) {
+  const auto folder = std::filesystem::path(path).parent_path();
+  if (folder.empty()) return true;  // the working folder
+  std::error_code ec;
+  std::filesystem::create_directories(folder, ec);
+  if (ec) {
+    *why = "cannot create its folder " + folder.string() + ": " + ec.message();
+    return false;
+  }
+  if (::access(folder.c_str(), W_OK) != 0) {
+    *why = "its folder " + folder.string() + " is not writable: " + std::strerror(errno);
     return false;
   }
   return true;

@@ -23,9 +23,10 @@ std::string count(std::size_t n, const char* singular, const char* plural) {
 
 }  // namespace
 
-std::string status_summary(std::size_t gateways, std::size_t in_data_exch,
+std::string status_summary(std::size_t gateways, std::size_t slaves, std::size_t in_data_exch,
                            std::size_t modbus_clients) {
   std::string out = count(gateways, "gateway", "gateways");
+  if (slaves) out += ", " + count(slaves, "generic slave", "generic slaves");
   out += ", ";
   out += std::to_string(in_data_exch);
   out += " in Data_Exch, ";
@@ -38,7 +39,9 @@ std::string status_summary(Daemon& daemon) {
   std::size_t exchanging = 0;
   for (const auto& s : slaves)
     if (s.state == dp::MasterSlaveState::DataExch) ++exchanging;
-  return status_summary(slaves.size(), exchanging, daemon.modbus_clients());
+  const auto& config = daemon.plant().config();
+  return status_summary(config.gateways.size(), config.slaves.size(), exchanging,
+                        daemon.modbus_clients());
 }
 
 std::string listen_assignments(Daemon& daemon, const config::DaemonConfig& config) {

@@ -25,8 +25,9 @@
 
 namespace candp2::daemon {
 
-// "3 gateways, 3 in Data_Exch, 2 Modbus clients" (singular for 1).
-std::string status_summary(std::size_t gateways, std::size_t in_data_exch,
+// "3 gateways, 3 in Data_Exch, 2 Modbus clients" (singular for 1); with generic slaves
+// "1 gateway, 2 generic slaves, 3 in Data_Exch, ..." (in Data_Exch: of all the master's stations).
+std::string status_summary(std::size_t gateways, std::size_t slaves, std::size_t in_data_exch,
                            std::size_t modbus_clients);
 std::string status_summary(Daemon& daemon);
 

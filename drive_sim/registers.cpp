@@ -1,7 +1,9 @@
 // The REGID register list, transcribed row by row from the register list at the end of the Unitek
-// short description FW 378 (/work/shared/spec/002_80e259dd0ac0c35a.txt, lines 914-1175). Every
-// row cites itself by its `source_line` (the line of that row in the file); access type, width and
-// default value are as printed, with these exceptions, each marked on its row:
+// short description FW 378 (lines 914-1175 of its plain-text extraction). Every row cites itself by
+// its `source_line` (the line of that row there; the test
+// VendorManual.RegisterTableMatchesTheRegisterList checks each row when the manuals are given,
+// docs/development.md "Vendor files"); access type, width and default value are as printed, with
+// these exceptions, each marked on its row:
 //  - 0x28 and 0xEE are printed with 5 hex digits; their decimal column (-3, 550) shows 16-bit
 //  values.
 //  - 0x52 STATUS_MASK: the list prints 0x0000F811 (a value read from one device); the default of
@@ -18,7 +20,7 @@ namespace candp2::drive {
 namespace {
 
 // clang-format off
-// {REGID, Typ, width, default, intern name, label, description, line in 002_80e259dd0ac0c35a.txt}
+// {REGID, Typ, width, default, intern name, label, description, line in the list}
 constexpr std::array<RegisterInfo, 256> kTable{{
     {0x00, Access::UK, Width::W16, 0x0000, "rsv", "(rsv)", "(reserved)", 914},
     {0x01, Access::UK, Width::W16, 0x0000, "USER_SPEC_OPT", "Usr-Opt", "(Deif) Options", 915},

@@ -1,7 +1,7 @@
 // The Unitek DS/BAMOCAR REGID register list: one row per REGID 0x00..0xFF with access type, data
 // width and default value, as printed in the register list of the Unitek short description FW 378
-// (/work/shared/spec/002_80e259dd0ac0c35a.txt, "RegNr Typ Hex value Decimal Label (intern name)
-// Description"). Pure data, no behaviour.
+// (the table "RegNr Typ Hex value Decimal Label (intern name) Description" at its end). Pure data,
+// no behaviour.
 #pragma once
 
 #include <cstdint>
@@ -26,7 +26,7 @@ struct RegisterInfo {
   std::string_view name;         // the list's "(intern name)", truncated as printed
   std::string_view label;        // the list's "Label" (NDrive display name)
   std::string_view description;  // the list's "Description"
-  std::uint16_t source_line;     // line of this row in 002_80e259dd0ac0c35a.txt (the citation)
+  std::uint16_t source_line;     // line of this row in the list (the citation)
 };
 
 // All 256 rows, indexed by REGID.

@@ -186,6 +186,10 @@ void Gateway::on_data_exchange(std::span<const std::uint8_t> outputs,
     page_.on_output_page(outputs.first(page_.output_page_len()), now, *this);
   } else {
     slots_.on_outputs(outputs, *this, now);
+    if (rtr_pending_ && tx_active()) {  // after the release's Tx slots (docs/canopen.md)
+      rtr_pending_ = false;
+      send_rtr_frames();
+    }
   }
   if (cfg_->cw_out) {
     const Slot& s = cfg_->slots[*cfg_->cw_out];
@@ -194,7 +198,7 @@ void Gateway::on_data_exchange(std::span<const std::uint8_t> outputs,
   // The frames of this Data_Exchange occupy the bus from now on; a SYNC falling due meanwhile waits
   // until they are out (manual §5.3.3, command 20 note).
   if (tx_frames_ != tx_before && prm_) {
-    const std::uint64_t bitrate = kBitrates[prm_->bitrate_index];
+    const std::uint64_t bitrate = bitrate_bps(prm_->bitrate_index).value();  // Set_Prm checked it
     const auto busy = microseconds((std::uint64_t{burst_bits_} * 1000000u + bitrate - 1) / bitrate);
     if (now >= bus_busy_until_) {
       busy_from_ = now;
@@ -217,7 +221,7 @@ dp::DeviceDiag Gateway::device_diag() const {
     // manual table 3.4.5: bus state, IRQ_LOST, MSG_LOST (both saturate at 255,
     // docs/dp-slave.md "Diagnosis").
     d.bytes = {bus_state_code(bus_state_),
-               static_cast<std::uint8_t>(std::min<std::uint32_t>(irq_lost_, 255)),
+               static_cast<std::uint8_t>(std::min<std::uint32_t>(irq_lost(), 255)),
                static_cast<std::uint8_t>(std::min<std::uint32_t>(cw_.msg_lost(), 255))};
     d.ext_diag = bus_state_ != can::BusState::Ok;
   }
@@ -259,7 +263,11 @@ void Gateway::set_controller_status(can::BusState state, std::uint32_t rx_lost_t
     log_.warn("CAN bus state " + std::string(can::to_string(bus_state_)) + " -> " +
               std::string(can::to_string(state)));
   bus_state_ = state;
-  irq_lost_ = rx_lost_total;
+  // The transport counts from its own start; a power cycle restarts IRQ_LOST at 0
+  // (docs/faults.md "Power cycle and re-parameterization"). A total below the base means the
+  // transport restarted its count: it counts from there.
+  if (rx_lost_total < irq_lost_base_) irq_lost_base_ = 0;
+  irq_lost_total_ = rx_lost_total;
 }
 
 // -------------------------------------------------------------- release, CANopen (docs/canopen.md)
@@ -306,8 +314,15 @@ void Gateway::release(Time now, std::string_view why) {
     page_.on_release(now, *this);
   else
     slots_.on_release(now, *this);
-  // manual table 5.1.2: RTR-Frames only with a CANopen role (ignored in layer-2 mode).
-  if (role() != CanopenRole::None && prm_->send_rtr) send_rtr_frames();
+  // manual table 5.1.2: RTR-Frames only with a CANopen role (ignored in layer-2 mode). They follow
+  // the Tx slots (docs/canopen.md "CANopen master"): a Tx slot still without data sends with the
+  // first Data_Exchange's outputs, and the remote frames wait for it.
+  if (role() != CanopenRole::None && prm_->send_rtr) {
+    if (!cfg_->page_mode && slots_.tx_waiting_for_data())
+      rtr_pending_ = true;
+    else
+      send_rtr_frames();
+  }
   schedule_sync(now);
 }
 
@@ -332,6 +347,7 @@ void Gateway::send_rtr_frames() {
 void Gateway::halt(std::string_view why) {
   if (released_) log_.info("CAN transmission halted: " + std::string(why));
   released_ = false;
+  rtr_pending_ = false;
   next_sync_.reset();
 }
 
@@ -468,10 +484,11 @@ void Gateway::power_cycle(Time now) {
   accepted_prm_.reset();
   slots_.clear();
   cw_.reset();
-  page_.configure(SlotConfig{});
+  page_.power_on();
   input_image_.clear();
   power_on_ = now;
   released_ = false;
+  rtr_pending_ = false;
   boot_sent_ = false;
   nmt_ = NmtState::Initialising;
   sync_ms_ = 0;
@@ -479,6 +496,7 @@ void Gateway::power_cycle(Time now) {
   bus_busy_until_ = busy_from_ = Time{0};
   burst_bits_ = 0;
   rx_frames_ = tx_frames_ = data_exchanges_ = 0;
+  irq_lost_base_ = irq_lost_total_;  // IRQ_LOST starts at 0 (the CW's MSG_LOST: cw_.reset())
 }
 
 GatewayStatus Gateway::status() const {
@@ -489,7 +507,7 @@ GatewayStatus Gateway::status() const {
   s.nmt = nmt_;
   s.rx_frames = rx_frames_;
   s.tx_frames = tx_frames_;
-  s.irq_lost = irq_lost_;
+  s.irq_lost = irq_lost();
   s.msg_lost = cw_.msg_lost();
   s.fifo_level = static_cast<std::uint32_t>(cw_.fifo_level());
   s.fifo_high_water = static_cast<std::uint32_t>(cw_.fifo_high_water());

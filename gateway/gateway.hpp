@@ -140,6 +140,7 @@ class Gateway final : private dp::SlaveApplication, private CwHost {
   // CAN release (docs/canopen.md).
   Time power_on_{0};
   bool released_ = false;
+  bool rtr_pending_ = false;  // the release's RTR frames wait for the Tx slots' first data
   NmtState nmt_ = NmtState::Initialising;
   bool boot_sent_ = false;
   std::uint8_t stored_wakeup_s_ = 0;
@@ -154,7 +155,10 @@ class Gateway final : private dp::SlaveApplication, private CwHost {
 
   // Counters.
   can::BusState bus_state_ = can::BusState::Ok;
-  std::uint32_t irq_lost_ = 0;
+  // IRQ_LOST = the transport's cumulative lost-frame count since the last power cycle.
+  std::uint32_t irq_lost_total_ = 0;  // the transport's count, as last reported
+  std::uint32_t irq_lost_base_ = 0;   // its value at the last power cycle
+  std::uint32_t irq_lost() const { return irq_lost_total_ - irq_lost_base_; }
   std::uint32_t rx_frames_ = 0;
   std::uint32_t tx_frames_ = 0;
   std::uint32_t data_exchanges_ = 0;

@@ -1,7 +1,6 @@
 #include "gateway/page_mode.hpp"
 
 #include <algorithm>
-#include <cstdio>
 #include <cstring>
 
 #include "common/hex.hpp"
@@ -143,16 +142,6 @@ void PageMode::on_init(std::uint8_t seq) {
             " segments" + (comm_window_ ? ", Communication Window" : ""));
 }
 
-namespace {
-
-std::string describe(const can::Ident& id) {
-  char buf[16];
-  std::snprintf(buf, sizeof buf, id.extended ? "%08X" : "%03X", id.id);
-  return buf;
-}
-
-}  // namespace
-
 std::optional<page::ConfigPage> PageMode::accept_config_page(std::uint16_t n, std::uint8_t seq,
                                                              std::span<const std::uint8_t> page,
                                                              State expected, std::string_view dir,
@@ -184,7 +173,7 @@ void PageMode::on_tx_config(std::uint16_t n, std::uint8_t seq, std::span<const s
     // A data-page entry (force + data) must fit into one output segment.
     if (1u + e.length > out_.max_entry())
       return fail(n, seq, Status::BadEntry, count,
-                  "entry " + std::to_string(i + 1) + " (" + describe(e.id) + "): force + " +
+                  "entry " + std::to_string(i + 1) + " (" + can::ident_text(e.id) + "): force + " +
                       std::to_string(e.length) + " data bytes exceed the largest output segment (" +
                       std::to_string(out_.max_entry()) + " payload bytes)");
   }
@@ -226,7 +215,7 @@ void PageMode::on_rx_config(std::uint16_t n, std::uint8_t seq, std::span<const s
   if (!decoded) return;
   for (std::size_t i = 0; i < decoded->entries.size(); ++i) {
     const auto& e = decoded->entries[i];
-    const std::string what = "entry " + std::to_string(i + 1) + " (" + describe(e.id) + ")";
+    const std::string what = "entry " + std::to_string(i + 1) + " (" + can::ident_text(e.id) + ")";
     if (1u + e.length > in_.max_entry())
       return fail(n, seq, Status::BadEntry, count,
                   what + ": count_in + data exceed the largest input segment");
@@ -291,7 +280,7 @@ void PageMode::finish_configuration(std::uint16_t n, std::uint8_t seq) {
     const std::uint32_t key = ident_key(rx_[i].def.id);
     auto it = std::lower_bound(rx_index_.begin(), rx_index_.end(), std::make_pair(key, 0u));
     if (it != rx_index_.end() && it->first == key) {
-      log_.warn("Rx identifier " + describe(rx_[i].def.id) + " configured twice: entry " +
+      log_.warn("Rx identifier " + can::ident_text(rx_[i].def.id) + " configured twice: entry " +
                 std::to_string(i + 1) + " wins, entry " + std::to_string(it->second + 1) +
                 " is never updated (manual §5.2.1)");
       it->second = static_cast<std::uint32_t>(i);
@@ -368,7 +357,7 @@ void PageMode::on_data(std::uint16_t n, std::uint8_t seq, std::span<const std::u
       // Not sent; the rest of the page is processed (status 2 tells the PLC).
       status = Status::BadEntry;
       if (bad.empty())
-        bad = "Tx identifier " + describe(e.def.id) + ": force " + std::to_string(force) +
+        bad = "Tx identifier " + can::ident_text(e.def.id) + ": force " + std::to_string(force) +
               " (0..4 allowed, manual table 6.4.7); not sent";
     } else if (send_due(e, force, data)) {
       send(e, tx);

@@ -44,6 +44,11 @@ class PageMode {
   void configure(const SlotConfig& cfg);
   // Back to the state after configure(): nothing configured, input page zero.
   void reset();
+  // The power-on state: no segments, and pages_processed() back to 0 (docs/faults.md).
+  void power_on() {
+    configure(SlotConfig{});
+    pages_processed_ = 0;
+  }
   // The output page: the concatenated output segments of this Data_Exchange.
   void on_output_page(std::span<const std::uint8_t> page, Time now, TxPort& tx);
   // The input page: the concatenated input segments the PLC reads.

@@ -94,7 +94,9 @@ std::variant<Slot, std::uint8_t> normal_slot(const CfgEntry& e, const UserPrm& p
   const std::size_t len = e.count;
   if (cw) {
     if (len != kCommWindowLen) return kCfgWrongLength;
-  } else if (len < 1 || len > 8u + (counter ? 1u : 0u)) {
+  } else if (const std::size_t extra = counter ? 1u : 0u; len < 1 + extra || len > 8 + extra) {
+    // docs/slots.md "Cfg fault codes" code 3: 1..8 data bytes, plus the counter byte when the
+    // Rx-/Tx-Counter is on (a counter byte alone carries no data).
     return kCfgWrongLength;
   }
   if (m.size() <= 1) return kCfgIdentifierMissing;

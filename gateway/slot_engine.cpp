@@ -142,6 +142,10 @@ std::optional<Time> SlotEngine::next_deadline() const {
   return next;
 }
 
+bool SlotEngine::tx_waiting_for_data() const {
+  return std::any_of(tx_.begin(), tx_.end(), [](const TxSlot& s) { return s.id && !s.have_data; });
+}
+
 std::vector<can::Ident> SlotEngine::rx_idents() const {
   return rx_ids_;
 }

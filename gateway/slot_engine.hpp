@@ -32,6 +32,9 @@ class SlotEngine {
   void advance(Time now, TxPort& tx);
   std::optional<Time> next_deadline() const;
 
+  // True while a Tx slot with a CAN identifier has had no Data_Exchange yet: its first frame
+  // waits for the outputs.
+  bool tx_waiting_for_data() const;
   std::vector<can::Ident> rx_idents() const;
   std::size_t tx_slot_count() const { return tx_.size(); }
   std::size_t rx_slot_count() const { return rx_.size(); }

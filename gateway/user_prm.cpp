@@ -14,7 +14,7 @@ std::string_view bitrate_name(std::uint8_t index) {
 }
 
 std::string bitrate_text(std::uint8_t index) {
-  if (index >= kBitrates.size()) return "?";
+  if (!bitrate_bps(index)) return "?";
   auto name = bitrate_name(index);
   name.remove_suffix(1);  // the "k"
   return std::string(name) + " kbit/s";

@@ -55,6 +55,13 @@ inline constexpr std::array<std::uint32_t, 14> kBitrates = {1000000, 666600, 500
                                                             166000,  125000, 100000, 66600,  50000,
                                                             33300,   20000,  12500,  10000};
 
+// The bit rate of index 0..13 in bit/s (manual table 5.1.1); nullopt outside the table. The one
+// checked look-up of kBitrates.
+inline std::optional<std::uint32_t> bitrate_bps(std::uint8_t index) {
+  if (index >= kBitrates.size()) return std::nullopt;
+  return kBitrates[index];
+}
+
 // The bit rates as manual table 5.1.1 (and the GSD's PrmText 1) names them: "1000k", "666.6k",
 // "500k", ..., "10k"; "?" for an index outside the table.
 std::string_view bitrate_name(std::uint8_t index);

@@ -39,7 +39,7 @@ std::string q(std::string_view s) {
 
 class Checker {
  public:
-  explicit Checker(const Model& m) : m_(m) {}
+  Checker(const Model& m, const DeviceReader* reader) : m_(m), reader_(reader) {}
 
   std::vector<Diagnostic> run() {
     mandatory();
@@ -50,6 +50,7 @@ class Checker {
     layout(m_.user_prm, "", declared_user_len(), 0);
     legacy_user_prm();
     modules();
+    presets();
     slots();
     areas();
     std::stable_sort(out_.begin(), out_.end(),
@@ -299,7 +300,7 @@ class Checker {
 
   void modules() {
     const Limits l = m_.limits();
-    const bool candp2 = m_.ident_number() == kCanDp2Ident;
+    const bool device = reader_ && reader_->applies(m_.ident_number());
     std::map<std::int64_t, int> refs;
     for (const auto& mod : m_.modules) {
       const std::string name = "Module " + q(mod.name);
@@ -327,17 +328,33 @@ class Checker {
       if (l.max_data_len &&
           static_cast<std::int64_t>(dec.input_len + dec.output_len) > *l.max_data_len)
         err(mod.line, name + ": data exceeds Max_Data_Len " + std::to_string(*l.max_data_len));
-      if (candp2 && !is_universal_module(mod.config)) {
+      if (device && !is_universal_module(mod.config)) {
         for (const auto& e : dec.entries) {
-          const CanDp2Slot s = describe_candp2(e);
-          if (s.problem)
-            err(mod.line, name + ": the CAN-DP/2 rejects this entry (" + *s.problem +
-                              "; manual §7, docs/slots.md)");
+          const EntryVerdict v = reader_->read(e);
+          if (v.problem)
+            err(mod.line, name + ": the " + reader_->device + " rejects this entry (" + *v.problem +
+                              "; " + reader_->rules + ")");
         }
       }
       if (!mod.prm.empty() || mod.ext_module_prm_data_len)
         layout(mod.prm, name + ": ", mod.ext_module_prm_data_len, mod.line);
     }
+  }
+
+  // Preset / FixPresetModules (docs/gsd.md "Preset modules").
+  void presets() {
+    const auto fix = m_.number("FixPresetModules");
+    const int fix_line = line_of("FixPresetModules");
+    if (fix && *fix != 0 && *fix != 1)
+      err(fix_line, "FixPresetModules expects 0 or 1, found " + std::to_string(*fix));
+    const auto presets = m_.preset_modules();
+    if (m_.fix_preset_modules() && presets.empty())
+      warn(fix_line, "FixPresetModules = 1, but no module has Preset = 1");
+    const Limits l = m_.limits();
+    if (l.max_module && static_cast<std::int64_t>(presets.size()) > *l.max_module)
+      err(m_.modules[presets[static_cast<std::size_t>(*l.max_module)]].line,
+          std::to_string(presets.size()) + " modules have Preset = 1, more than Max_Module " +
+              std::to_string(*l.max_module) + ": no configuration can hold them");
   }
 
   void slots() {
@@ -371,13 +388,14 @@ class Checker {
   }
 
   const Model& m_;
+  const DeviceReader* reader_;
   std::vector<Diagnostic> out_;
 };
 
 }  // namespace
 
-std::vector<Diagnostic> check(const Model& model) {
-  return Checker(model).run();
+std::vector<Diagnostic> check(const Model& model, const DeviceReader* reader) {
+  return Checker(model, reader).run();
 }
 
 }  // namespace candp2::gsd

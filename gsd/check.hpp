@@ -4,6 +4,7 @@
 
 #include <vector>
 
+#include "gsd/cfg.hpp"
 #include "gsd/gsd.hpp"
 
 namespace candp2::gsd {
@@ -12,8 +13,9 @@ namespace candp2::gsd {
 // ExtUserPrmData/PrmText/modules, defaults outside their range, parameter offsets beyond
 // User_Prm_Data_Len / Max_User_Prm_Data_Len, malformed module configuration bytes, limits
 // exceeded. Warnings: doubtful but workable entries (e.g. User_Prm_Data disagreeing with the
-// Ext_User_Prm_Data defaults). For the CAN-DP/2 (Ident_Number 0x04A4) module entries are also
-// checked against the gateway's slot rules (manual §7, docs/slots.md "Chk_Cfg slots").
-std::vector<Diagnostic> check(const Model& model);
+// Ext_User_Prm_Data defaults). When `reader` applies to the GSD's Ident_Number, module entries are
+// also checked against that device's rules (the CAN-DP/2's slot rules: validate/gsd_reading.hpp,
+// manual §7, docs/slots.md "Chk_Cfg slots").
+std::vector<Diagnostic> check(const Model& model, const DeviceReader* reader = nullptr);
 
 }  // namespace candp2::gsd

@@ -128,8 +128,11 @@ struct Module {
   std::vector<std::uint8_t> config;       // Chk_Cfg identifier bytes (see gsd/cfg.hpp)
   std::optional<std::int64_t> reference;  // the bare number after the Module line (rev 3+)
   std::optional<std::int64_t> ext_module_prm_data_len;
-  PrmLayout prm;                  // Ext_User_Prm_Data_Const/Ref inside the module
-  std::vector<Setting> settings;  // Preset, Info_Text, F_..., unknown keywords
+  PrmLayout prm;  // Ext_User_Prm_Data_Const/Ref inside the module
+  // Preset = 1: configuration tools put the module into every new configuration of the device,
+  // before the user's modules, in GSD order (docs/gsd.md "Preset modules").
+  bool preset = false;
+  std::vector<Setting> settings;  // Preset (also as the field above), Info_Text, F_..., unknown
   std::vector<Block> blocks;      // Data_Area_Beg ... Data_Area_End
   int line = 0;
 };
@@ -195,6 +198,10 @@ struct Model {
   const PrmText* prm_text(std::int64_t ref) const;
   const ExtUserPrmData* ext_user_prm(std::int64_t ref) const;
   const Module* module(std::string_view name) const;  // case-insensitive, trimmed
+  // The modules with Preset = 1, as indices into `modules`, in GSD order.
+  std::vector<std::size_t> preset_modules() const;
+  // FixPresetModules = 1: the preset modules may be neither removed nor moved.
+  bool fix_preset_modules() const;
 };
 
 struct ParseResult {
@@ -214,5 +221,7 @@ ParseResult parse_file(const std::string& path);
 
 // For display: valid UTF-8 stays as is, anything else is taken as ISO-8859-1 (many GSD files).
 std::string to_utf8(std::string_view s);
+// A module or parameter name for messages: trimmed of blanks and tabs, then to_utf8.
+std::string display_name(std::string_view name);
 
 }  // namespace candp2::gsd

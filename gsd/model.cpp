@@ -160,4 +160,19 @@ const Module* Model::module(std::string_view name) const {
   return nullptr;
 }
 
+std::string display_name(std::string_view name) {
+  return to_utf8(detail::trim(name));
+}
+
+std::vector<std::size_t> Model::preset_modules() const {
+  std::vector<std::size_t> out;
+  for (std::size_t i = 0; i < modules.size(); ++i)
+    if (modules[i].preset) out.push_back(i);
+  return out;
+}
+
+bool Model::fix_preset_modules() const {
+  return number("FixPresetModules").value_or(0) != 0;
+}
+
 }  // namespace candp2::gsd

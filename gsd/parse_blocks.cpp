@@ -268,6 +268,15 @@ void Parser::in_module(const Stmt& st) {
     return;
   }
   if (prm_layout_stmt(st, module_.prm)) return;
+  if (iequals(st.key, "Preset")) {  // Boolean (GSD revision 2): 0 or 1
+    if (auto n = single_number(st, st.key)) {
+      if (*n == 0 || *n == 1)
+        module_.preset = *n == 1;
+      else
+        err(st.line,
+            "Module " + quote(module_.name) + ": Preset expects 0 or 1, found " + quote(st.value));
+    }
+  }
   module_.settings.push_back(make_setting(st));
 }
 

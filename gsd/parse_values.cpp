@@ -39,7 +39,8 @@ Expect expected_type(std::string_view key) {
       "Station_Type",          "Redundancy",        "Repeater_Ctrl_Sig", "24V_Pins",
       "Min_Slave_Intervall",   "Modular_Station",   "Max_Module",        "Max_Input_Len",
       "Max_Output_Len",        "Max_Data_Len",      "Modul_Offset",      "Max_Diag_Data_Len",
-      "Max_User_Prm_Data_Len", "User_Prm_Data_Len", "Fail_Safe",         "DPV1_Slave"};
+      "Max_User_Prm_Data_Len", "User_Prm_Data_Len", "Fail_Safe",         "DPV1_Slave",
+      "FixPresetModules"};
   for (auto k : kStrings)
     if (iequals(key, k)) return Expect::String;
   for (auto k : kUnsigned)

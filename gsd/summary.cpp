@@ -75,7 +75,7 @@ void parameters(std::ostringstream& os, const Model& m, const PrmLayout& lay,
 
 }  // namespace
 
-std::string summary(const Model& m) {
+std::string summary(const Model& m, const DeviceReader* reader) {
   std::ostringstream os;
   os << shown(m.vendor_name()) << ' ' << shown(m.model_name()) << '\n';
   auto line = [&](const char* label, const std::string& value) {
@@ -132,13 +132,17 @@ std::string summary(const Model& m) {
   parameters(os, m, m.user_prm, enc, "  ");
 
   os << "\nModules: " << m.modules.size() << '\n';
-  const bool candp2 = m.ident_number() == kCanDp2Ident;
+  if (const auto presets = m.preset_modules(); !presets.empty())
+    os << "  " << presets.size() << " with Preset = 1, put first into every configuration"
+       << (m.fix_preset_modules() ? " and fixed there (FixPresetModules = 1)" : "") << '\n';
+  const bool device = reader && reader->applies(m.ident_number());
   for (const auto& mod : m.modules) {
     std::string quoted(1, '"');  // not `"\"" + ...`: GCC 12's false -Wrestrict at -O3
     quoted += shown(mod.name);
     quoted += '"';
     os << "  " << pad(std::move(quoted), 36) << ' ' << hex_bytes(mod.config);
     if (mod.reference) os << "  (ref " << *mod.reference << ")";
+    if (mod.preset) os << "  (preset)";
     os << '\n';
     if (is_universal_module(mod.config)) {
       os << "      universal module: type, length and comment bytes are set in the "
@@ -148,9 +152,10 @@ std::string summary(const Model& m) {
     const CfgDecode dec = decode_config(mod.config);
     for (const auto& e : dec.entries) {
       os << "      " << describe(e) << '\n';
-      if (candp2) {
-        const CanDp2Slot s = describe_candp2(e);
-        os << "      CAN-DP/2: " << (s.problem ? "rejected, " + *s.problem : s.text) << '\n';
+      if (device) {
+        const EntryVerdict v = reader->read(e);
+        os << "      " << reader->device << ": " << (v.problem ? "rejected, " + *v.problem : v.text)
+           << '\n';
       }
     }
     if (dec.error) os << "      ! malformed: " << *dec.error << '\n';

@@ -22,6 +22,58 @@ Configuration configuration_of(std::vector<std::uint8_t> bytes) {
   return c;
 }
 
+namespace {
+
+std::string preset_list(const gsd::Model& m, std::span<const std::size_t> presets) {
+  std::string out;
+  for (std::size_t i : presets) {
+    if (!out.empty()) out += ", ";
+    out += '"' + gsd::display_name(m.modules[i].name) + '"';
+  }
+  return out;
+}
+
+}  // namespace
+
+WithPresets with_presets(const gsd::Model& m, std::span<const std::size_t> user) {
+  const std::vector<std::size_t> presets = m.preset_modules();
+  auto is_preset = [&](std::size_t i) { return m.modules[i].preset; };
+  WithPresets out;
+  if (std::none_of(user.begin(), user.end(), is_preset)) {
+    // A new configuration: the tool puts the preset modules in first.
+    out.modules = presets;
+    out.added = presets.size();
+    out.modules.insert(out.modules.end(), user.begin(), user.end());
+    return out;
+  }
+  out.modules.assign(user.begin(), user.end());
+  if (!m.fix_preset_modules()) return out;  // moving or removing them is allowed
+  const std::string rule =
+      " (FixPresetModules = 1): the preset modules stand first, in GSD order (" +
+      preset_list(m, presets) + "); list them so, or leave them out of the list and they are added";
+  const std::size_t k = presets.size();
+  for (std::size_t i = 0; i < std::max(user.size(), k); ++i) {
+    if (i < k && i < user.size() && user[i] == presets[i]) continue;
+    if (i >= k && !is_preset(user[i])) continue;
+    // Out of place from here: a preset module listed from here on was moved (or repeated);
+    // when none is, the one due here was removed.
+    for (std::size_t j = i; j < user.size(); ++j) {
+      if (!is_preset(user[j])) continue;
+      const auto slot = std::find(presets.begin(), presets.end(), user[j]) - presets.begin();
+      out.problem = PresetProblem{j, "\"" + gsd::display_name(m.modules[user[j]].name) +
+                                         "\" is a fixed preset module: it belongs at slot " +
+                                         std::to_string(slot) + " and cannot be moved" + rule};
+      return out;
+    }
+    out.problem = PresetProblem{
+        std::min(i, user.size()),
+        "the fixed preset module \"" + gsd::display_name(m.modules[presets[i]].name) +
+            "\" is missing at slot " + std::to_string(i) + " and cannot be removed" + rule};
+    return out;
+  }
+  return out;
+}
+
 std::optional<CfgProblem> check_limits(const Profile& p, const Configuration& c) {
   const std::size_t in = c.decoded.input_len, out = c.decoded.output_len;
   const std::size_t last = c.decoded.entries.empty() ? 0 : c.decoded.entries.size() - 1;

@@ -31,6 +31,24 @@ Configuration configuration_of(std::vector<const gsd::Module*> modules);
 // The configuration given as raw Chk_Cfg bytes (cfg_hex).
 Configuration configuration_of(std::vector<std::uint8_t> bytes);
 
+// The modules a configuration tool configures from the user's module list (docs/slaves.md
+// "Preset modules"): the GSD's preset modules (Preset = 1) stand first, in GSD order, then the
+// user's modules. A list that names none of them gets them added in front; a list that names
+// any is taken as written, except that with FixPresetModules = 1 the preset modules must then
+// stand exactly first, all of them, in GSD order, and nowhere else (a fixed module can be neither
+// moved nor removed).
+struct PresetProblem {
+  std::size_t position = 0;  // the entry of the user's list it is about (= its size: the end)
+  std::string text;          // names the module
+};
+struct WithPresets {
+  std::vector<std::size_t> modules;      // the whole configuration: indices into model.modules
+  std::size_t added = 0;                 // preset modules put in front: modules[0 .. added)
+  std::optional<PresetProblem> problem;  // a fixed preset module moved or removed
+};
+// `user`: indices into model.modules, in the user's order.
+WithPresets with_presets(const gsd::Model& model, std::span<const std::size_t> user);
+
 // Our own numbers for a Cfg fault, for logs and `candp2 validate` (the wire has only the
 // Cfg_Fault bit, IEC 61158-6-3).
 enum class CfgCode : std::uint8_t {

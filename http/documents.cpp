@@ -1,5 +1,6 @@
 #include "http/documents.hpp"
 
+#include <algorithm>
 #include <charconv>
 
 namespace candp2::http {
@@ -25,64 +26,36 @@ void put(std::string& out, std::uint64_t v) {
 
 }  // namespace
 
-// A per-gateway or per-slave family (docs/daemon.md "Metrics"), one step each.
-struct PerGateway {
-  const char* name;
-  const char* type;
-  const char* help;
-  const char* reason;  // a second label, or nullptr
-  std::uint32_t (*value)(const modbus::StatusBlock&);
-};
-
 namespace {
 
-using namespace modbus::status;
-constexpr PerGateway kPerGateway[] = {
-    {"candp2_gateway_can_frames_received_total", "counter",
-     "CAN frames the gateway received since power-on", nullptr,
-     [](const modbus::StatusBlock& b) { return get32(b, kRxFrames); }},
-    {"candp2_gateway_can_frames_sent_total", "counter",
-     "CAN frames the gateway sent since power-on", nullptr,
-     [](const modbus::StatusBlock& b) { return get32(b, kTxFrames); }},
-    {"candp2_gateway_can_frames_lost_total", "counter",
-     "CAN frames lost: irq = before the gateway saw them (IRQ_LOST), fifo = dropped at the full "
-     "Communication Window FIFO (MSG_LOST), docs/dp-slave.md",
-     "irq", [](const modbus::StatusBlock& b) { return get32(b, kIrqLost); }},
-    {"candp2_gateway_can_frames_lost_total", nullptr, nullptr, "fifo",
-     [](const modbus::StatusBlock& b) { return get32(b, kMsgLost); }},
-    {"candp2_gateway_data_exchanges_total", "counter",
-     "Data_Exchange telegrams the gateway answered", nullptr,
-     [](const modbus::StatusBlock& b) { return get32(b, kDataExchanges); }},
-    {"candp2_gateway_parameterizations_total", "counter",
-     "Set_Prm telegrams the master sent to the gateway", nullptr,
-     [](const modbus::StatusBlock& b) { return get32(b, kParameterizations); }},
-    {"candp2_gateway_fifo_level", "gauge",
-     "frames waiting in the Communication Window FIFO (manual §5.3)", nullptr,
-     [](const modbus::StatusBlock& b) { return std::uint32_t{b[kFifoLevel]}; }},
-    {"candp2_gateway_fifo_high_water", "gauge", "highest FIFO level since power-on", nullptr,
-     [](const modbus::StatusBlock& b) { return std::uint32_t{b[kFifoHighWater]}; }},
-    {"candp2_gateway_dp_state", "gauge", "DP slave state: 0 Wait_Prm, 1 Wait_Cfg, 2 Data_Exch",
-     nullptr, [](const modbus::StatusBlock& b) { return std::uint32_t{b[kDpState]}; }},
-    {"candp2_gateway_can_bus_state", "gauge",
-     "CAN controller: 0 ok, 1 warning, 2 error-passive, 3 bus-off", nullptr,
-     [](const modbus::StatusBlock& b) { return std::uint32_t{b[kBusState]}; }},
+// The per-gateway and per-slave families (docs/daemon.md "Metrics"; docs/slaves.md "Front panel
+// and HTTP API"), one step each: the fields of the station table (station/status.hpp) with a
+// metric of that kind, in the metric's rank order, read from the status blocks.
+struct Family {
+  const station::Field* field;
+  const station::Metric* metric;
 };
-constexpr std::size_t kFamilies = std::size(kPerGateway);
 
-// The per-slave families of the generic DP slaves (docs/slaves.md "Front panel and HTTP API"),
-// from their status blocks as for gateways, one step each.
-constexpr PerGateway kPerSlave[] = {
-    {"candp2_slave_dp_state", "gauge",
-     "generic DP slave state: 0 Wait_Prm, 1 Wait_Cfg, 2 Data_Exch", nullptr,
-     [](const modbus::StatusBlock& b) { return std::uint32_t{b[kDpState]}; }},
-    {"candp2_slave_data_exchanges_total", "counter",
-     "Data_Exchange telegrams the built-in master completed with the generic DP slave", nullptr,
-     [](const modbus::StatusBlock& b) { return get32(b, kDataExchanges); }},
-    {"candp2_slave_parameterizations_total", "counter",
-     "Set_Prm telegrams the built-in master sent to the generic DP slave", nullptr,
-     [](const modbus::StatusBlock& b) { return get32(b, kParameterizations); }},
-};
-constexpr std::size_t kSlaveFamilies = std::size(kPerSlave);
+std::vector<Family> families(bool slaves) {
+  std::vector<Family> out;
+  for (const auto& f : station::fields()) {
+    const auto& m = slaves ? f.slave_metric : f.gateway_metric;
+    if (m.rank) out.push_back({&f, &m});
+  }
+  std::sort(out.begin(), out.end(),
+            [](const Family& a, const Family& b) { return a.metric->rank < b.metric->rank; });
+  return out;
+}
+
+const std::vector<Family>& gateway_families() {
+  static const std::vector<Family> f = families(false);
+  return f;
+}
+
+const std::vector<Family>& slave_families() {
+  static const std::vector<Family> f = families(true);
+  return f;
+}
 
 }  // namespace
 
@@ -151,23 +124,20 @@ void MetricsBuild::family(std::string_view name, std::string_view type, std::str
   out_ += '\n';
 }
 
-void MetricsBuild::per_gateway(std::size_t k) {
-  per_row(kPerGateway[k], rows_);
-}
-
-void MetricsBuild::per_row(const PerGateway& f, const std::vector<Row>& rows) {
-  if (f.type) family(f.name, f.type, f.help);
+void MetricsBuild::per_row(const station::Field& f, const station::Metric& m,
+                           const std::vector<Row>& rows) {
+  if (!m.type.empty()) family(m.name, m.type, m.help.empty() ? f.meaning : m.help);
   for (const auto& r : rows) {
-    out_ += f.name;
+    out_ += m.name;
     out_ += '{';
     out_ += r.labels;
-    if (f.reason) {
+    if (!m.reason.empty()) {
       out_ += ",reason=\"";
-      out_ += f.reason;
+      out_ += m.reason;
       out_ += '"';
     }
     out_ += "} ";
-    put(out_, std::uint64_t{f.value(r.block)});
+    put(out_, std::uint64_t{modbus::field_value(r.block, f)});
     out_ += '\n';
   }
 }
@@ -179,7 +149,7 @@ bool MetricsBuild::step(Time now) {
   if (rows_.size() < gateways.size()) {
     for (std::size_t n = 0; n < kGatewaysPerStep && rows_.size() < gateways.size(); ++n) {
       const auto& g = gateways[rows_.size()];
-      rows_.push_back({"gateway=\"" + std::to_string(g.gateway->address()) + "\",bus=\"" +
+      rows_.push_back({"gateway=\"" + std::to_string(g.face->dp_address()) + "\",bus=\"" +
                            g.cfg->bus + "\",name=\"" + g.cfg->name + "\"",
                        g.face->status(now)});
     }
@@ -195,12 +165,14 @@ bool MetricsBuild::step(Time now) {
     }
     return false;
   }
-  if (family_ < kFamilies) {
-    per_gateway(family_++);
+  if (family_ < gateway_families().size()) {
+    const auto& f = gateway_families()[family_++];
+    per_row(*f.field, *f.metric, rows_);
     return false;
   }
-  if (!slaves.empty() && slave_family_ < kSlaveFamilies) {
-    per_row(kPerSlave[slave_family_++], slave_rows_);
+  if (!slaves.empty() && slave_family_ < slave_families().size()) {
+    const auto& f = slave_families()[slave_family_++];
+    per_row(*f.field, *f.metric, slave_rows_);
     return false;
   }
   model_.refresh_load(now);

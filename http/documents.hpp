@@ -16,8 +16,6 @@
 
 namespace candp2::http {
 
-struct PerGateway;
-
 class DocumentBuild {
  public:
   virtual ~DocumentBuild() = default;
@@ -69,8 +67,8 @@ class MetricsBuild final : public DocumentBuild {
     std::string labels;
     modbus::StatusBlock block;
   };
-  void per_gateway(std::size_t k);
-  void per_row(const PerGateway& f, const std::vector<Row>& rows);
+  // One family of the station table (station/status.hpp) over the gateways' or slaves' rows.
+  void per_row(const station::Field& f, const station::Metric& m, const std::vector<Row>& rows);
   void tail();
 
   StatusModel& model_;

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "event_loop/deadline_timer.hpp"
+#include "event_loop/throttled_log.hpp"
 #include "http/client_table.hpp"
 #include "http/documents.hpp"
 #include "http/live_view.hpp"
@@ -78,38 +79,6 @@ struct StreamContext {
   Stream* stream;
 };
 
-// At most one line a second for a kind of event that hostile clients can cause by the thousand;
-// the next line (or a timer a second later) gives the count of the suppressed ones.
-class Throttle {
- public:
-  // True when this occurrence is to be logged; *more = suppressed ones since the last line.
-  bool pass(Time now, const std::string& line, std::uint64_t* more) {
-    if (last_ != Time{0} && now - last_ < seconds(1)) {
-      ++suppressed_;
-      last_line_ = line;
-      return false;
-    }
-    last_ = now;
-    *more = suppressed_;
-    suppressed_ = 0;
-    return true;
-  }
-  // The suppressed count and the last suppressed line, cleared (the timer's summary).
-  std::uint64_t flush(Time now, std::string* line) {
-    const auto n = suppressed_;
-    suppressed_ = 0;
-    last_ = now;
-    *line = std::move(last_line_);
-    return n;
-  }
-  std::uint64_t suppressed() const { return suppressed_; }
-
- private:
-  Time last_{0};
-  std::uint64_t suppressed_ = 0;
-  std::string last_line_;
-};
-
 class HttpServerImpl final : public HttpServer {
  public:
   HttpServerImpl(Options o, EventLoop& loop, StatusModel& model, LogSink* log)
@@ -120,10 +89,12 @@ class HttpServerImpl final : public HttpServer {
         table_(options_.max_clients, options_.idle_timeout),
         view_(model),
         budget_(std::clamp<Duration>(options_.cycle / 4, microseconds(100), milliseconds(2))),
-        idle_timer_(loop, [this] { close_idle(); }) {}
+        idle_timer_(loop, [this] { close_idle(); }),
+        notes_(loop, log_) {}
 
   ~HttpServerImpl() override {
-    for (auto* t : {&mhd_timer_, &work_timer_, &pause_timer_, &log_timer_})
+    notes_.stop();
+    for (auto* t : {&mhd_timer_, &work_timer_, &pause_timer_})
       if (*t) loop_.cancel_timer(*t);
     idle_timer_.disarm();
     if (listener_ && listening_) loop_.remove_fd(listener_->fd());
@@ -228,8 +199,7 @@ class HttpServerImpl final : public HttpServer {
       // Out of descriptors: stop accepting for a moment (the listening socket would stay
       // readable and spin the loop); the connections wait in the backlog.
       ++model_.http_counters().clients_refused;
-      note(refused_log_, "not accepting for " + ms_text(kAcceptPause) + ": " + error,
-           LogLevel::Warn);
+      note("refused", "not accepting for " + ms_text(kAcceptPause) + ": " + error, LogLevel::Warn);
       loop_.remove_fd(listener_->fd());
       listening_ = false;
       pause_timer_ = loop_.add_timer(kAcceptPause, [this] {
@@ -253,7 +223,7 @@ class HttpServerImpl final : public HttpServer {
                      std::to_string(options_.max_clients) + ", " +
                      (a.evict_was_waiting ? "waited longest for a request)"
                                           : "every connection busy, oldest request)"),
-                 evicted_log_);
+                 "evicted");
     }
     auto owned = std::make_unique<Conn>();
     Conn* c = owned.get();
@@ -269,7 +239,7 @@ class HttpServerImpl final : public HttpServer {
     adding_ = nullptr;
     if (ok != MHD_YES) {
       ++counters.clients_refused;
-      note(refused_log_,
+      note("refused",
            "connection from " + name + " refused by libmicrohttpd: " + std::strerror(add_errno),
            LogLevel::Warn);
       if (conns_.count(a.id)) forget(a.id);  // no CLOSED notification came
@@ -282,14 +252,14 @@ class HttpServerImpl final : public HttpServer {
 
   // Closes a connection we decided to close: out of the table at once; libmicrohttpd sees the
   // shut-down socket (or the stream's end) at its next run and closes it.
-  void close_conn(ClientTable::Id id, const std::string& why, Throttle& throttle) {
+  void close_conn(ClientTable::Id id, const std::string& why, std::string_view kind) {
     const auto it = conns_.find(id);
     if (it == conns_.end()) return;
     Conn& c = *it->second;
     table_.remove(id);
     if (c.closing) return;
     c.closing = true;
-    note(throttle, "connection " + c.peer + " closed: " + why);
+    note(kind, "connection " + c.peer + " closed: " + why);
     ::shutdown(c.fd, SHUT_RDWR);
     if (c.stream && c.stream->suspended) {  // libmicrohttpd looks at it only when resumed
       c.stream->suspended = false;
@@ -306,23 +276,10 @@ class HttpServerImpl final : public HttpServer {
     model_.http_counters().connections = conns_.size();
   }
 
-  void note(Throttle& throttle, const std::string& line, LogLevel level = LogLevel::Info) {
-    if (closing_) return;
-    std::uint64_t more = 0;
-    if (throttle.pass(loop_.now(), line, &more)) {
-      log_.log(level,
-               more ? line + " (and " + std::to_string(more) + " more like it before)" : line);
-    } else if (!log_timer_) {
-      log_timer_ = loop_.add_timer(seconds(1), [this] {
-        log_timer_ = 0;
-        for (auto* t : {&evicted_log_, &idle_log_, &refused_log_, &mhd_log_})
-          if (t->suppressed()) {
-            std::string last;
-            const auto n = t->flush(loop_.now(), &last);
-            log_.info(std::to_string(n) + " more in the last second, the last: " + last);
-          }
-      });
-    }
+  // Every line a client can cause by the thousand goes through the throttle (docs/daemon.md
+  // "Logging"): one a second per kind, with the count.
+  void note(std::string_view kind, std::string line, LogLevel level = LogLevel::Info) {
+    if (!closing_) notes_.log(kind, level, std::move(line));
   }
 
   // One timer for the earliest idle expiry of a waiting connection (a request only moves a
@@ -332,7 +289,7 @@ class HttpServerImpl final : public HttpServer {
   void close_idle() {
     for (const auto id : table_.expired(loop_.now())) {
       ++model_.http_counters().clients_timed_out;
-      close_conn(id, "no complete request within " + ms_text(options_.idle_timeout), idle_log_);
+      close_conn(id, "no complete request within " + ms_text(options_.idle_timeout), "idle");
     }
     arm_idle_timer();
   }
@@ -408,7 +365,7 @@ class HttpServerImpl final : public HttpServer {
     std::string text(line);
     while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
     auto& self = *static_cast<HttpServerImpl*>(cls);
-    self.note(self.mhd_log_, "libmicrohttpd: " + text, LogLevel::Warn);
+    self.note("libmicrohttpd", "libmicrohttpd: " + text, LogLevel::Warn);
   }
 
   static MHD_Result queue(MHD_Connection* connection, unsigned status, std::string_view type,
@@ -662,10 +619,10 @@ class HttpServerImpl final : public HttpServer {
   int turn_ = 0;  // pump(): whose step is next
   Time last_round_{0};
   bool want_round_ = false;  // a new stream waits for its first event
-  EventLoop::TimerId mhd_timer_ = 0, work_timer_ = 0, pause_timer_ = 0, log_timer_ = 0;
+  EventLoop::TimerId mhd_timer_ = 0, work_timer_ = 0, pause_timer_ = 0;
   bool kick_pending_ = false;
   DeadlineTimer idle_timer_;
-  Throttle evicted_log_, idle_log_, refused_log_, mhd_log_;
+  ThrottledLog notes_;  // kinds: "evicted", "idle", "refused", "libmicrohttpd"
   bool closing_ = false;
 };
 

@@ -4,21 +4,12 @@
 #include <cmath>
 #include <cstdio>
 
+#include "common/hex.hpp"
 #include "drive_sim/unitek_drive.hpp"
 #include "http/documents.hpp"
+#include "plant/plant.hpp"
 
 namespace candp2::http {
-
-std::string hex_bytes(std::span<const std::uint8_t> bytes) {
-  std::string out;
-  out.reserve(bytes.size() * 3);
-  char b[4];
-  for (std::size_t i = 0; i < bytes.size(); ++i) {
-    std::snprintf(b, sizeof b, i ? " %02X" : "%02X", bytes[i]);
-    out += b;
-  }
-  return out;
-}
 
 namespace {
 
@@ -105,14 +96,14 @@ json StatusModel::gateway_head(std::size_t index, Time now) const {
   const GatewaySource& g = src_.gateways[index];
   using namespace modbus::status;
   const auto block = g.face->status(now);
-  const auto st = g.gateway->status();
+  const auto st = g.unit->gateway().status();
   json j;
   j["name"] = g.cfg->name;
   j["bus"] = g.cfg->bus;
   j["dp_address"] = block[kDpAddress];
   j["dp_state"] = std::string(dp::to_string(st.dp_state));
   j["dp_state_code"] = block[kDpState];
-  const auto view = src_.master ? src_.master->slave(g.gateway->address()) : std::nullopt;
+  const auto view = src_.master ? src_.master->slave(g.unit->gateway().address()) : std::nullopt;
   j["master_state"] = view ? std::string(dp::to_string(view->state)) : "";
   // manual table 3.3.1, encoded once in modbus::encode_status (docs/modbus.md led codes).
   j["leds"] = {{"P", block[kLedP]}, {"D", block[kLedD]}, {"E", block[kLedE]}, {"C", block[kLedC]}};
@@ -122,24 +113,24 @@ json StatusModel::gateway_head(std::size_t index, Time now) const {
   j["bus_state"] = std::string(can::to_string(st.bus_state));
   j["released"] = st.released;
   j["nmt"] = std::string(gw::to_string(st.nmt));
-  j["counters"] = {{"rx_frames", get32(block, kRxFrames)},
-                   {"tx_frames", get32(block, kTxFrames)},
-                   {"irq_lost", get32(block, kIrqLost)},
-                   {"msg_lost", get32(block, kMsgLost)},
-                   {"data_exchanges", get32(block, kDataExchanges)},
-                   {"parameterizations", get32(block, kParameterizations)},
-                   {"master_data_exchanges", view ? view->data_exchanges : 0u}};
+  // The gateway's counters of the station table (station/status.hpp), and the master's count.
+  json counters = json::object();
+  for (const auto& f : station::fields())
+    if (f.shown & station::kGatewayCounters)
+      counters[std::string(f.name)] = modbus::field_value(block, f);
+  counters["master_data_exchanges"] = view ? view->data_exchanges : 0u;
+  j["counters"] = std::move(counters);
   j["fifo"] = {{"level", st.fifo_level}, {"high_water", st.fifo_high_water}};
   j["sync_ms"] = st.sync_ms;
   j["wakeup_s"] = st.wakeup_s;
 
   // Set_Prm user parameters (manual §5.1.2): the accepted ones, else the configured ones.
-  const bool accepted = g.gateway->user_prm().has_value();
-  const gw::UserPrm& p = accepted ? *g.gateway->user_prm() : g.cfg->parameters;
+  const bool accepted = g.unit->gateway().user_prm().has_value();
+  const gw::UserPrm& p = accepted ? *g.unit->gateway().user_prm() : g.cfg->parameters;
   const auto user = gw::encode_user_prm(p);
   j["parameters"] = {
       {"accepted", accepted},
-      {"bitrate", p.bitrate_index < gw::kBitrates.size() ? gw::kBitrates[p.bitrate_index] : 0},
+      {"bitrate", gw::bitrate_bps(p.bitrate_index).value_or(0)},
       {"bitrate_index", p.bitrate_index},
       {"comm_window", p.comm_window},
       {"send_rtr", p.send_rtr},
@@ -156,27 +147,28 @@ json StatusModel::gateway_head(std::size_t index, Time now) const {
       {"user_prm_hex", hex_bytes(user)},
   };
 
-  const auto& cfg = g.gateway->slot_config();
+  const auto& cfg = g.unit->gateway().slot_config();
   j["page_mode"] = {
       {"enabled", cfg && cfg->page_mode},
-      {"state", cfg && cfg->page_mode ? std::string(gw::to_string(g.gateway->page_mode().state()))
-                                      : std::string()},
-      {"pages_processed", g.gateway->page_mode().pages_processed()}};
+      {"state", cfg && cfg->page_mode
+                    ? std::string(gw::to_string(g.unit->gateway().page_mode().state()))
+                    : std::string()},
+      {"pages_processed", g.unit->gateway().page_mode().pages_processed()}};
   j["slot_count"] = slot_count(index);
   return j;
 }
 
 std::size_t StatusModel::slot_count(std::size_t index) const {
-  const auto& cfg = src_.gateways[index].gateway->slot_config();
+  const auto& cfg = src_.gateways[index].unit->gateway().slot_config();
   return cfg && src_.master ? cfg->slots.size() : 0;
 }
 
 json StatusModel::slot_json(std::size_t index, std::size_t i, Time now, bool age) const {
   const GatewaySource& g = src_.gateways[index];
-  const auto& cfg = g.gateway->slot_config();
+  const auto& cfg = g.unit->gateway().slot_config();
   if (!cfg || !src_.master || i >= cfg->slots.size()) return nullptr;
   const auto& addresses = addresses_[index];
-  const auto& stats = g.gateway->slot_engine().slot_stats();
+  const auto& stats = g.unit->gateway().slot_engine().slot_stats();
   const auto& image = src_.master->image();
   const gw::Slot& s = cfg->slots[i];
   json e;
@@ -313,11 +305,11 @@ json StatusModel::drive_json(std::size_t i) const {
   const auto& d = src_.drives[i];
   return {{"name", d.cfg->name},
           {"bus", d.cfg->bus},
-          {"enabled", d.drive->enabled()},
-          {"mode", std::string(drive::to_string(d.drive->control_mode()))},
-          {"speed", d.drive->speed_actual()},
-          {"position", d.drive->position_actual()},
-          {"status", d.drive->status()}};
+          {"enabled", d.unit->drive().drive().enabled()},
+          {"mode", std::string(drive::to_string(d.unit->drive().drive().control_mode()))},
+          {"speed", d.unit->drive().drive().speed_actual()},
+          {"position", d.unit->drive().drive().position_actual()},
+          {"status", d.unit->drive().drive().status()}};
 }
 
 std::optional<std::size_t> StatusModel::bus_of(std::size_t gateway) const {

@@ -1,6 +1,6 @@
 // The status model behind candp2d's HTTP face (docs/daemon.md "HTTP face"): what GET
-// /api/v1/status, GET /metrics and the page's Server-Sent Events show, built from the daemon's live
-// objects.
+// /api/v1/status, GET /metrics and the page's Server-Sent Events show, read from the plant through
+// its accessors (the sources: http/plant_sources.hpp builds them) and its tap (the bus monitors).
 //
 // Read-only: it never changes a gateway, the master or a bus. Every function runs on the event
 // loop's thread between two callbacks, so each piece it returns (one gateway, one slot row, the
@@ -20,16 +20,16 @@
 #include "can/frame.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
-#include "gateway/gateway.hpp"
-#include "gsd_slave/gsd_slave.hpp"
 #include "modbus/modbus_map.hpp"
 #include "modbus/modbus_server.hpp"
 #include "plant/cycle_stats.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
-namespace candp2::drive {
-class UnitekDrive;
-}
+namespace candp2::plant {
+class GatewayUnit;
+class SlaveUnit;
+class DriveUnit;
+}  // namespace candp2::plant
 
 namespace candp2::http {
 
@@ -39,13 +39,10 @@ namespace candp2::http {
 // or 54 + 8 * DLC (29-bit); remote frames carry no data bytes.
 std::uint32_t frame_bits_stuffed(const can::Frame& f);
 
-// "0A 1B 2C": bytes as the JSON shows them.
-std::string hex_bytes(std::span<const std::uint8_t> bytes);
-
 using modbus::get32;  // the status block's 32-bit counters (modbus/registers.hpp)
 
-// Every frame on one bus, counted and kept for the live trace. Fed by the daemon exactly once per
-// frame (the bus's tap on virtual buses, the logging channel on SocketCAN/socketcand buses).
+// Every frame on one bus, counted and kept for the live trace. Fed exactly once per frame by the
+// plant's tap (http::BusMonitors, http/plant_sources.hpp).
 class BusMonitor {
  public:
   static constexpr std::size_t kTrace = 64;  // frames kept for the trace
@@ -67,13 +64,13 @@ class BusMonitor {
 
 struct GatewaySource {
   const config::GatewayConfig* cfg = nullptr;
-  gw::Gateway* gateway = nullptr;
+  const plant::GatewayUnit* unit = nullptr;
   modbus::GatewayFace* face = nullptr;  // the Modbus status block (LEDs, diagnosis, counters)
 };
 // A generic DP-V0 slave from its GSD (docs/slaves.md "Front panel and HTTP API").
 struct SlaveSource {
   const config::SlaveConfig* cfg = nullptr;
-  gsd_slave::GsdSlave* slave = nullptr;
+  const plant::SlaveUnit* unit = nullptr;
   modbus::GatewayFace* face = nullptr;  // its status block and whole diagnosis, as Modbus has them
   bool line = false;                    // on a profibus line in role slaves (else in-process)
 };
@@ -84,7 +81,7 @@ struct BusSource {
 };
 struct DriveSource {
   const config::DriveConfig* cfg = nullptr;
-  const drive::UnitekDrive* drive = nullptr;
+  const plant::DriveUnit* unit = nullptr;
 };
 // The HTTP face's own counters (filled by HttpServer, shown in the status JSON and /metrics).
 struct HttpCounters {

@@ -3,8 +3,10 @@
 // (gsd_slave::GsdSlave) and from its Modbus face (the status block and the whole diagnosis), so
 // the page, Modbus and /metrics can never disagree.
 
+#include "common/hex.hpp"
 #include "gsd/cfg.hpp"
 #include "http/http_status.hpp"
+#include "plant/plant.hpp"
 #include "profibus_sim/dp/dp_telegram.hpp"
 
 namespace candp2::http {
@@ -18,7 +20,7 @@ using nlohmann::json;
 // addressing it. Empty when all is well.
 std::string slave_fault(const SlaveSource& s, std::span<const std::uint8_t> diag,
                         const std::optional<dp::DpMaster::SlaveView>& view) {
-  const auto& g = *s.slave;
+  const auto& g = s.unit->slave();
   const std::uint8_t s1 = diag.empty() ? 0 : diag[0];
   if (!g.online()) return "off the bus";
   if (g.prm_fault_forced()) return "Prm fault (forced)";
@@ -48,7 +50,7 @@ json nullable(const std::string& s) {
 // master gives them, and the current bytes of each direction.
 json module_row(const SlaveSource& s, std::string name, std::span<const std::uint8_t> cfg,
                 std::size_t in_len, std::size_t out_len, std::size_t in_at, std::size_t out_at) {
-  const auto& g = *s.slave;
+  const auto& g = s.unit->slave();
   const auto in = g.field_inputs();
   const auto out = g.field_outputs();
   auto slice = [](std::span<const std::uint8_t> all, std::size_t at, std::size_t n) {
@@ -68,7 +70,7 @@ json module_row(const SlaveSource& s, std::string name, std::span<const std::uin
 
 json modules_json(const SlaveSource& s) {
   json rows = json::array();
-  const auto& c = s.slave->configuration();
+  const auto& c = s.unit->slave().configuration();
   std::size_t in_at = 0, out_at = 0;
   if (!c.modules.empty()) {
     for (const gsd::Module* m : c.modules) {
@@ -98,15 +100,15 @@ json StatusModel::slave_tile(std::size_t index, Time now) const {
   const auto view = src_.master ? src_.master->slave(s.cfg->address) : std::nullopt;
   return {{"dp_address", s.cfg->address},
           {"name", s.cfg->name},
-          {"model", gsd::to_utf8(s.slave->profile().model)},
+          {"model", gsd::to_utf8(s.unit->slave().profile().model)},
           {"kind", s.line ? "line" : "in-process"},
-          {"dp_state", std::string(dp::to_string(s.slave->dp().state()))},
+          {"dp_state", std::string(dp::to_string(s.unit->slave().dp().state()))},
           {"fault", slave_fault(s, diag, view)}};
 }
 
 json StatusModel::slave_json(std::size_t index, Time now) const {
   const SlaveSource& s = src_.slaves[index];
-  const auto& g = *s.slave;
+  const auto& g = s.unit->slave();
   const auto& p = g.profile();
   using namespace modbus::status;
   const auto block = s.face->status(now);
@@ -131,9 +133,12 @@ json StatusModel::slave_json(std::size_t index, Time now) const {
                    {"addressed", view->addressed},
                    {"station_lost", view->station_lost}};
   else
-    j["master"] = nullptr;  // no built-in master drives it (profibus role slaves)
-  j["counters"] = {{"data_exchanges", get32(block, kDataExchanges)},
-                   {"parameterizations", get32(block, kParameterizations)}};
+    j["master"] = nullptr;         // no built-in master drives it (profibus role slaves)
+  json counters = json::object();  // the station table's (station/status.hpp)
+  for (const auto& f : station::fields())
+    if (f.shown & station::kSlaveCounters)
+      counters[std::string(f.name)] = modbus::field_value(block, f);
+  j["counters"] = std::move(counters);
 
   // The whole diagnosis (docs/slaves.md "Diagnosis"): 6 standard bytes, then Ext_Diag_Data.
   json bits = json::array();

@@ -295,6 +295,10 @@ json gateways_json(const config::DaemonConfig& config) {
 json slaves_json(const config::DaemonConfig& config) {
   json out = json::array();
   for (const auto& sl : config.slaves) {
+    // docs/modbus.md "Unit IDs": without gateways 0 and 255 address the first slave.
+    json units = json::array({sl.address});
+    if (config.gateways.empty() && &sl == &config.slaves.front())
+      for (auto u : kFirstGatewayUnits) units.push_back(u);
     const auto params = config::slave_parameters(sl);
     const auto map = dp::map_image(params);
     json in = json::array(), outputs = json::array();
@@ -303,7 +307,7 @@ json slaves_json(const config::DaemonConfig& config) {
       outputs.push_back({{"address", m.plc_address}, {"length", m.length}});
     out.push_back({{"name", sl.name},
                    {"dp_address", sl.address},
-                   {"units", json::array({sl.address})},
+                   {"units", std::move(units)},
                    {"field_unit", sl.field_unit ? json(*sl.field_unit) : json(nullptr)},
                    {"input_bytes", map.in_len},
                    {"output_bytes", map.out_len},

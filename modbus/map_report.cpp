@@ -18,8 +18,10 @@ std::string map_text(const config::DaemonConfig& config) {
     out << "  " << static_cast<int>(g.dp_address()) << (i == 0 ? ", 0, 255" : "") << "  " << g.name
         << "\n";
   }
-  for (const auto& sl : config.slaves)
-    out << "  " << static_cast<int>(sl.address) << "  " << sl.name << " (generic slave)\n";
+  for (const auto& sl : config.slaves)  // without gateways 0 and 255 address the first slave
+    out << "  " << static_cast<int>(sl.address)
+        << (config.gateways.empty() && &sl == &config.slaves.front() ? ", 0, 255" : "") << "  "
+        << sl.name << " (generic slave)\n";
   out << "  other  exception 0x0B\n\n";
   out << "Process image (PLC bytes; register r = bytes 2r high, 2r+1 low; bit b = byte b/8 bit "
          "b%8):\n";
@@ -81,9 +83,10 @@ std::string map_text(const config::DaemonConfig& config) {
   out << "\nControl (holding register " << kControlRegister
       << ", unit ID = DP address): write 1 = power cycle, 2 = re-parameterize, 3 = the master "
          "stops addressing the gateway, 4 = it resumes; reads the last command\n";
-  out << "Faults (docs/faults.md): holding register " << kForcedStateRegister
-      << " = forced CAN state (0 real, 1 warning, 2 error-passive, 3 bus-off), " << kDropRxRegister
-      << " = drop the next N received frames (IRQ_LOST)\n";
+  if (!config.gateways.empty())  // a gateway's CAN side; a line of slaves alone has none
+    out << "Faults (docs/faults.md): holding register " << kForcedStateRegister
+        << " = forced CAN state (0 real, 1 warning, 2 error-passive, 3 bus-off), "
+        << kDropRxRegister << " = drop the next N received frames (IRQ_LOST)\n";
   if (!config.slaves.empty())
     out << "Generic slaves (docs/faults.md), holding registers of the slave's DP address: "
         << kSlaveFaultBase + kSlaveOnBus << " on the bus (1) / off (0), "

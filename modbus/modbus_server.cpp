@@ -17,6 +17,7 @@
 #include "common/hex.hpp"
 #include "common/idle_clients.hpp"
 #include "event_loop/deadline_timer.hpp"
+#include "event_loop/throttled_log.hpp"
 #include "net/tcp_listener.hpp"
 
 namespace candp2::modbus {
@@ -36,7 +37,8 @@ class Server final : public ModbusServer {
         log_(log, "modbus"),
         scratch_(65536, 0),
         idle_(options_.idle_timeout),
-        idle_timer_(loop, [this] { close_idle(); }) {}
+        idle_timer_(loop, [this] { close_idle(); }),
+        clients_log_(loop, log_) {}
 
   ~Server() override {
     idle_timer_.disarm();
@@ -95,8 +97,8 @@ class Server final : public ModbusServer {
       const auto victim = idle_.longest_idle();
       if (!victim || options_.max_clients == 0) {
         ++stats_.clients_refused;
-        log_.warn("client " + name + " refused: limit of " + std::to_string(options_.max_clients) +
-                  " clients");
+        clients_log_.warn("refused", "client " + name + " refused: limit of " +
+                                         std::to_string(options_.max_clients) + " clients");
         ::close(fd);
         return;
       }
@@ -128,7 +130,8 @@ class Server final : public ModbusServer {
     idle_.touch(static_cast<IdleClients::Id>(fd), loop_.now());
     arm_idle_timer();
     ++stats_.clients_accepted;
-    log_.info("client " + name + " connected (" + std::to_string(clients_.size()) + " now)");
+    clients_log_.info(
+        "connected", "client " + name + " connected (" + std::to_string(clients_.size()) + " now)");
   }
 
   void close_client(int fd, std::string_view why, bool dropped, LogLevel level = LogLevel::Info) {
@@ -136,9 +139,10 @@ class Server final : public ModbusServer {
     if (it == clients_.end()) return;
     if (dropped) {
       ++stats_.clients_dropped;
-      log_.warn("client " + it->second.name + " dropped: " + std::string(why));
+      clients_log_.warn("dropped", "client " + it->second.name + " dropped: " + std::string(why));
     } else {
-      log_.log(level, "client " + it->second.name + " disconnected (" + std::string(why) + ")");
+      clients_log_.log("disconnected", level,
+                       "client " + it->second.name + " disconnected (" + std::string(why) + ")");
     }
     loop_.remove_fd(fd);
     ::close(fd);
@@ -203,7 +207,8 @@ class Server final : public ModbusServer {
       ++stats_.exceptions;
       if (failure->exception == Exception::ServerDeviceFailure && !c.warned_device_failure) {
         c.warned_device_failure = true;  // once per client; later ones at debug
-        log_.warn(c.name + ": write refused with exception 0x04: " + failure->why);
+        clients_log_.warn("exception 0x04",
+                          c.name + ": write refused with exception 0x04: " + failure->why);
       } else if (log_.enabled(LogLevel::Debug))
         log_.debug(c.name + ": unit " + std::to_string(adu[6]) + " function " +
                    std::to_string(adu[7]) + ": exception 0x" +
@@ -286,6 +291,9 @@ class Server final : public ModbusServer {
   std::vector<std::uint16_t> scratch_;
   IdleClients idle_;  // keyed by descriptor
   DeadlineTimer idle_timer_;
+  // Every per-client line (connected, disconnected, dropped, refused, exception 0x04): one a
+  // second per kind with the count, as many clients can repeat them (docs/daemon.md "Logging").
+  ThrottledLog clients_log_;
 };
 
 }  // namespace

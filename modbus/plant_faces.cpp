@@ -4,6 +4,7 @@
 
 #include "plant/master_line.hpp"
 #include "plant/slave_line.hpp"
+#include "station/gather.hpp"
 
 namespace candp2::modbus {
 
@@ -11,41 +12,11 @@ namespace {
 constexpr std::string_view kOrigin = "over Modbus";
 }  // namespace
 
-StatusInputs::Line line_inputs(const plant::LineStatus& l) {
-  StatusInputs::Line out;
-  out.role = l.role;
-  out.telegrams = l.telegrams;
-  out.fcs_errors = l.fcs_errors;
-  out.other_errors = l.other_errors;
-  out.requests = l.requests;
-  out.retries = l.retries;
-  out.response_us = l.response_us;
-  out.response_max_us = l.response_max_us;
-  out.present = l.present;
-  return out;
-}
-
 namespace {
 
-// What every station's status block shares (docs/modbus.md): its DP address, the master's view of
-// it (state, parameterizations, addressed, Data_Exchanges), its line group (profibus role slaves:
-// the FDL slave side; role master: the FDL master's figures) and the master's missed cycles.
+// What every station's status block shares: station/gather.hpp.
 StatusInputs station_inputs(plant::Plant& plant, std::uint8_t address) {
-  StatusInputs in;
-  in.dp_address = address;
-  if (const auto view = plant.master().slave(address)) {
-    in.master_state = view->state;
-    in.parameterizations = view->parameterizations;
-    in.addressed = view->addressed;
-    in.gateway.data_exchanges = view->data_exchanges;
-  }
-  if (auto* line = plant.slave_line()) {
-    if (auto l = line->status(address)) in.line = line_inputs(*l);
-  } else if (auto* master_line = plant.master_line()) {
-    in.line = line_inputs(master_line->status(address, plant.master()));
-  }
-  in.cycles_missed = plant.cycle_stats().missed();
-  return in;
+  return station::common_status(plant, address);
 }
 
 // The commands every station takes alike (docs/faults.md): 2 re-parameterize, 3 / 4 the master
@@ -70,18 +41,11 @@ void station_control(plant::Plant& plant, std::uint8_t address, Control command,
 // ------------------------------------------------------------------------------ local gateway
 
 StatusBlock PlantGatewayFace::status(Time now) {
-  const gw::Gateway& gw = unit_.gateway();
-  StatusInputs in = station_inputs(plant_, gw.address());
-  in.gateway = gw.status();
+  StatusInputs in = station_inputs(plant_, unit_.gateway().address());
+  station::add_gateway(in, unit_);
   in.diag = unit_.gateway().dp().slave_diag(now);
   if (bitrate_)
     if (auto b = bitrate_(unit_.index())) in.bitrate = *b;
-  const auto& f = unit_.faults();
-  in.forced_state = f.forced_code();
-  in.tx_suppressed = f.tx_suppressed();
-  in.rx_suppressed = f.rx_suppressed();
-  in.rx_drop_remaining = f.drop_remaining();
-  in.reconnects = unit_.reconnects();
   return encode_status(in);
 }
 

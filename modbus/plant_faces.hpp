@@ -130,7 +130,4 @@ struct PlantFaces {
 };
 PlantFaces make_faces(plant::Plant& plant, BitrateFn bitrate = {});
 
-// The line group of the status block from the plant's line figures.
-StatusInputs::Line line_inputs(const plant::LineStatus& l);
-
 }  // namespace candp2::modbus

@@ -13,12 +13,8 @@ namespace candp2::plant {
 using config::BusType;
 
 namespace {
-constexpr std::string_view kGatewayPrefix = "gw:";  // endpoint names; a capture's senders
+constexpr std::string_view kGatewayPrefix = "gw:";  // endpoint names on a virtual bus
 constexpr std::string_view kDrivePrefix = "drive:";
-
-bool emulated(std::string_view sender) {
-  return sender.starts_with(kGatewayPrefix) || sender.starts_with(kDrivePrefix);
-}
 }  // namespace
 
 const std::string& BusUnit::interface() const {
@@ -406,14 +402,25 @@ void Plant::remove_tap(Tap* tap) {
 void Plant::tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender,
                     Time time) {
   if (taps_.empty()) return;
+  const auto [kind, index] = sender_of(sender);
   const CanRecord r{.time = time,
                     .bus = bus.index(),
                     .bus_name = bus.name(),
                     .interface = bus.interface(),
                     .frame = frame,
                     .sender = sender,
-                    .from_emulation = emulated(sender)};
+                    .sender_kind = kind,
+                    .sender_index = index,
+                    .from_emulation = kind != SenderKind::Outside};
   for (Tap* t : taps_) t->on_can(r);
+}
+
+std::pair<SenderKind, std::size_t> Plant::sender_of(std::string_view sender) const {
+  for (const auto& g : gateways_)
+    if (g->sender_ == sender) return {SenderKind::Gateway, g->index()};
+  for (std::size_t i = 0; i < drives_.size(); ++i)
+    if (drives_[i]->endpoint_->name() == sender) return {SenderKind::Drive, i};
+  return {SenderKind::Outside, 0};
 }
 
 void Plant::tap_line(std::span<const std::uint8_t> telegram, bool from_emulation, Time time) {

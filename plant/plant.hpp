@@ -279,6 +279,8 @@ class Plant {
   void run_cycle(Time now);
   void log_misses(Time due, Time now, std::uint64_t missed);
   void tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender, Time time);
+  // The emulated gateway or drive whose endpoint is named `sender`, or SenderKind::Outside.
+  std::pair<SenderKind, std::size_t> sender_of(std::string_view sender) const;
   void tap_note(std::string text, Time now);
   void tap_line(std::span<const std::uint8_t> telegram, bool from_emulation, Time time);
   std::string station_name(std::uint8_t address);

@@ -9,6 +9,7 @@
 // replay. Observers that need wall-clock stamps add their own offset.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <string_view>
@@ -18,6 +19,11 @@
 
 namespace candp2::plant {
 
+// Who sent a CAN frame: an emulated gateway or a simulated drive, by its index in the plant
+// (Plant::gateways(), Plant::drives()), or anyone outside the emulation (a socketcand client,
+// another device on a real bus, a replay injection).
+enum class SenderKind : std::uint8_t { Outside, Gateway, Drive };
+
 // One CAN frame as it appeared on a bus.
 struct CanRecord {
   Time time{0};
@@ -25,10 +31,11 @@ struct CanRecord {
   std::string_view bus_name;   // the configuration's bus name
   std::string_view interface;  // the interface name a capture shows ("can0", "vcan0", "demo")
   const can::Frame& frame;
-  // The endpoint that sent it: "gw:NAME" (an emulated gateway), "drive:NAME" (a simulated drive),
-  // anything else is outside the emulation (a socketcand client, another device on a real bus, a
-  // replay injection).
+  // The name of the endpoint that sent it, for display and to tell endpoints apart; who it is
+  // comes with sender_kind and sender_index (never parse the name).
   std::string_view sender;
+  SenderKind sender_kind = SenderKind::Outside;
+  std::size_t sender_index = 0;  // into Plant::gateways() or Plant::drives(); 0 when Outside
   // True when the emulated equipment sent it (a gateway or a drive), false when it received it.
   bool from_emulation = false;
 };

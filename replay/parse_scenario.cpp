@@ -141,6 +141,8 @@ DriverSpec parse_driver(const json& j, const std::string& path, const config::Ga
 // "page_driver": the Page-Mode driver of one gateway ("gateway": NAME with several).
 void driver(const json& j, const std::string& path, Scenario& sc) {
   const auto& gateways = sc.installation.gateways;
+  if (gateways.empty())  // a line of generic slaves alone
+    fail(path, "the Page-Mode driver drives a gateway, and " + sc.config_file + " configures none");
   if (j.is_object() && j.contains("gateway")) {
     const std::string p = member(path, "gateway");
     const std::string name = as_string(j.at("gateway"), p, "a gateway name");
@@ -215,7 +217,6 @@ void config_installation(const Object& o, Scenario& sc) {
     fail(o.path("config"), "the configuration does not load: " + e->to_string());
   sc.installation = std::move(std::get<config::DaemonConfig>(r));
   auto& c = sc.installation;
-  if (c.gateways.empty()) fail(o.path("config"), sc.config_file + " configures no gateway");
   for (auto& b : c.buses) {
     if (b.type == config::BusType::SocketCan) b.channel = b.interface;
     b.type = config::BusType::Virtual;

@@ -6,7 +6,7 @@
 #include "config/json_reader.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 #include "replay/parse_internal.hpp"
-#include "replay/step_names.hpp"
+#include "station/status.hpp"
 
 namespace candp2::replay::parse {
 
@@ -77,9 +77,21 @@ dp::SlaveState as_dp_state(const json& j, const std::string& path) {
   fail(path, "expected \"wait_prm\", \"wait_cfg\" or \"data_exch\", got " + kind_of(j));
 }
 
+}  // namespace
+
+void parse_nothing(Step&, const StepInput&) {}
+
+void parse_advance(Step& s, const StepInput& in) {
+  s.advance = as_ms(in.value, in.path);
+}
+
+void parse_cycles(Step& s, const StepInput& in) {
+  s.cycles = static_cast<std::uint32_t>(as_uint(in.value, in.path, 1, 1000000, "DP cycles"));
+}
+
 // write / expect_input / expect_output: {"address": PLC byte address, "bytes": ...}.
-void parse_image_step(Step& s, const json& v, const std::string& vp) {
-  const Object w(v, vp, {"address", "bytes"});
+void parse_image(Step& s, const StepInput& in) {
+  const Object w(in.value, in.path, {"address", "bytes"});
   s.address = static_cast<std::uint16_t>(
       as_uint(w.at("address"), w.path("address"), 0, dp::kImageSize - 1, "(PLC byte address)"));
   std::size_t n = 0;
@@ -94,166 +106,156 @@ void parse_image_step(Step& s, const json& v, const std::string& vp) {
     fail(w.path("bytes"), "the bytes run past the end of the 8192-byte process image");
 }
 
-// inject / expect_frame / expect_frames / expect_no_frame.
-void parse_frame_step(Step& s, const json& v, const std::string& vp) {
-  switch (s.action) {
-    case Action::Inject:
-      if (!v.is_array()) {
-        s.frames.push_back(as_frame(v, vp));
-        return;
-      }
-      if (v.empty()) fail(vp, "expected at least one frame");
-      for (std::size_t i = 0; i < v.size(); ++i) s.frames.push_back(as_frame(v[i], element(vp, i)));
-      return;
-    case Action::ExpectFrames:
-      if (!v.is_array()) fail(vp, "expected an array of frames, got " + kind_of(v));
-      for (std::size_t i = 0; i < v.size(); ++i)
-        s.frame_patterns.push_back(as_frame_pattern(v[i], element(vp, i)));
-      return;
-    default:  // expect_frame, expect_no_frame
-      s.frame_patterns.push_back(as_frame_pattern(v, vp));
+void parse_inject(Step& s, const StepInput& in) {
+  const json& v = in.value;
+  if (!v.is_array()) {
+    s.frames.push_back(as_frame(v, in.path));
+    return;
   }
+  if (v.empty()) fail(in.path, "expected at least one frame");
+  for (std::size_t i = 0; i < v.size(); ++i)
+    s.frames.push_back(as_frame(v[i], element(in.path, i)));
 }
 
-// The Page-Mode driver's steps: freigabe, db_write, expect_db, set_tx, expect_rx,
-// expect_ret_value.
-void parse_driver_step(Step& s, const json& v, const std::string& vp) {
-  switch (s.action) {
-    case Action::Freigabe:
-      s.on = v.is_boolean() ? v.get<bool>() : as_uint(v, vp, 0, 1) == 1;
-      return;
-    case Action::DbWrite:
-    case Action::ExpectDb: {
-      const Object w(v, vp, {"db", "index", "offset", "bytes"});
-      s.db = as_db(w.at("db"), w.path("db"));
-      s.db_index = w.has("index") ? as_uint(w.at("index"), w.path("index"), 0, 1000) : 0;
-      s.offset = as_uint(w.at("offset"), w.path("offset"), 0, 65535, "(byte in the DB)");
-      if (s.action == Action::DbWrite)
-        s.bytes = as_hex(w.at("bytes"), w.path("bytes"), "02 01 02 03");
-      else
-        s.pattern = as_pattern(w.at("bytes"), w.path("bytes"));
-      return;
-    }
-    case Action::SetTx:
-    case Action::ExpectRx: {
-      const bool tx = s.action == Action::SetTx;
-      const Object w(v, vp,
-                     tx ? std::vector<std::string>{"id", "force", "data"}
-                        : std::vector<std::string>{"id", "count_in", "data"});
-      s.entry = as_uint(w.at("id"), w.path("id"), 1, gw::page::kMaxIdentifiers,
-                        tx ? "(Tx identifier number: 1 = TxId1)" : "(Rx identifier number)");
-      if (tx && w.has("force"))
-        s.force = static_cast<std::uint8_t>(as_uint(w.at("force"), w.path("force"), 0, 255));
-      if (!tx && w.has("count_in"))
-        s.count_in =
-            static_cast<std::uint8_t>(as_uint(w.at("count_in"), w.path("count_in"), 0, 255));
-      if (w.has("data")) {
-        s.has_data = true;
-        if (tx)
-          s.bytes = as_hex(w.at("data"), w.path("data"), "00 11 22 33 44 55");
-        else
-          s.pattern = as_pattern(w.at("data"), w.path("data"));
-      }
-      if (!s.has_data && !s.force && !s.count_in)
-        fail(vp, tx ? "give \"force\" and/or \"data\"" : "give \"count_in\" and/or \"data\"");
-      return;
-    }
-    default:  // expect_ret_value
-      s.ret_value = static_cast<std::uint16_t>(as_uint(v, vp, 0, 4, "(manual table 6.5.7)"));
+void parse_frame(Step& s, const StepInput& in) {
+  s.frame_patterns.push_back(as_frame_pattern(in.value, in.path));
+}
+
+void parse_frame_list(Step& s, const StepInput& in) {
+  const json& v = in.value;
+  if (!v.is_array()) fail(in.path, "expected an array of frames, got " + kind_of(v));
+  for (std::size_t i = 0; i < v.size(); ++i)
+    s.frame_patterns.push_back(as_frame_pattern(v[i], element(in.path, i)));
+}
+
+void parse_diag(Step& s, const StepInput& in) {
+  s.pattern = as_pattern(in.value, in.path);
+  // A generic slave's diagnosis is 6 + n bytes (docs/slaves.md); the gateway's always 11.
+  if (!in.slave && s.pattern.size() != dp::DpSlave::kDiagLen)
+    fail(in.path, "expected the 11 diagnosis bytes (docs/dp-slave.md \"Diagnosis\"), got " +
+                      std::to_string(s.pattern.size()));
+}
+
+void parse_dp_state(Step& s, const StepInput& in) {
+  s.dp_state = as_dp_state(in.value, in.path);
+}
+
+void parse_flag(Step& s, const StepInput& in) {
+  s.on = in.value.is_boolean() ? in.value.get<bool>() : as_uint(in.value, in.path, 0, 1) == 1;
+}
+
+// The Page-Mode driver's data blocks: {"db", "index", "offset", "bytes"}.
+void parse_db(Step& s, const StepInput& in) {
+  const Object w(in.value, in.path, {"db", "index", "offset", "bytes"});
+  s.db = as_db(w.at("db"), w.path("db"));
+  s.db_index = w.has("index") ? as_uint(w.at("index"), w.path("index"), 0, 1000) : 0;
+  s.offset = as_uint(w.at("offset"), w.path("offset"), 0, 65535, "(byte in the DB)");
+  if (s.action == Action::DbWrite)
+    s.bytes = as_hex(w.at("bytes"), w.path("bytes"), "02 01 02 03");
+  else
+    s.pattern = as_pattern(w.at("bytes"), w.path("bytes"));
+}
+
+// set_tx {"id", "force", "data"} / expect_rx {"id", "count_in", "data"}.
+void parse_entry(Step& s, const StepInput& in) {
+  const std::string& vp = in.path;
+  const bool tx = s.action == Action::SetTx;
+  const Object w(in.value, vp,
+                 tx ? std::vector<std::string>{"id", "force", "data"}
+                    : std::vector<std::string>{"id", "count_in", "data"});
+  s.entry = as_uint(w.at("id"), w.path("id"), 1, gw::page::kMaxIdentifiers,
+                    tx ? "(Tx identifier number: 1 = TxId1)" : "(Rx identifier number)");
+  if (tx && w.has("force"))
+    s.force = static_cast<std::uint8_t>(as_uint(w.at("force"), w.path("force"), 0, 255));
+  if (!tx && w.has("count_in"))
+    s.count_in = static_cast<std::uint8_t>(as_uint(w.at("count_in"), w.path("count_in"), 0, 255));
+  if (w.has("data")) {
+    s.has_data = true;
+    if (tx)
+      s.bytes = as_hex(w.at("data"), w.path("data"), "00 11 22 33 44 55");
+    else
+      s.pattern = as_pattern(w.at("data"), w.path("data"));
   }
+  if (!s.has_data && !s.force && !s.count_in)
+    fail(vp, tx ? "give \"force\" and/or \"data\"" : "give \"count_in\" and/or \"data\"");
 }
 
-// The faults (docs/faults.md) and expect_counters.
-void parse_fault_step(Step& s, const json& v, const std::string& vp) {
-  switch (s.action) {
-    case Action::ForceCanState: {
-      const std::string t = v.is_string() ? v.get<std::string>() : "";
-      for (std::uint16_t i = 0; i < 4; ++i)
-        if (t == kCanStates[i]) {
-          s.can_state = i;
-          return;
-        }
-      fail(vp,
-           "expected \"real\", \"warning\", \"error-passive\" or \"bus-off\", got " + kind_of(v));
-    }
-    case Action::DropRx:
-      s.count = static_cast<std::uint32_t>(as_uint(v, vp, 0, 65535, "frames"));
-      return;
-    case Action::ExpectCounters: {
-      static const std::vector<std::string> kNames = {
-          "irq_lost", "msg_lost", "rx_frames", "tx_frames", "tx_suppressed", "rx_suppressed"};
-      const Object w(v, vp, kNames);
-      for (const auto& n : kNames)
-        if (w.has(n))
-          s.counters.emplace_back(
-              n, static_cast<std::uint32_t>(as_uint(w.at(n), w.path(n), 0, 0xFFFFFFFFull)));
-      if (s.counters.empty()) fail(vp, "give at least one counter (" + join(kNames) + ")");
+void parse_ret_value(Step& s, const StepInput& in) {
+  s.ret_value =
+      static_cast<std::uint16_t>(as_uint(in.value, in.path, 0, 4, "(manual table 6.5.7)"));
+}
+
+void parse_true(Step&, const StepInput& in) {
+  if (!in.value.is_boolean() || !in.value.get<bool>())
+    fail(in.path, "expected true, got " + kind_of(in.value));
+}
+
+void parse_can_state(Step& s, const StepInput& in) {
+  const std::string t = in.value.is_string() ? in.value.get<std::string>() : "";
+  for (std::uint16_t i = 0; i < 4; ++i)
+    if (t == kCanStates[i]) {
+      s.can_state = i;
       return;
     }
-    case Action::DriveMute:
-      s.on = v.is_boolean() ? v.get<bool>() : as_uint(v, vp, 0, 1) == 1;
-      return;
-    case Action::DriveErrorBits:
-    case Action::DriveWarningBits:
-      s.bits = static_cast<std::uint16_t>(as_uint(v, vp, 0, 0xFFFF, "(ERR_BITMAP1 0x8F bits)"));
-      return;
-    default:  // power_cycle, reparameterize, master_stop, master_resume, drive_restart
-      if (!v.is_boolean() || !v.get<bool>()) fail(vp, "expected true, got " + kind_of(v));
-  }
+  fail(in.path, "expected \"real\", \"warning\", \"error-passive\" or \"bus-off\", got " +
+                    kind_of(in.value));
 }
 
-// Steps only about a generic slave.
-bool is_slave_step(Action a) {
-  return a == Action::SlaveOnline || a == Action::SlaveAlarm || a == Action::SlavePrmFault ||
-         a == Action::SlaveCfgFault || a == Action::FieldWrite || a == Action::ExpectField;
+void parse_drop_rx(Step& s, const StepInput& in) {
+  s.count = static_cast<std::uint32_t>(as_uint(in.value, in.path, 0, 65535, "frames"));
 }
 
-// Steps about a station that a generic slave can take instead of a gateway ("slave": NAME).
-bool station_step(Action a) {
-  return a == Action::ExpectDpState || a == Action::ExpectDiag || a == Action::PowerCycle ||
-         a == Action::Reparameterize || a == Action::MasterStop || a == Action::MasterResume;
+namespace {
+// The counters replay checks, as the station table names them (station/status.hpp), in the
+// table's replay order.
+std::vector<std::string> counter_names() {
+  std::vector<const station::Field*> rows;
+  for (const auto& f : station::fields())
+    if (f.replay) rows.push_back(&f);
+  std::sort(rows.begin(), rows.end(), [](auto* a, auto* b) { return a->replay < b->replay; });
+  std::vector<std::string> names;
+  for (const auto* f : rows) names.emplace_back(f->name);
+  return names;
+}
+}  // namespace
+
+void parse_counters(Step& s, const StepInput& in) {
+  static const std::vector<std::string> kNames = counter_names();
+  const Object w(in.value, in.path, kNames);
+  for (const auto& n : kNames)
+    if (w.has(n))
+      s.counters.emplace_back(
+          n, static_cast<std::uint32_t>(as_uint(w.at(n), w.path(n), 0, 0xFFFFFFFFull)));
+  if (s.counters.empty()) fail(in.path, "give at least one counter (" + join(kNames) + ")");
 }
 
-// slave_online / slave_alarm / slave_*_fault / field_write / expect_field.
-void parse_slave_step(Step& s, const json& v, const std::string& vp) {
-  switch (s.action) {
-    case Action::SlaveAlarm: {
-      const std::string text = as_string(v, vp, "hex bytes, \"\" to clear", Empty::Allowed);
-      if (!text.empty()) s.bytes = as_hex(v, vp, "00 01");
-      if (s.bytes.size() > 62) fail(vp, "at most 62 device-related bytes");
-      return;
-    }
-    case Action::FieldWrite:
-    case Action::ExpectField: {
-      const Object w(v, vp, {"offset", "bytes"});
-      s.offset = w.has("offset") ? as_uint(w.at("offset"), w.path("offset"), 0, 243, "(byte)") : 0;
-      if (s.action == Action::FieldWrite)
-        s.bytes = as_hex(w.at("bytes"), w.path("bytes"), "01 02");
-      else
-        s.pattern = as_pattern(w.at("bytes"), w.path("bytes"));
-      return;
-    }
-    default:
-      if (!v.is_boolean()) fail(vp, "expected true or false, got " + kind_of(v));
-      s.on = v.get<bool>();
-  }
+void parse_bits(Step& s, const StepInput& in) {
+  s.bits =
+      static_cast<std::uint16_t>(as_uint(in.value, in.path, 0, 0xFFFF, "(ERR_BITMAP1 0x8F bits)"));
 }
 
-bool is_drive_step(Action a) {
-  return a == Action::DriveMute || a == Action::DriveErrorBits || a == Action::DriveWarningBits ||
-         a == Action::DriveRestart;
+void parse_bool(Step& s, const StepInput& in) {
+  if (!in.value.is_boolean()) fail(in.path, "expected true or false, got " + kind_of(in.value));
+  s.on = in.value.get<bool>();
 }
 
-bool is_driver_step(Action a) {
-  return a == Action::Freigabe || a == Action::DbWrite || a == Action::ExpectDb ||
-         a == Action::SetTx || a == Action::ExpectRx || a == Action::ExpectRetValue;
+void parse_alarm(Step& s, const StepInput& in) {
+  const std::string text = as_string(in.value, in.path, "hex bytes, \"\" to clear", Empty::Allowed);
+  if (!text.empty()) s.bytes = as_hex(in.value, in.path, "00 01");
+  if (s.bytes.size() > 62) fail(in.path, "at most 62 device-related bytes");
 }
 
-// Steps about one gateway name it with "gateway" (docs/replay-format.md "Version 2").
-bool concerns_gateway(Action a) {
-  return a != Action::Note && a != Action::Advance && a != Action::Cycles && a != Action::Inject &&
-         !is_drive_step(a) && !is_driver_step(a) && !is_slave_step(a);
+// field_write / expect_field: {"offset", "bytes"}.
+void parse_field(Step& s, const StepInput& in) {
+  const Object w(in.value, in.path, {"offset", "bytes"});
+  s.offset = w.has("offset") ? as_uint(w.at("offset"), w.path("offset"), 0, 243, "(byte)") : 0;
+  if (s.action == Action::FieldWrite)
+    s.bytes = as_hex(w.at("bytes"), w.path("bytes"), "01 02");
+  else
+    s.pattern = as_pattern(w.at("bytes"), w.path("bytes"));
 }
+
+namespace {
 
 std::string quoted_names(const std::vector<std::string>& names) {
   std::vector<std::string> q;
@@ -268,6 +270,18 @@ void resolve_gateway(Step& s, const Object& o, const std::string& path, const st
   std::vector<std::string> names;
   for (const auto& g : gateways) names.push_back(g.name);
   const json* g = o.find("gateway");
+  if (!g && gateways.empty()) {
+    // A line of generic slaves alone (docs/replay-format.md "Version 2"): the image steps need
+    // no gateway (the image is the master's), the gateway's own steps have none to act on.
+    const bool image = s.action == Action::Write || s.action == Action::ExpectInput ||
+                       s.action == Action::ExpectOutput;
+    if (!image)
+      fail(path, "\"" + key + "\" concerns a gateway, and " +
+                     (sc.config_file.empty() ? "the scenario" : sc.config_file) +
+                     " configures none" +
+                     (station_step(s.action) ? " (give \"slave\" for a generic slave)" : ""));
+    return;
+  }
   if (!g) {
     if (gateways.size() > 1)
       fail(path,
@@ -359,18 +373,19 @@ void resolve_drive(Step& s, const Object& o, const std::string& path, const std:
 }
 
 // The one action key of a step, or none (a note).
-const ActionName* action_of(const json& j, const std::string& path) {
-  const ActionName* found = nullptr;
-  for (const auto& a : kActions) {
-    if (!j.contains(a.key)) continue;
+const ActionSpec* action_of(const json& j, const std::string& path) {
+  const ActionSpec* found = nullptr;
+  for (const auto& a : actions()) {
+    if (a.action == Action::Note || !j.contains(a.key)) continue;
     if (found)
-      fail(path, std::string("one action per step: both \"") + found->key + "\" and \"" + a.key +
-                     "\" given");
+      fail(path, "one action per step: both \"" + std::string(found->key) + "\" and \"" +
+                     std::string(a.key) + "\" given");
     found = &a;
   }
   if (!found && !j.contains("note")) {
     std::vector<std::string> keys;
-    for (const auto& a : kActions) keys.push_back(a.key);
+    for (const auto& a : actions())
+      if (a.action != Action::Note) keys.emplace_back(a.key);
     fail(path, "a step needs one action (" + join(keys) + ") or a \"note\"");
   }
   return found;
@@ -382,75 +397,53 @@ Step parse_step(const json& j, const std::string& path, const Scenario& sc) {
   if (!j.is_object()) fail(path, "expected a step object, got " + kind_of(j));
   Step s;
   s.path = path;
-  const ActionName* found = action_of(j, path);
+  const ActionSpec* found = action_of(j, path);
+  const ActionSpec& a = found ? *found : spec(Action::Note);
   std::vector<std::string> allowed = {"at_ms", "note"};
   if (found) {
     s.action = found->action;
-    allowed.push_back(found->key);
+    allowed.emplace_back(found->key);
   }
-  if (s.expectation() && s.action != Action::ExpectNoFrame) allowed.push_back("within_ms");
-  if (s.action == Action::ExpectNoFrame) allowed.push_back("for_ms");
-  if (is_drive_step(s.action)) allowed.push_back("drive");
-  if (concerns_gateway(s.action)) allowed.push_back("gateway");
-  if (station_step(s.action) || is_slave_step(s.action)) allowed.push_back("slave");
-  if (s.action == Action::Inject) allowed.insert(allowed.end(), {"bus", "gateway"});
+  // The keys besides the action's (docs/replay-format.md): its window, what it concerns.
+  if (!a.window.empty()) allowed.emplace_back(a.window);
+  if (a.target == Target::Drive) allowed.push_back("drive");
+  if (a.target == Target::Gateway || a.target == Target::Station) allowed.push_back("gateway");
+  if (a.target == Target::Station || a.target == Target::Slave) allowed.push_back("slave");
+  if (a.target == Target::Bus) allowed.insert(allowed.end(), {"bus", "gateway"});
   const Object o(j, path, allowed);
   if (o.has("note")) s.note = as_string(o.at("note"), o.path("note"), "a text", Empty::Allowed);
   if (o.has("at_ms")) s.at = as_ms(o.at("at_ms"), o.path("at_ms"));
   if (o.has("within_ms")) s.window = as_ms(o.at("within_ms"), o.path("within_ms"));
   if (o.has("for_ms")) s.window = as_ms(o.at("for_ms"), o.path("for_ms"));
   if (!found) return s;
-  const std::string key = found->key;
-  const json& v = o.at(key);
+  const std::string key(a.key);
   const std::string vp = o.path(key);
-  switch (s.action) {
-    case Action::Note:
-      break;
-    case Action::Advance:
-      s.advance = as_ms(v, vp);
-      break;
-    case Action::Cycles:
-      s.cycles = static_cast<std::uint32_t>(as_uint(v, vp, 1, 1000000, "DP cycles"));
-      break;
-    case Action::Write:
-    case Action::ExpectInput:
-    case Action::ExpectOutput:
-      parse_image_step(s, v, vp);
-      break;
-    case Action::Inject:
-    case Action::ExpectFrame:
-    case Action::ExpectFrames:
-    case Action::ExpectNoFrame:
-      parse_frame_step(s, v, vp);
-      break;
-    case Action::ExpectDiag:
-      s.pattern = as_pattern(v, vp);
-      // A generic slave's diagnosis is 6 + n bytes (docs/slaves.md); the gateway's always 11.
-      if (!o.has("slave") && s.pattern.size() != dp::DpSlave::kDiagLen)
-        fail(vp, "expected the 11 diagnosis bytes (docs/dp-slave.md \"Diagnosis\"), got " +
-                     std::to_string(s.pattern.size()));
-      break;
-    case Action::ExpectDpState:
-      s.dp_state = as_dp_state(v, vp);
-      break;
-    default:
-      if (is_slave_step(s.action)) {
-        parse_slave_step(s, v, vp);
-      } else if (is_driver_step(s.action)) {
-        if (!sc.driver) fail(vp, "\"" + key + "\" needs a \"page_driver\" in the scenario");
-        parse_driver_step(s, v, vp);
+  if (a.target == Target::Driver && !sc.driver)
+    fail(vp, "\"" + key + "\" needs a \"page_driver\" in the scenario");
+  a.parse(s, StepInput{o.at(key), vp, key, sc, o.has("slave")});
+  switch (a.target) {
+    case Target::Slave:
+    case Target::Station:
+      if (a.target == Target::Slave || o.has("slave")) {
+        if (o.has("gateway")) fail(path, "give \"gateway\" or \"slave\", not both");
+        resolve_slave(s, o, path, key, sc);
       } else {
-        parse_fault_step(s, v, vp);
+        resolve_gateway(s, o, path, key, sc);
       }
+      break;
+    case Target::Gateway:
+      resolve_gateway(s, o, path, key, sc);
+      break;
+    case Target::Bus:
+      resolve_bus(s, o, path, sc);
+      break;
+    case Target::Drive:
+      resolve_drive(s, o, path, key, vp, sc);
+      break;
+    case Target::None:
+    case Target::Driver:
+      break;
   }
-  if (is_slave_step(s.action) || (station_step(s.action) && o.has("slave"))) {
-    if (o.has("gateway")) fail(path, "give \"gateway\" or \"slave\", not both");
-    resolve_slave(s, o, path, key, sc);
-  } else if (concerns_gateway(s.action)) {
-    resolve_gateway(s, o, path, key, sc);
-  }
-  if (s.action == Action::Inject) resolve_bus(s, o, path, sc);
-  if (is_drive_step(s.action)) resolve_drive(s, o, path, key, vp, sc);
   return s;
 }
 

@@ -50,6 +50,7 @@ struct FramePattern {
 enum class Db : std::uint8_t { WriteConfig, ReadConfig, Write, Read };  // DB94, DB95, DB96, DB97
 std::string_view to_string(Db db);
 
+// The actions of a step, one row each in the action table (replay/actions.hpp), in its order.
 enum class Action : std::uint8_t {
   Note,            // only a "note" line in the report
   Advance,         // advance_ms
@@ -89,6 +90,7 @@ enum class Action : std::uint8_t {
   SlaveCfgFault,  // slave_cfg_fault: every Chk_Cfg refused while true
   FieldWrite,     // field_write: input bytes the slave reports, from an offset
   ExpectField,    // expect_field: output bytes the slave applies, from an offset
+  Count,          // not an action: the number of actions (the action table's size)
 };
 std::string_view to_string(Action a);
 
@@ -131,7 +133,7 @@ struct Step {
   std::optional<std::size_t> slave;
   std::string slave_name;
 
-  bool expectation() const;
+  bool expectation() const;      // the action table's kind (replay/actions.hpp)
   std::string describe() const;  // one line for the report
   std::string describe_action() const;
 };

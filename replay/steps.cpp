@@ -1,11 +1,13 @@
-// The replay steps by family (docs/replay-format.md): frames, the process image, a gateway's DP
-// state and counters, the Page-Mode driver's data blocks, faults. Faults go through the plant's
-// control surface, the one candp2d's Modbus face uses.
+// The replay steps' handlers (docs/replay-format.md), as the action table names them
+// (replay/actions.cpp): time, frames, the process image, a station's DP state and counters, the
+// Page-Mode driver's data blocks, faults, generic slaves. Faults go through the plant's control
+// surface, the one candp2d's Modbus face uses.
 #include <algorithm>
 
 #include "common/hex.hpp"
 #include "faults/drive_fault.hpp"
 #include "replay/sim.hpp"
+#include "station/gather.hpp"
 
 namespace candp2::replay {
 
@@ -27,75 +29,89 @@ std::string Sim::frames_since_cursor(std::size_t gateway, std::size_t max) const
   return s.empty() ? "none" : s;
 }
 
-void Sim::frames(const Step& s, StepResult& r) {
+void Sim::nothing(const Step&, StepResult&) {}
+
+void Sim::advance(const Step& s, StepResult&) {
+  run_until(now_ + s.advance);
+}
+
+void Sim::cycles(const Step& s, StepResult&) {
+  const std::uint64_t target = plant_->cycles() + s.cycles;
+  run_until(plant_->next_cycle() + sc_.cycle * (s.cycles - 1),
+            [&] { return plant_->cycles() >= target; });
+}
+
+void Sim::inject(const Step& s, StepResult&) {
+  plant_->set_now(now_);
+  for (const auto& f : s.frames) testers_.at(s.bus)->send(f);
+  plant_->deliver(now_);
+  drain_testers();
+}
+
+void Sim::expect_frame(const Step& s, StepResult& r) {
   const auto& mine = gw_frames_[s.gateway];
   std::size_t& cursor = cursor_[s.gateway];
-  switch (s.action) {
-    case Action::Inject:
-      plant_->set_now(now_);
-      for (const auto& f : s.frames) testers_.at(s.bus)->send(f);
-      plant_->deliver(now_);
-      drain_testers();
-      return;
-    case Action::ExpectFrame: {
-      const auto& p = s.frame_patterns.front();
-      std::optional<std::size_t> hit;
-      auto check = [&] {
-        for (std::size_t i = cursor; i < mine.size(); ++i)
-          if (p.matches(res_.traffic[mine[i]].frame)) {
-            hit = i;
-            return true;
-          }
-        return false;
-      };
-      if (run_until(now_ + s.window.value_or(Duration{0}), check)) {
-        const auto& t = res_.traffic[mine[*hit]];
-        r.detail = can::format_candump(t.frame) + " at " + at_text(t.time);
-        cursor = *hit + 1;
-      } else {
-        r.passed = false;
-        r.detail = "no matching frame; the gateway sent: " + frames_since_cursor(s.gateway);
+  const auto& p = s.frame_patterns.front();
+  std::optional<std::size_t> hit;
+  auto check = [&] {
+    for (std::size_t i = cursor; i < mine.size(); ++i)
+      if (p.matches(res_.traffic[mine[i]].frame)) {
+        hit = i;
+        return true;
       }
-      return;
-    }
-    case Action::ExpectFrames: {
-      const std::size_t n = s.frame_patterns.size();
-      run_until(now_ + s.window.value_or(Duration{0}), [&] { return mine.size() - cursor >= n; });
-      bool ok = mine.size() - cursor >= n;
-      for (std::size_t i = 0; ok && i < n; ++i)
-        ok = s.frame_patterns[i].matches(res_.traffic[mine[cursor + i]].frame);
-      if (ok) {
-        r.detail = "last at " + at_text(n ? res_.traffic[mine[cursor + n - 1]].time : now_);
-        cursor += n;
-      } else {
-        r.passed = false;
-        r.detail = "the gateway sent: " + frames_since_cursor(s.gateway);
-        cursor = std::min(mine.size(), cursor + n);
-      }
-      return;
-    }
-    default: {  // expect_no_frame
-      const auto& p = s.frame_patterns.front();
-      run_until(now_ + s.window.value_or(Duration{0}));
-      for (std::size_t i = cursor; i < mine.size(); ++i) {
-        const auto& t = res_.traffic[mine[i]];
-        if (p.matches(t.frame)) {
-          r.passed = false;
-          r.detail = "the gateway sent " + can::format_candump(t.frame) + " at " + at_text(t.time);
-          break;
-        }
-      }
-      cursor = mine.size();
-    }
+    return false;
+  };
+  if (run_until(now_ + s.window.value_or(Duration{0}), check)) {
+    const auto& t = res_.traffic[mine[*hit]];
+    r.detail = can::format_candump(t.frame) + " at " + at_text(t.time);
+    cursor = *hit + 1;
+  } else {
+    r.passed = false;
+    r.detail = "no matching frame; the gateway sent: " + frames_since_cursor(s.gateway);
   }
 }
 
-void Sim::image(const Step& s, StepResult& r) {
-  auto& image = plant_->master().image();
-  if (s.action == Action::Write) {
-    std::copy(s.bytes.begin(), s.bytes.end(), image.outputs.begin() + s.address);
-    return;
+void Sim::expect_frames(const Step& s, StepResult& r) {
+  const auto& mine = gw_frames_[s.gateway];
+  std::size_t& cursor = cursor_[s.gateway];
+  const std::size_t n = s.frame_patterns.size();
+  run_until(now_ + s.window.value_or(Duration{0}), [&] { return mine.size() - cursor >= n; });
+  bool ok = mine.size() - cursor >= n;
+  for (std::size_t i = 0; ok && i < n; ++i)
+    ok = s.frame_patterns[i].matches(res_.traffic[mine[cursor + i]].frame);
+  if (ok) {
+    r.detail = "last at " + at_text(n ? res_.traffic[mine[cursor + n - 1]].time : now_);
+    cursor += n;
+  } else {
+    r.passed = false;
+    r.detail = "the gateway sent: " + frames_since_cursor(s.gateway);
+    cursor = std::min(mine.size(), cursor + n);
   }
+}
+
+void Sim::expect_no_frame(const Step& s, StepResult& r) {
+  const auto& mine = gw_frames_[s.gateway];
+  std::size_t& cursor = cursor_[s.gateway];
+  const auto& p = s.frame_patterns.front();
+  run_until(now_ + s.window.value_or(Duration{0}));
+  for (std::size_t i = cursor; i < mine.size(); ++i) {
+    const auto& t = res_.traffic[mine[i]];
+    if (p.matches(t.frame)) {
+      r.passed = false;
+      r.detail = "the gateway sent " + can::format_candump(t.frame) + " at " + at_text(t.time);
+      break;
+    }
+  }
+  cursor = mine.size();
+}
+
+void Sim::write(const Step& s, StepResult&) {
+  auto& image = plant_->master().image();
+  std::copy(s.bytes.begin(), s.bytes.end(), image.outputs.begin() + s.address);
+}
+
+void Sim::expect_image(const Step& s, StepResult& r) {
+  auto& image = plant_->master().image();
   const bool in = s.action == Action::ExpectInput;
   r.passed = poll(
       s,
@@ -114,54 +130,50 @@ dp::DpSlave& Sim::station(const Step& s) {
   return gateway(s).gateway().dp();
 }
 
-void Sim::gateway_state(const Step& s, StepResult& r) {
+void Sim::expect_diag(const Step& s, StepResult& r) {
   dp::DpSlave& st = station(s);
-  switch (s.action) {
-    case Action::ExpectDiag:
-      r.passed = poll(
-          s,
-          [&](std::string& d) {
-            if (s.slave) {
-              // A generic slave: 6 + n bytes (docs/slaves.md); the pattern says how many.
-              const auto diag = st.diagnosis(now_);
-              d = hex_bytes(diag);
-              return diag.size() == s.pattern.size() && s.pattern.matches(diag);
-            }
-            const auto diag = st.slave_diag(now_);
-            d = hex_bytes(diag) + " (" + dp::describe_diag(diag) + ")";
-            return s.pattern.matches(diag);
-          },
-          r.detail);
-      if (!r.passed) r.detail = "got " + r.detail;
-      return;
-    case Action::ExpectDpState:
-      r.passed = poll(
-          s,
-          [&](std::string& d) {
-            d = std::string(dp::to_string(st.state()));
-            return st.state() == s.dp_state;
-          },
-          r.detail);
-      if (!r.passed) r.detail = "state is " + r.detail;
-      return;
-    default:  // expect_counters
-      break;
-  }
+  r.passed = poll(
+      s,
+      [&](std::string& d) {
+        if (s.slave) {
+          // A generic slave: 6 + n bytes (docs/slaves.md); the pattern says how many.
+          const auto diag = st.diagnosis(now_);
+          d = hex_bytes(diag);
+          return diag.size() == s.pattern.size() && s.pattern.matches(diag);
+        }
+        const auto diag = st.slave_diag(now_);
+        d = hex_bytes(diag) + " (" + dp::describe_diag(diag) + ")";
+        return s.pattern.matches(diag);
+      },
+      r.detail);
+  if (!r.passed) r.detail = "got " + r.detail;
+}
+
+void Sim::expect_dp_state(const Step& s, StepResult& r) {
+  dp::DpSlave& st = station(s);
+  r.passed = poll(
+      s,
+      [&](std::string& d) {
+        d = std::string(dp::to_string(st.state()));
+        return st.state() == s.dp_state;
+      },
+      r.detail);
+  if (!r.passed) r.detail = "state is " + r.detail;
+}
+
+// The counters as the station table reads them (station/status.hpp), from the gateway's own part
+// of its status (station/gather.hpp).
+void Sim::expect_counters(const Step& s, StepResult& r) {
   plant::GatewayUnit& g = gateway(s);
   r.passed = poll(
       s,
       [&](std::string& d) {
-        const auto st = g.gateway().status();
-        const auto& fl = g.faults();
+        station::Status st;
+        station::add_gateway(st, g);
         bool all = true;
         d.clear();
         for (const auto& [name, want] : s.counters) {
-          const std::uint32_t got = name == "irq_lost"        ? st.irq_lost
-                                    : name == "msg_lost"      ? st.msg_lost
-                                    : name == "rx_frames"     ? st.rx_frames
-                                    : name == "tx_frames"     ? st.tx_frames
-                                    : name == "tx_suppressed" ? fl.tx_suppressed()
-                                                              : fl.rx_suppressed();
+          const std::uint32_t got = station::field(name)->get(st);
           d += (d.empty() ? "" : ", ") + name + " " + std::to_string(got);
           all = all && got == want;
         }
@@ -199,55 +211,54 @@ std::optional<std::vector<gw::page::IdEntry>> Sim::idents(bool tx, std::string* 
   return out;
 }
 
-void Sim::driver(const Step& s, StepResult& r) {
-  switch (s.action) {
-    case Action::Freigabe:
-      driver_->set_freigabe(s.on);
-      return;
-    case Action::DbWrite: {
-      auto* c = chain(s.db);
-      if (s.db_index >= c->size() || s.offset + s.bytes.size() > (*c)[s.db_index].size()) {
-        r.passed = false;
-        r.detail = std::string(to_string(s.db)) + " has no bytes " + std::to_string(s.offset) +
-                   ".." + std::to_string(s.offset + s.bytes.size() - 1) + " in DB " +
-                   std::to_string(s.db_index);
-        return;
-      }
-      auto& db = (*c)[s.db_index];
-      std::copy(s.bytes.begin(), s.bytes.end(), db.begin() + static_cast<std::ptrdiff_t>(s.offset));
-      return;
-    }
-    case Action::ExpectDb:
-      r.passed = poll(
-          s,
-          [&](std::string& d) {
-            auto* c = chain(s.db);
-            if (s.db_index >= c->size() || s.offset + s.pattern.size() > (*c)[s.db_index].size()) {
-              d = "DB has no such bytes";
-              return false;
-            }
-            const auto got = std::span((*c)[s.db_index]).subspan(s.offset, s.pattern.size());
-            d = hex_bytes(got);
-            return s.pattern.matches(got);
-          },
-          r.detail);
-      if (!r.passed) r.detail = "got " + r.detail;
-      return;
-    case Action::ExpectRetValue:
-      r.passed = poll(
-          s,
-          [&](std::string& d) {
-            const auto v = static_cast<std::uint16_t>(driver_->ret_value());
-            d = std::to_string(v) + " (" + std::string(plc::to_string(driver_->state())) + ")";
-            return v == s.ret_value;
-          },
-          r.detail);
-      if (!r.passed) r.detail = "got " + r.detail;
-      return;
-    default:
-      break;
+void Sim::freigabe(const Step& s, StepResult&) {
+  driver_->set_freigabe(s.on);
+}
+
+void Sim::db_write(const Step& s, StepResult& r) {
+  auto* c = chain(s.db);
+  if (s.db_index >= c->size() || s.offset + s.bytes.size() > (*c)[s.db_index].size()) {
+    r.passed = false;
+    r.detail = std::string(to_string(s.db)) + " has no bytes " + std::to_string(s.offset) + ".." +
+               std::to_string(s.offset + s.bytes.size() - 1) + " in DB " +
+               std::to_string(s.db_index);
+    return;
   }
-  // set_tx / expect_rx
+  auto& db = (*c)[s.db_index];
+  std::copy(s.bytes.begin(), s.bytes.end(), db.begin() + static_cast<std::ptrdiff_t>(s.offset));
+}
+
+void Sim::expect_db(const Step& s, StepResult& r) {
+  r.passed = poll(
+      s,
+      [&](std::string& d) {
+        auto* c = chain(s.db);
+        if (s.db_index >= c->size() || s.offset + s.pattern.size() > (*c)[s.db_index].size()) {
+          d = "DB has no such bytes";
+          return false;
+        }
+        const auto got = std::span((*c)[s.db_index]).subspan(s.offset, s.pattern.size());
+        d = hex_bytes(got);
+        return s.pattern.matches(got);
+      },
+      r.detail);
+  if (!r.passed) r.detail = "got " + r.detail;
+}
+
+void Sim::expect_ret_value(const Step& s, StepResult& r) {
+  r.passed = poll(
+      s,
+      [&](std::string& d) {
+        const auto v = static_cast<std::uint16_t>(driver_->ret_value());
+        d = std::to_string(v) + " (" + std::string(plc::to_string(driver_->state())) + ")";
+        return v == s.ret_value;
+      },
+      r.detail);
+  if (!r.passed) r.detail = "got " + r.detail;
+}
+
+// set_tx / expect_rx: an identifier's entry in WRITE_DB / READ_DB.
+void Sim::entry(const Step& s, StepResult& r) {
   const bool tx = s.action == Action::SetTx;
   std::string why;
   const auto ids = idents(tx, &why);
@@ -290,81 +301,93 @@ void Sim::driver(const Step& s, StepResult& r) {
   if (!r.passed) r.detail = "got " + r.detail;
 }
 
-void Sim::slave_step(const Step& s, StepResult& r) {
+void Sim::slave_online(const Step& s, StepResult&) {
+  plant_->set_slave_online(*plant_->slaves().at(*s.slave), s.on, now_, kOrigin);
+}
+
+void Sim::slave_alarm(const Step& s, StepResult&) {
+  plant_->set_slave_alarm(*plant_->slaves().at(*s.slave), s.bytes, now_, kOrigin);
+}
+
+void Sim::slave_fault(const Step& s, StepResult&) {
+  plant_->force_slave_fault(*plant_->slaves().at(*s.slave), s.action == Action::SlavePrmFault, s.on,
+                            now_, kOrigin);
+}
+
+void Sim::field_write(const Step& s, StepResult& r) {
   plant::SlaveUnit& u = *plant_->slaves().at(*s.slave);
-  switch (s.action) {
-    case Action::SlaveOnline:
-      plant_->set_slave_online(u, s.on, now_, kOrigin);
-      return;
-    case Action::SlaveAlarm:
-      plant_->set_slave_alarm(u, s.bytes, now_, kOrigin);
-      return;
-    case Action::SlavePrmFault:
-    case Action::SlaveCfgFault:
-      plant_->force_slave_fault(u, s.action == Action::SlavePrmFault, s.on, now_, kOrigin);
-      return;
-    case Action::FieldWrite:
-      if (!u.slave().write_inputs(s.offset, s.bytes)) {
-        r.passed = false;
-        r.detail =
-            "the slave has " + std::to_string(u.slave().field_inputs().size()) + " input bytes";
-      }
-      return;
-    default:  // expect_field
-      r.passed = poll(
-          s,
-          [&](std::string& d) {
-            const auto out = u.slave().field_outputs();
-            if (s.offset + s.pattern.size() > out.size()) {
-              d = hex_bytes(out) + " (" + std::to_string(out.size()) + " output bytes)";
-              return false;
-            }
-            const auto got = out.subspan(s.offset, s.pattern.size());
-            d = hex_bytes(got);
-            return s.pattern.matches(got);
-          },
-          r.detail);
-      if (!r.passed) r.detail = "got " + r.detail;
+  if (!u.slave().write_inputs(s.offset, s.bytes)) {
+    r.passed = false;
+    r.detail = "the slave has " + std::to_string(u.slave().field_inputs().size()) + " input bytes";
   }
 }
 
-void Sim::fault(const Step& s, StepResult&) {
-  plant::SlaveUnit* slave = s.slave ? plant_->slaves().at(*s.slave).get() : nullptr;
-  const std::uint8_t address = slave ? slave->config().address : gateway(s).gateway().address();
-  switch (s.action) {
-    case Action::PowerCycle:
-      if (slave)
-        plant_->power_cycle(*slave, now_, kOrigin);
-      else
-        plant_->power_cycle(gateway(s), now_, kOrigin);
-      break;
-    case Action::Reparameterize:
-      plant_->reparameterize(address, now_, kOrigin);
-      break;
-    case Action::MasterStop:
-    case Action::MasterResume:
-      plant_->set_addressed(address, s.action == Action::MasterResume, now_, kOrigin);
-      break;
-    case Action::ForceCanState:
-      plant_->force_can_state(gateway(s), s.can_state, now_, kOrigin);
-      plant_->deliver(now_);
-      break;
-    case Action::DropRx:
-      plant_->drop_rx(gateway(s), s.count, now_, kOrigin);
-      break;
-    default: {
-      // The drive's Modbus fault registers 0..3 (docs/faults.md), one implementation.
-      auto& d = *plant_->drives().at(s.drive);
-      const std::uint16_t reg = s.action == Action::DriveMute          ? faults::kDriveMute
-                                : s.action == Action::DriveErrorBits   ? faults::kDriveErrorBits
-                                : s.action == Action::DriveWarningBits ? faults::kDriveWarningBits
-                                                                       : faults::kDriveRestart;
-      const std::uint16_t value = s.action == Action::DriveMute      ? (s.on ? 1 : 0)
-                                  : s.action == Action::DriveRestart ? 1
-                                                                     : s.bits;
-      plant_->set_drive_fault(d, reg, value, now_, kOrigin);
-    }
+void Sim::expect_field(const Step& s, StepResult& r) {
+  plant::SlaveUnit& u = *plant_->slaves().at(*s.slave);
+  r.passed = poll(
+      s,
+      [&](std::string& d) {
+        const auto out = u.slave().field_outputs();
+        if (s.offset + s.pattern.size() > out.size()) {
+          d = hex_bytes(out) + " (" + std::to_string(out.size()) + " output bytes)";
+          return false;
+        }
+        const auto got = out.subspan(s.offset, s.pattern.size());
+        d = hex_bytes(got);
+        return s.pattern.matches(got);
+      },
+      r.detail);
+  if (!r.passed) r.detail = "got " + r.detail;
+}
+
+std::uint8_t Sim::station_address(const Step& s) {
+  return s.slave ? plant_->slaves().at(*s.slave)->config().address : gateway(s).gateway().address();
+}
+
+void Sim::power_cycle(const Step& s, StepResult&) {
+  if (s.slave)
+    plant_->power_cycle(*plant_->slaves().at(*s.slave), now_, kOrigin);
+  else
+    plant_->power_cycle(gateway(s), now_, kOrigin);
+  drain_testers();
+}
+
+void Sim::reparameterize(const Step& s, StepResult&) {
+  plant_->reparameterize(station_address(s), now_, kOrigin);
+  drain_testers();
+}
+
+void Sim::set_addressed(const Step& s, StepResult&) {
+  plant_->set_addressed(station_address(s), s.action == Action::MasterResume, now_, kOrigin);
+  drain_testers();
+}
+
+void Sim::force_can_state(const Step& s, StepResult&) {
+  plant_->force_can_state(gateway(s), s.can_state, now_, kOrigin);
+  plant_->deliver(now_);
+  drain_testers();
+}
+
+void Sim::drop_rx(const Step& s, StepResult&) {
+  plant_->drop_rx(gateway(s), s.count, now_, kOrigin);
+  drain_testers();
+}
+
+// The drive's Modbus fault registers 0..3 (docs/faults.md), one implementation.
+void Sim::drive_fault(const Step& s, StepResult&) {
+  auto& d = *plant_->drives().at(s.drive);
+  std::uint16_t reg = faults::kDriveRestart, value = 1;
+  if (s.action == Action::DriveMute) {
+    reg = faults::kDriveMute;
+    value = s.on ? 1 : 0;
+  } else if (s.action == Action::DriveErrorBits) {
+    reg = faults::kDriveErrorBits;
+    value = s.bits;
+  } else if (s.action == Action::DriveWarningBits) {
+    reg = faults::kDriveWarningBits;
+    value = s.bits;
   }
+  plant_->set_drive_fault(d, reg, value, now_, kOrigin);
   drain_testers();
 }
 

@@ -151,6 +151,41 @@ run_fuzzers() {
   [ "$ran" -gt 0 ] && [ "$failed" -eq 0 ]
 }
 
+# Vendor files (docs/development.md "Vendor files"): the vendor GSD corpus and the vendor manuals
+# are not part of the repository. When they lie beside the checkout (../shared) and the variables
+# are not set already, the tests that check them run on them too; otherwise those tests (suite
+# names VendorGsdCorpus.*, VendorManual.*) are skipped and the summary says how many.
+vendor_setup() {
+  local shared=$here/../shared
+  if [ -z "${CANDP2_GSD_CORPUS:-}" ] && [ -d "$shared/gsd-corpus" ]; then
+    CANDP2_GSD_CORPUS=$(cd "$shared/gsd-corpus" && pwd)
+    export CANDP2_GSD_CORPUS
+  fi
+  if [ -z "${CANDP2_MANUALS:-}" ] && [ -d "$shared/spec" ]; then
+    CANDP2_MANUALS=$(cd "$shared/spec" && pwd)
+    export CANDP2_MANUALS
+  fi
+}
+
+# vendor_summary: one line per vendor folder: where it was, or how many tests did not run (in
+# build/ and, the unit ones, again in build-asan/).
+vendor_summary() {
+  local what var suite n dir
+  for what in "vendor GSD corpus:CANDP2_GSD_CORPUS:VendorGsdCorpus" "vendor manuals:CANDP2_MANUALS:VendorManual"; do
+    IFS=: read -r what var suite <<<"$what"
+    n=0
+    for dir in build build-asan; do
+      [ -d "$dir" ] || continue
+      n=$((n + $(ctest --test-dir "$dir" -N -L unit -R "^$suite\\." 2>/dev/null | grep -c 'Test *#' || true)))
+    done
+    if [ -n "${!var:-}" ]; then
+      echo "setup: $what: ${!var} ($var), $n tests ran on it"
+    else
+      echo "setup: $what: not given, $n tests not run (set $var, docs/development.md)"
+    fi
+  done
+}
+
 # The names of the tests ctest recorded as failed in build directory $1, on one line.
 ctest_failed() {
   local log=$1/Testing/Temporary/LastTestsFailed.log
@@ -158,6 +193,7 @@ ctest_failed() {
 }
 
 run_tests() {
+  vendor_setup
   local status=0
   local failures=()  # one line per failed stage, repeated at the very end (CI shows the tail)
   local t=$SECONDS
@@ -205,6 +241,7 @@ run_tests() {
   echo "== libFuzzer targets, ${fuzz_seconds}s each"
   run_fuzzers || { failures+=("fuzzers (see fuzz: lines above)"); status=1; }
 
+  vendor_summary
   if [ $status -eq 0 ]; then
     echo "setup: ALL TESTS PASSED"
   else

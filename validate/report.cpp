@@ -1,7 +1,6 @@
 #include "validate/report.hpp"
 
 #include <algorithm>
-#include <cstdio>
 #include <sstream>
 
 #include "common/hex.hpp"
@@ -13,12 +12,6 @@ namespace candp2::validate {
 namespace {
 
 using json = nlohmann::ordered_json;
-
-std::string hex8(unsigned v) {
-  char buf[8];
-  std::snprintf(buf, sizeof buf, "0x%02X", v & 0xFFu);
-  return buf;
-}
 
 const char* direction(dp::CfgIo io) {
   switch (io) {
@@ -219,7 +212,7 @@ json parameters_json(const GatewayReport& g) {
   const gw::UserPrm& p = *g.prm;
   const auto std_part = dp::decode_prm_std(g.input.params.prm);
   json j;
-  j["can_bitrate"] = gw::kBitrates[p.bitrate_index];
+  j["can_bitrate"] = gw::bitrate_bps(p.bitrate_index).value_or(0);
   j["canopen"] = gw::to_string(p.role());
   j["module_id"] = p.module_id;
   j["communication_window"] = p.comm_window;

@@ -170,6 +170,8 @@ void format_slave(std::ostream& os, const SlaveReport& s) {
   os << "  diagnosis: " << hex_bytes(s.diag) << "\n";
   os << "    " << dp::describe_diag(s.diag) << "\n";
   os << "    " << explain_slave(s) << "\n";
+  if (!in.notes.empty()) os << "  notes:\n";
+  for (const auto& n : in.notes) os << "    " << n.json_path << ": " << n.message << "\n";
   os << "  warnings:";
   if (s.warnings.empty()) os << " none";
   os << "\n";
@@ -219,6 +221,10 @@ json slave_json(const SlaveReport& s) {
                     {"state", dp::to_string(s.state)},
                     {"explanation", explain_slave(s)},
                     {"not_supported", s.not_supported}};
+  json notes = json::array();
+  for (const auto& n : in.notes)
+    notes.push_back({{"json_path", n.json_path}, {"message", n.message}});
+  o["notes"] = notes;
   json w = json::array();
   for (const auto& x : s.warnings)
     w.push_back({{"kind", to_string(x.kind)}, {"json_path", x.json_path}, {"message", x.message}});

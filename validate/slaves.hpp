@@ -20,6 +20,12 @@
 
 namespace candp2::validate {
 
+// Something the configuration did on its own that the report shows.
+struct Note {
+  std::string json_path;
+  std::string message;
+};
+
 struct SlaveInput {
   std::string name;
   std::string json_path;                  // "$.slaves[0]"
@@ -31,6 +37,9 @@ struct SlaveInput {
   std::string prm_source;                 // "$.slaves[0].parameters", "$.slaves[0].prm_hex"
   std::string cfg_source;                 // "$.slaves[0].modules", "$.slaves[0].cfg_hex"
   std::optional<std::uint8_t> field_unit;
+  // What the configuration completed on its own (config::SlaveConfig::notes: the GSD preset
+  // modules it added, docs/slaves.md "Preset modules"); shown, not counted as warnings.
+  std::vector<Note> notes;
 };
 
 // One module (or, with cfg_hex, the whole configuration) and where its bytes go.

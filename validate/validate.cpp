@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "can/channel.hpp"
+#include "gateway/cfg_reading.hpp"
 #include "gateway/gateway.hpp"
 #include "gsd/cfg.hpp"
 #include "validate/text.hpp"
@@ -73,7 +74,7 @@ void slot_warnings(GatewayReport& r) {
                                   "0x" + can::ident_text(*s.id) + " is also configured in " +
                                   slot_name(r, *winner) +
                                   ", and the later slot wins (manual §5.2.1)"});
-      if (const auto cycle = gsd::ignored_input_cycle(s, *r.prm))
+      if (const auto cycle = gw::ignored_input_cycle(s, *r.prm))
         r.warnings.push_back({WarningKind::InputCycle, path_of(r, i),
                               "cycle " + std::to_string(*cycle) +
                                   " ms in the comment bytes of an input slot is ignored "

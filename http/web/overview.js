@@ -11,6 +11,24 @@ const tiles = new Map();   // dp_address -> {data, refs} (gateways and generic s
 let open = null;           // the panel shown: {kind, addr, head, rows, panel, bus, drives}
 let source = null;         // the EventSource
 let single = false;        // one gateway only: no overview to go back to
+// Frames/s of every gateway as its tile showed them, one point a second (the last minute), so
+// that a panel opens with a chart of what the page already saw.
+const fpsSeen = new Map();  // dp_address -> {rx: [], tx: [], t, now: {rx, tx}}
+function noteFps(t) {
+  let h = fpsSeen.get(t.dp_address);
+  if (!h) { h = { rx: [], tx: [], t: -Infinity, now: t.fps }; fpsSeen.set(t.dp_address, h); }
+  h.now = t.fps;
+  const now = performance.now();
+  if (now - h.t < 1000) return;
+  h.t = now;
+  h.rx.push(t.fps.rx); h.tx.push(t.fps.tx);
+  if (h.rx.length > 60) { h.rx.shift(); h.tx.shift(); }
+}
+// The tile's frames/s of a gateway as text ("rx, tx"), or "0, 0" before its first second.
+function tileFps(addr) {
+  const h = fpsSeen.get(addr);
+  return h ? h.now.rx + ', ' + h.now.tx : '0, 0';
+}
 
 // The panel the address bar asks for: {kind: 'gw' | 'slave', addr}, or null (the overview).
 function wanted() {
@@ -51,6 +69,7 @@ function updateTile(x, t) {
   setText(x.fault, t.fault || '');
   setClass(x.root, 'tile' + (t.fault ? ' faulty' : ''));
   setText(x.fps, 'rx ' + t.fps.rx + ' · tx ' + t.fps.tx + ' frames/s');
+  noteFps(t);
 }
 function renderTiles(list, make, update) {
   for (const t of list) {
@@ -117,7 +136,12 @@ function renderHeader(s) {
   setText(cyc, text);
   setClass(cyc, c.missed ? 'warn' : '');
   if (s.modbus) setText(document.getElementById('modbus'), s.modbus.requests + ' req · ' + s.modbus.clients + ' client(s)');
-  if (s.gateway_count !== undefined) setText(document.getElementById('count'), s.gateway_count);
+  if (s.gateway_count !== undefined) {
+    const count = document.getElementById('count');
+    setText(count, s.gateway_count);
+    // A line of generic slaves alone (docs/slaves.md): no gateways to count.
+    count.parentElement.hidden = s.gateway_count === 0 && !!s.slave_count;
+  }
   if (s.slave_count !== undefined) {
     setText(document.getElementById('scount'), s.slave_count);
     document.getElementById('slaves').hidden = false;

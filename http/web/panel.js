@@ -108,11 +108,12 @@ function plot(canvas, series, opts) {
   }
   g.fillText(opts.label || '', 34, h - 3);
   for (const s of series) {
-    g.strokeStyle = s.color; g.lineWidth = 1.5; g.beginPath();
+    g.strokeStyle = s.color; g.fillStyle = s.color; g.lineWidth = 1.5; g.beginPath();
     s.data.forEach((v, i) => {
       const x = 30 + (w - 34) * (n - s.data.length + i) / Math.max(1, n - 1);
       const y = pad + (h - 2 * pad) * (hi - v) / (hi - lo);
       i ? g.lineTo(x, y) : g.moveTo(x, y);
+      if (s.data.length === 1) g.fillRect(x - 2, y - 2, 4, 4);  // one point: a dot, not nothing
     });
     g.stroke();
   }
@@ -122,7 +123,9 @@ function plot(canvas, series, opts) {
 const LEDS = [['P', 'green', 'power'], ['D', 'green', 'data exchange'], ['E', 'red', 'DP status'], ['C', 'green', 'CAN']];
 
 function makePanel(g) {
-  const p = { leds: {}, diag: [], rates: { rx: [], tx: [], last: null } };
+  // The chart starts with what the page saw of this gateway already (its tile's frames/s).
+  const seen = fpsSeen.get(g.dp_address) || { rx: [], tx: [] };
+  const p = { leds: {}, diag: [], rates: { rx: [...seen.rx], tx: [...seen.tx], last: null } };
   const ledGrid = el('div', { class: 'leds' });
   for (const [name, color, what] of LEDS) {
     const led = el('div', { class: 'led ' + color, id: 'gw-' + g.dp_address + '-led-' + name, title: 'LED ' + name + ': ' + what, 'data-code': '0' });
@@ -182,7 +185,14 @@ function makePanel(g) {
   p.root = el('article', { class: 'gw', id: 'gw-' + g.dp_address }, plate, diag, prm, slots, busplot);
   p.wrap = el('div', {}, p.title, p.root);
   document.getElementById('panel').append(p.wrap);
+  plotRates(p);
   return p;
+}
+
+function plotRates(p) {
+  const r = p.rates;
+  p.canvas.dataset.points = String(r.rx.length);
+  plot(p.canvas, [{ data: r.rx, color: '#35e06b' }, { data: r.tx, color: '#5fb3ff' }], { points: 60, label: '60 s' });
 }
 
 function kvSet(dl, pairs) {
@@ -205,7 +215,9 @@ function updatePanel(p, g, rows, nowMs) {
   const st = (e, v, c) => { setText(e, v); setClass(e, c || ''); };
   st(p.kv['DP state'], g.dp_state, 'state-' + g.dp_state);
   st(p.kv['master'], g.master_state);
-  st(p.kv['NMT'], g.nmt);
+  // A gateway without CANopen has no NMT state (docs/canopen.md): none is shown.
+  const canopen = g.parameters.canopen !== 'none';
+  st(p.kv['NMT'], canopen ? g.nmt : '— (CANopen off)', canopen ? '' : 'dim');
   st(p.kv['CAN'], g.bus_state, g.bus_state === 'ok' || g.bus_state === 'OK' ? 'ok' : 'bad');
   st(p.kv['released'], g.released ? 'yes' : 'no', g.released ? 'ok' : 'warn');
   st(p.kv['Data_Exch'], g.counters.data_exchanges);
@@ -285,14 +297,14 @@ function updatePanel(p, g, rows, nowMs) {
       r.rx.push(Math.max(0, (g.counters.rx_frames - r.last.rx) / dt));
       r.tx.push(Math.max(0, (g.counters.tx_frames - r.last.tx) / dt));
       if (r.rx.length > 60) { r.rx.shift(); r.tx.shift(); }
-      p.canvas.dataset.points = String(r.rx.length);
-      plot(p.canvas, [{ data: r.rx, color: '#35e06b' }, { data: r.tx, color: '#5fb3ff' }], { points: 60, label: '60 s' });
+      plotRates(p);
     }
     r.last = { t: nowMs, rx: g.counters.rx_frames, tx: g.counters.tx_frames };
   }
   kvSet(p.counters, [
     ['received', g.counters.rx_frames], ['sent', g.counters.tx_frames],
-    ['rx/s, tx/s', r.rx.length ? Math.round(r.rx.at(-1)) + ', ' + Math.round(r.tx.at(-1)) : '…'],
+    ['rx/s, tx/s', r.rx.length ? Math.round(r.rx.at(-1)) + ', ' + Math.round(r.tx.at(-1))
+      : tileFps(g.dp_address)],
     ['IRQ_LOST', g.counters.irq_lost], ['MSG_LOST', g.counters.msg_lost],
     ['SYNC', g.sync_ms ? g.sync_ms + ' ms' : 'off'],
   ]);

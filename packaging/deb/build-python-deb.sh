@@ -48,7 +48,7 @@ install -d "$site" "$doc" "$stage/usr/share/lintian/overrides"
 /usr/bin/python3 -m zipfile -e "$wheel" "$site"
 rm -f "$site"/candp2-*.dist-info/RECORD
 install -d "$doc/examples"
-install -m 644 "$root"/python/examples/*.py "$doc/examples/"
+install -m 644 "$root"/python/examples/*.py "$root"/python/examples/pytest.ini "$doc/examples/"
 install -m 644 "$here/copyright" "$doc/copyright"
 gzip -9n <"$here/changelog" >"$doc/changelog.Debian.gz"
 install -m 644 "$pkg/lintian-overrides" "$stage/usr/share/lintian/overrides/python3-candp2"

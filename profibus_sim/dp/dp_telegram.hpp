@@ -1,6 +1,6 @@
 // PROFIBUS-DP (DP-V0, EN 50170 / IEC 61158) telegram contents as the slave sees them:
 // the standard part of Set_Prm, the Chk_Cfg identifier bytes, the Slave_Diag header.
-// Pure decode/encode, no I/O (STYLE.md lesson 2). Names follow the standard's abbreviations.
+// Pure decode/encode, no I/O. Names follow the standard's abbreviations.
 #pragma once
 
 #include <cstddef>

@@ -13,14 +13,14 @@ block, the fault registers), HTTP (slots, parameters, drives) and socketcand (th
 It knows no register number: it reads them from `candp2d --print-modbus-map --json`.
 """
 
-from .binary import find_binary, find_example, find_tool
+from .binary import example, find_binary, find_example, find_tool
 from .bus import Bus, Recorder, candump_line, frame_text
 from .connection import Connection, connect
 from .daemon import Daemon, running_daemons
 from .drive import Drive, DriveState
 from .errors import (Candp2Error, ConfigError, DaemonError, FrameNotSeen, ModbusError,
                      UnexpectedFrame, WaitTimeout)
-from .gateway import CfgFault, Counters, Diagnosis, Gateway, Leds, PrmFault, Slot
+from .gateway import CfgFault, Counters, Diagnosis, Gateway, Led, Leds, PrmFault, Slot
 from .registers import RegisterMap
 from .replay import ReplayResult, ReplayStep, replay
 from .slave import DiagBlock, FieldImage, Slave, SlaveDiagnosis, SlaveFaults
@@ -31,8 +31,8 @@ __version__ = "0.1.0"
 __all__ = [
     "Bus", "Candp2Error", "CfgFault", "ConfigError", "Connection", "Counters", "Daemon",
     "DaemonError", "DiagBlock", "Diagnosis", "Drive", "DriveState", "FieldImage", "FrameNotSeen",
-    "Gateway", "Image", "Leds", "ModbusError", "PrmFault", "Recorder", "RegisterMap",
+    "Gateway", "Image", "Led", "Leds", "ModbusError", "PrmFault", "Recorder", "RegisterMap",
     "ReplayResult", "ReplayStep", "Slave", "SlaveDiagnosis", "SlaveFaults", "Slot", "Station",
-    "UnexpectedFrame", "WaitTimeout", "candump_line", "connect", "find_binary", "find_example",
-    "find_tool", "frame_text", "replay", "running_daemons",
+    "UnexpectedFrame", "WaitTimeout", "candump_line", "connect", "example", "find_binary",
+    "find_example", "find_tool", "frame_text", "replay", "running_daemons",
 ]

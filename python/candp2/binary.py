@@ -93,3 +93,10 @@ def find_example(name: str, candp2d: str | os.PathLike[str] | None = None) -> Pa
             return candidate
         tried.append(str(candidate))
     raise Candp2Error("no example %s (tried %s)" % (name, ", ".join(tried)))
+
+
+def example(name: str, candp2d: str | os.PathLike[str] | None = None) -> Path:
+    """The path of a shipped example configuration or scenario ("demo.json",
+    "scenarios/demo.json"), in the source checkout and when installed alike, from any working
+    folder: `candp2.Daemon(candp2.example("demo.json"))`. The same as find_example()."""
+    return find_example(name, candp2d)

@@ -20,7 +20,7 @@ import select
 import socket
 import threading
 import time
-from typing import IO, Any, Deque, Iterable
+from typing import IO, Any, Callable, Deque, Iterable
 
 from can.bus import BusABC  # python3-can
 from can.exceptions import CanError, CanInitializationError, CanOperationError
@@ -220,7 +220,11 @@ class Bus(BusABC):
     onto it. `history` keeps the last frames received, newest last."""
 
     def __init__(self, channel: str, host: str, port: int, timeout: float = 5.0,
-                 can_filters: Any = None, **kwargs: object) -> None:
+                 can_filters: Any = None, *, explain: Callable[[int], str] | None = None,
+                 **kwargs: object) -> None:
+        #: `explain(can_id)`: what of the daemon uses that identifier, for a failed expect()
+        #: (`daemon.bus()` gives one: the slots and drives using it, the drives' state).
+        self.explain = explain
         self.host = host
         self.port = port
         self.timeout = timeout
@@ -295,8 +299,11 @@ class Bus(BusABC):
                     want is None or bytes(msg.data) == want):
                 return msg
         wanted = "%03X#%s" % (can_id, "*" if want is None else want.hex().upper())
-        raise FrameNotSeen("frame %s not seen on %s within %.1f s; saw %s" % (
-            wanted, self.channel, timeout, _listing(seen)), list(seen))
+        message = "frame %s not seen on %s within %.1f s; saw %s" % (
+            wanted, self.channel, timeout, _listing(seen))
+        if self.explain is not None:
+            message += "\n" + self.explain(can_id)
+        raise FrameNotSeen(message, list(seen))
 
     def expect_no_frame(self, can_id: int | None = None, duration: float = 0.5) -> None:
         """Receives for `duration` seconds; raises UnexpectedFrame listing them if a frame

@@ -6,6 +6,7 @@ attaches to one that runs already."""
 from __future__ import annotations
 
 import os
+import time
 from typing import Any, Mapping, Sequence
 
 from ._http import HttpFace
@@ -45,6 +46,8 @@ class Connection:
     def __init__(self, modbus: str, register_map: RegisterMap, http: str | None = None,
                  socketcand: str | Mapping[str, str] | None = None,
                  channels: Mapping[str, str] | None = None) -> None:
+        #: time.monotonic() when the connection was made: report() shows times from here.
+        self.started = time.monotonic()
         self.register_map = register_map
         self.modbus_address = parse_address(modbus)
         self.http_address = parse_address(http) if http else None
@@ -58,7 +61,9 @@ class Connection:
         self._buses: list[Bus] = []
 
     def __repr__(self) -> str:
-        return "<%s modbus %s:%d>" % ((type(self).__name__,) + self.modbus_address)
+        address = getattr(self, "modbus_address", None)  # None: construction failed
+        where = "modbus %s:%d" % address if address else "not started"
+        return "<%s %s>" % (type(self).__name__, where)
 
     def _face_failed(self, error: ModbusError) -> None:
         """A face did not answer; a Daemon raises DaemonError with the log when it exited."""
@@ -110,7 +115,8 @@ class Connection:
             raise KeyError("bus %r has no socketcand export (exported: %s)"
                            % (name, ", ".join(sorted(self.socketcand)) or "none"))
         host, port = address
-        bus = Bus(self.channels.get(name, name), host, port, timeout=timeout)
+        bus = Bus(self.channels.get(name, name), host, port, timeout=timeout,
+                  explain=lambda can_id: self.who_uses(name, can_id))
         self._buses.append(bus)
         return bus
 
@@ -122,6 +128,39 @@ class Connection:
         return Drive(self, name)
 
     # ---- reports ------------------------------------------------------------------------
+
+    def who_uses(self, bus: str, can_id: int) -> str:
+        """Which slots of the gateways on `bus` and which drives there use identifier `can_id`
+        (or that none does), and what the drives on that bus are doing: the lines a failed
+        `Bus.expect()` adds to its message."""
+        users: list[str] = []
+        for g in self.register_map.gateways:
+            if g.bus != bus:
+                continue
+            try:
+                slots = Gateway(self, g.dp_address).slots()
+            except (Candp2Error, OSError, KeyError) as e:
+                users.append("gateway %d (%s): slots unavailable (%s)" % (g.dp_address, g.name, e))
+                continue
+            users.extend("gateway %d (%s) %s" % (g.dp_address, g.name, s.description)
+                         for s in slots if s.can_id == can_id)
+        drives = [d for d in self.register_map.drives if d.bus == bus]
+        for d in drives:
+            if can_id == d.rx_id:
+                users.append("drive %s receives its commands on it" % d.name)
+            if can_id == d.tx_id:
+                users.append("drive %s answers on it" % d.name)
+        lines = (["identifier 0x%03X is used by: %s" % (can_id, "; ".join(users))] if users else
+                 ["no slot and no drive on %s uses identifier 0x%03X" % (bus, can_id)])
+        for d in drives:
+            try:
+                st = Drive(self, d.name).state
+                lines.append("drive %s: %s, %s mode, speed %d, position %d, status 0x%04X"
+                             % (d.name, "enabled" if st.enabled else "disabled", st.mode,
+                                st.speed, st.position, st.status))
+            except (Candp2Error, OSError, KeyError) as e:
+                lines.append("drive %s: state unavailable (%s)" % (d.name, e))
+        return "\n".join(lines)
 
     def report(self) -> str:
         """What a failing test wants to see: every gateway's and generic slave's state and
@@ -140,14 +179,20 @@ class Connection:
                 parts.append("slave %d (%s): unavailable (%s)" % (s.address, s.name, e))
         if self.http is not None:
             try:
-                for b in self.http_status().get("buses", []):
+                status = self.http_status()
+                # The daemon stamps frames with its own clock; shown as seconds since this
+                # connection was made (the test's start): now here minus the frame's age there.
+                since = time.monotonic() - self.started
+                now_ms = float(status.get("time_ms", 0.0))
+                for b in status.get("buses", []):
                     trace = b.get("trace", [])[-REPORT_FRAMES:]
-                    lines = ["bus %s: last %d of %s frames"
+                    lines = ["bus %s: last %d of %s frames (seconds since the test started)"
                              % (b["name"], len(trace), b.get("frames", "?"))]
                     for f in trace:
                         ident = ("%08X" if f.get("ext") else "%03X") % f["id"]
                         data = "R" if f.get("rtr") else str(f["data"]).replace(" ", "")
-                        lines.append("  %10.3f ms  %s#%s" % (f["t_ms"], ident, data))
+                        at = since - (now_ms - float(f["t_ms"])) / 1000.0
+                        lines.append("  %+10.3f s  %s#%s" % (at, ident, data))
                     parts.append("\n".join(lines))
             except (Candp2Error, OSError) as e:
                 parts.append("buses: unavailable (%s)" % e)

@@ -100,8 +100,13 @@ class Daemon(Connection):
         self.binary = find_binary(binary)
         if isinstance(config, (str, os.PathLike)):
             source = Path(config)
-            with open(source) as f:
-                loaded = json.load(f)
+            try:
+                with open(source) as f:
+                    loaded = json.load(f)
+            except FileNotFoundError:
+                raise ConfigError(str(source), None, "no such file (from %s); a shipped example "
+                                  "is found from anywhere with candp2.example(\"demo.json\")"
+                                  % os.getcwd(), returncode=None) from None
             base = source.resolve().parent
         else:
             loaded, base = config, Path.cwd()

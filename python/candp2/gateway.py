@@ -9,12 +9,12 @@ from typing import TYPE_CHECKING, Any, Mapping
 
 from .errors import Candp2Error
 from .registers import DiagnosisLayout, RegisterMap, SlotMap, StatusValue
-from .station import POLL_INTERVAL, DiagnosisBytes, Image, Station, hex_bytes
+from .station import POLL_INTERVAL, DiagnosisBytes, HexBytes, Image, Station, hex_bytes
 
 if TYPE_CHECKING:
     from .connection import Connection
 
-__all__ = ["CfgFault", "Counters", "Diagnosis", "Gateway", "Image", "Leds", "POLL_INTERVAL",
+__all__ = ["CfgFault", "Counters", "Diagnosis", "Gateway", "Image", "Led", "Leds", "POLL_INTERVAL",
            "PrmFault", "Slot", "hex_bytes"]
 
 
@@ -72,7 +72,7 @@ class Diagnosis(DiagnosisBytes):
         else:
             can_state = layout.can_states.get(marker & layout.can_state_mask)
             irq, msg = raw[layout.irq_lost], raw[layout.msg_lost]
-        return cls(bytes(raw), bits, master, ident, cfg, prm, can_state, irq, msg)
+        return cls(HexBytes(raw), bits, master, ident, cfg, prm, can_state, irq, msg)
 
     def __str__(self) -> str:
         parts = [hex_bytes(self.raw)]
@@ -93,32 +93,72 @@ class Diagnosis(DiagnosisBytes):
 
 # ------------------------------------------------------------------------------------ LEDs
 
+class Led:
+    """One LED of manual table 3.3.1: its `text` ("on", "off", "3 flashes", "morse O") and the
+    status block's `code`. Compare it with its text: `gw.leds.P == "on"`; `"flashes" in
+    gw.leds.E` works too. It is not a truth value: `bool(led)` (and so `assert gw.leds.P`, which
+    would pass for "off" as well) raises TypeError naming the comparison to write."""
+
+    __slots__ = ("text", "code")
+
+    def __init__(self, text: str, code: int) -> None:
+        self.text = text
+        self.code = code
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Led):
+            return self.text == other.text
+        if isinstance(other, str):
+            return self.text == other
+        return NotImplemented
+
+    def __ne__(self, other: object) -> bool:
+        equal = self.__eq__(other)
+        return equal if equal is NotImplemented else not equal
+
+    def __hash__(self) -> int:
+        return hash(self.text)
+
+    def __contains__(self, part: str) -> bool:
+        return part in self.text
+
+    def __bool__(self) -> bool:
+        raise TypeError("an LED is not a truth value (it is %r): compare it with its text, "
+                        "e.g. `leds.P == \"on\"`, `leds.E != \"off\"`" % self.text)
+
+    def __str__(self) -> str:
+        return self.text
+
+    def __repr__(self) -> str:
+        return "Led(%r)" % self.text
+
+
 @dataclass(frozen=True)
 class Leds:
-    """The four LEDs of manual table 3.3.1, each as text: "on", "off", "3 flashes" (LED E:
-    3 waiting for Set_Prm, 4 for Chk_Cfg), "morse O" (LED C: W warning, E error passive,
-    O bus off). `codes` holds the status block's numbers (P, D, E, C)."""
+    """The four LEDs of manual table 3.3.1, each a `Led` compared with its text: "on", "off",
+    "3 flashes" (LED E: 3 waiting for Set_Prm, 4 for Chk_Cfg), "morse O" (LED C: W warning, E
+    error passive, O bus off). `codes` holds the status block's numbers (P, D, E, C)."""
 
-    P: str
-    D: str
-    E: str
-    C: str
+    P: Led
+    D: Led
+    E: Led
+    C: Led
     codes: tuple[int, int, int, int]
 
     @classmethod
     def from_status(cls, status: Mapping[str, StatusValue], register_map: RegisterMap) -> Leds:
-        def text(code: int) -> str:
+        def led(code: int) -> Led:
             if code == register_map.led_off:
-                return "off"
+                return Led("off", code)
             if code == register_map.led_on:
-                return "on"
+                return Led("on", code)
             if code in register_map.morse:
-                return "morse " + register_map.morse[code]
-            return "%d flashes" % code
+                return Led("morse " + register_map.morse[code], code)
+            return Led("%d flashes" % code, code)
 
         p, d, e, c = (register_map.number(status, register_map.led_fields[name])
                       for name in "PDEC")
-        return cls(text(p), text(d), text(e), text(c), (p, d, e, c))
+        return cls(led(p), led(d), led(e), led(c), (p, d, e, c))
 
     def __str__(self) -> str:
         return "P %s, D %s, E %s, C %s" % (self.P, self.D, self.E, self.C)

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Mapping, Sequence, TypeVar
 
 from .errors import Candp2Error
 from .registers import DiagnosisLayout, SlaveMap, StatusValue
-from .station import (ByteView, DiagnosisBytes, Station, bytes_to_words, hex_bytes,
+from .station import (ByteView, DiagnosisBytes, HexBytes, Station, bytes_to_words, hex_bytes,
                       words_to_bytes)
 
 if TYPE_CHECKING:
@@ -101,7 +101,7 @@ def decode_blocks(data: bytes) -> tuple[DiagBlock, ...]:
             kind, length = "unknown", len(data) - i
         else:
             length = header & _BLOCK_LENGTH_MASK
-        blocks.append(DiagBlock(kind, bytes(data[i:i + length])))
+        blocks.append(DiagBlock(kind, HexBytes(data[i:i + length])))
         i += length
     return tuple(blocks)
 
@@ -127,7 +127,7 @@ class SlaveDiagnosis(DiagnosisBytes):
     def decode(cls, raw: bytes, layout: DiagnosisLayout, standard: int) -> SlaveDiagnosis:
         """Decodes the bytes with the daemon's layout (RegisterMap.diagnosis); `standard` is how
         many bytes come before the Ext_Diag_Data (the master and ident bytes' end)."""
-        return cls(bytes(raw), *cls.standard(raw, layout), decode_blocks(raw[standard:]))
+        return cls(HexBytes(raw), *cls.standard(raw, layout), decode_blocks(raw[standard:]))
 
     @property
     def device(self) -> bytes | None:

@@ -22,14 +22,25 @@ T = TypeVar("T")
 POLL_INTERVAL = 0.02
 
 
-def hex_bytes(data: bytes) -> str:
+def hex_bytes(data: bytes | bytearray) -> str:
     """b"\\x01\\xab" → "01 AB"."""
     return " ".join("%02X" % b for b in data)
 
 
-def words_to_bytes(words: Sequence[int]) -> bytes:
+class HexBytes(bytes):
+    """Bytes that print in hex like everything else the package shows: repr
+    `bytes.fromhex('A8 66 26')`, str `A8 66 26`. Equal to (and usable as) the plain bytes."""
+
+    def __repr__(self) -> str:
+        return "bytes.fromhex(%r)" % hex_bytes(self)
+
+    def __str__(self) -> str:
+        return hex_bytes(self)
+
+
+def words_to_bytes(words: Sequence[int]) -> HexBytes:
     """Modbus registers as the bytes they carry, high byte first (docs/modbus.md)."""
-    return b"".join(w.to_bytes(2, "big") for w in words)
+    return HexBytes(b"".join(w.to_bytes(2, "big") for w in words))
 
 
 def bytes_to_words(data: bytes | bytearray) -> list[int]:
@@ -110,10 +121,10 @@ class ByteView:
         """`length` bytes from byte `address` of the view."""
         self._check(address, length)
         if length == 0:
-            return b""
+            return HexBytes()
         first, last = address // 2, (address + length - 1) // 2
         offset = address - 2 * first
-        return self._registers(first, last)[offset:offset + length]
+        return HexBytes(self._registers(first, last)[offset:offset + length])
 
     def write(self, address: int, data: bytes | bytearray | Sequence[int]) -> None:
         raise NotImplementedError
@@ -312,7 +323,7 @@ class Station:
         """Calls `predicate(station)` until it returns something true, and returns that.
 
         After `timeout` seconds it raises WaitTimeout saying what the predicate last read
-        (`state='Wait_Prm'`, `inputs[0:6]=b'...'`) and the station's whole state."""
+        (`state='Wait_Prm'`, `inputs[0:6]=[A8 66 26 00 00 00]`) and the station's whole state."""
         from .errors import WaitTimeout
         deadline = time.monotonic() + timeout
         while True:
@@ -324,12 +335,21 @@ class Station:
             if value:
                 return value
             if time.monotonic() >= deadline:
-                last = ", ".join("%s=%s" % (k, v) if isinstance(v, self._SHOWN_AS_TEXT)
-                                 else "%s=%r" % (k, v) for k, v in seen.items())
+                last = ", ".join("%s=%s" % (k, self._shown(v)) for k, v in seen.items())
                 raise WaitTimeout("%s: not true within %.1f s; last saw %s (predicate returned "
-                                  "%r)\n%s" % (describe_predicate(predicate), timeout,
-                                               last or "nothing", value, self.describe()))
+                                  "%s)\n%s" % (describe_predicate(predicate), timeout,
+                                               last or "nothing", self._shown(value),
+                                               self.describe()))
             time.sleep(POLL_INTERVAL)
+
+    def _shown(self, value: object) -> str:
+        """A value read by a predicate as a wait_until() message shows it: bytes in hex ("A8 00
+        26"), the decoded types as their text, anything else as its repr."""
+        if isinstance(value, (bytes, bytearray)):
+            return "[%s]" % hex_bytes(value)
+        if isinstance(value, self._SHOWN_AS_TEXT):
+            return str(value)
+        return repr(value)
 
     def describe(self) -> str:
         """The station's state in a few lines."""

@@ -63,7 +63,9 @@ def test_failing_expect_lists_what_it_saw(candp2d: Factory) -> None:
     with pytest.raises(FrameNotSeen) as info:
         can0.expect(0x309, bytes.fromhex("0102030405"), timeout=2.0)
     assert str(info.value) == ("frame 309#0102030405 not seen on can0 within 2.0 s; saw 1 "
-                               "frame: 309#0B0A0F0E0D0C")
+                               "frame: 309#0B0A0F0E0D0C\n"
+                               "identifier 0x309 is used by: gateway 5 (gw5) slot 1: output "
+                               "Q172..177 (6 bytes) to CAN 0x309, form B8, comment 03,09,B8")
     assert len(info.value.seen) == 1
     with pytest.raises(FrameNotSeen, match=r"frame 181#\* not seen on can0 within 0.2 s; "
                                            r"saw no frames"):

@@ -44,13 +44,37 @@ def test_refused_configuration_raises_with_the_json_path(candp2_binary: str) -> 
 
 def test_failed_start_carries_the_log_tail(candp2_binary: str, tmp_path: Path) -> None:
     config = json.loads(json.dumps(MANUAL_514))
-    config["log"] = {"can_log": str(tmp_path / "missing-dir" / "can.log")}
+    # A folder that cannot be made: its "parent" is a file (docs/daemon.md "Started by hand").
+    (tmp_path / "a-file").write_text("")
+    config["log"] = {"can_log": str(tmp_path / "a-file" / "logs" / "can.log")}
     with pytest.raises(DaemonError) as info:
         Daemon(config, candp2_binary)
     assert info.value.returncode == 1
     assert "before it was ready" in str(info.value)
     assert "--- candp2d log (last lines) ---" in str(info.value)
-    assert "can.log" in str(info.value)
+    assert "can.log: cannot create its folder" in str(info.value)
+
+
+def test_the_folders_of_its_files_are_made(candp2d: Factory, tmp_path: Path) -> None:
+    config = json.loads(json.dumps(MANUAL_514))
+    config["log"] = {"can_log": str(tmp_path / "logs" / "candp2" / "can.log")}
+    config["state_file"] = str(tmp_path / "state" / "state.json")
+    daemon = candp2d(config)
+    daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch")
+    assert (tmp_path / "logs" / "candp2" / "can.log").is_file()
+    assert (tmp_path / "state").is_dir() and "state file" not in daemon.log
+
+
+def test_a_state_file_that_cannot_be_written_is_one_warning(
+        candp2d: Factory, tmp_path: Path) -> None:
+    (tmp_path / "a-file").write_text("")
+    config = json.loads(json.dumps(MANUAL_514))
+    config["state_file"] = str(tmp_path / "a-file" / "state.json")
+    daemon = candp2d(config)
+    daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch")
+    lines = [line for line in daemon.log.splitlines() if "state file" in line]
+    assert len(lines) == 1 and "cannot create its folder" in lines[0], lines
+    assert "not kept across restarts" in lines[0]
 
 
 def test_a_daemon_that_dies_is_reported_with_its_log(candp2d: Factory) -> None:

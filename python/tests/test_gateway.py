@@ -82,7 +82,7 @@ def test_wait_until_says_what_it_last_saw(candp2d: Factory) -> None:
     assert "lambda g: g.state == \"Wait_Cfg\"" in text
     assert "not true within 0.3 s; last saw state='Data_Exch'" in text
     assert "gateway 5 (gw5): Data_Exch" in text and "diagnosis: 00 0C" in text
-    with pytest.raises(WaitTimeout, match=r"last saw inputs\[172:174\]=b'\\x00\\x00'"):
+    with pytest.raises(WaitTimeout, match=r"last saw inputs\[172:174\]=\[00 00\]"):
         gw.wait_until(lambda g: g.inputs[172:174] == b"\xff\xff", timeout=0.2)
 
 

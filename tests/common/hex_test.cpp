@@ -25,6 +25,28 @@ TEST(HexBytes, WritesUpperCaseWithSeparator) {
   EXPECT_EQ(hex_bytes({}), "");
 }
 
+TEST(HexBytes, OneByteWithItsPrefix) {
+  EXPECT_EQ(hex8(0x0F), "0x0F");
+  EXPECT_EQ(hex8(0xAB), "0xAB");
+  EXPECT_EQ(hex8(0x1FF), "0xFF");  // the low 8 bits
+}
+
+// A CAN identifier in candump or socketcand notation, an error class: 1 to 8 hex digits.
+TEST(HexBytes, NumberOfUpToEightDigits) {
+  EXPECT_EQ(parse_hex_u32("181"), 0x181u);
+  EXPECT_EQ(parse_hex_u32("1fffffff"), 0x1FFFFFFFu);
+  EXPECT_EQ(parse_hex_u32("FFFFFFFF"), 0xFFFFFFFFu);
+  std::size_t bad = 99;
+  EXPECT_FALSE(parse_hex_u32("", &bad));
+  EXPECT_EQ(bad, 0u);
+  EXPECT_FALSE(parse_hex_u32("123456789", &bad));  // nine digits
+  EXPECT_EQ(bad, 0u);
+  EXPECT_FALSE(parse_hex_u32("12G", &bad));
+  EXPECT_EQ(bad, 2u);
+  EXPECT_FALSE(parse_hex_u32("0x1"));
+  EXPECT_FALSE(parse_hex_u32("-1"));
+}
+
 TEST(HexBytes, Digits) {
   EXPECT_EQ(hex_digit('0'), 0);
   EXPECT_EQ(hex_digit('9'), 9);

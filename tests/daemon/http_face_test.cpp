@@ -90,12 +90,6 @@ constexpr const char* kConfig = R"({
       "slots": [ { "io": "output", "address": 16, "length": 1, "comment": "02,03,00" } ] } ]
 })";
 
-// Feeds the bus monitors as the daemon does (daemon/daemon.cpp on_can).
-struct Monitors final : plant::Tap {
-  std::vector<http::BusMonitor> buses;
-  void on_can(const plant::CanRecord& r) override { buses.at(r.bus).on_frame(r.frame, r.time); }
-};
-
 struct Face : ::testing::Test {
   void SetUp() override {
     auto parsed = config::parse_daemon(kConfig, "face.json");
@@ -104,18 +98,17 @@ struct Face : ::testing::Test {
     std::string error;
     plant = plant::Plant::build(cfg, plant::Options{}, Time{0}, &error);
     ASSERT_TRUE(plant) << error;
-    monitors.buses.resize(plant->buses().size());
-    plant->add_tap(&monitors);
+    monitors = std::make_unique<http::BusMonitors>(plant->buses().size());
+    plant->add_tap(monitors.get());
     faces = modbus::make_faces(*plant);
-    model =
-        std::make_unique<http::StatusModel>(test::status_sources(*plant, faces, &monitors.buses));
+    model = std::make_unique<http::StatusModel>(http::make_sources(*plant, faces, monitors.get()));
     run_until(Time{500'000});  // every gateway in Data_Exch
   }
   void run_until(Time end) { test::run_plant_until(*plant, now, end); }
   config::DaemonConfig cfg;
   std::unique_ptr<plant::Plant> plant;
   modbus::PlantFaces faces;
-  Monitors monitors;
+  std::unique_ptr<http::BusMonitors> monitors;
   std::unique_ptr<http::StatusModel> model;
   Time now{0};
 };
@@ -130,6 +123,21 @@ TEST_F(Face, TheStatusBuiltInStepsIsTheStatusBuiltAtOnce) {
   EXPECT_EQ(parts["gateways"][0]["slots"].size(), 3u);
   // head, 2 buses, drives, per gateway its head and one step of up to 8 rows
   EXPECT_EQ(steps, 1 + 2 + 1 + 2 * 2);
+}
+
+// http::make_sources reads the plant: every gateway with its Modbus face, every bus with its
+// monitor (fed by the tap) at the bit rate its gateway is configured to (manual table 5.1.1).
+TEST_F(Face, TheSourcesComeFromThePlant) {
+  const auto& src = model->sources();
+  ASSERT_EQ(src.gateways.size(), 2u);
+  EXPECT_EQ(src.gateways[1].cfg->name, "gw4");
+  EXPECT_EQ(src.gateways[1].face->dp_address(), 4);
+  ASSERT_EQ(src.buses.size(), 2u);
+  EXPECT_EQ(src.buses[1].bitrate, 500000u);
+  EXPECT_EQ(src.buses[0].monitor, &monitors->at(0));
+  EXPECT_GE(src.buses[0].monitor->frames(), 1u);  // the gateways' frames since start
+  EXPECT_TRUE(src.slaves.empty());
+  EXPECT_TRUE(src.drives.empty());
 }
 
 TEST_F(Face, TheMetricsHaveEveryFamilyOnce) {
@@ -159,7 +167,7 @@ TEST_F(Face, AStreamGetsEverythingFirstThenOnlyWhatChanged) {
   EXPECT_EQ(view.first_round_for(std::nullopt), 1u);
   // header, 2 tiles, gw3's panel and its rows (one step), its bus, the drives, publication
   EXPECT_EQ(run_round(view, now, {0}), 1 + 2 + 2 + 1 + 1 + 1);
-  EXPECT_GE(monitors.buses[0].frames(), 1u);
+  EXPECT_GE(monitors->at(0).frames(), 1u);
   json e = json::parse(view.compose(overview));
   EXPECT_TRUE(e["full"]);
   ASSERT_EQ(e["gateways"].size(), 2u);

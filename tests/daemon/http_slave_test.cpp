@@ -29,7 +29,7 @@ struct SlaveFace : ::testing::Test {
     plant = plant::Plant::build(cfg, plant::Options{}, Time{0}, &error);
     ASSERT_TRUE(plant) << error;
     faces = modbus::make_faces(*plant);
-    model = std::make_unique<http::StatusModel>(test::status_sources(*plant, faces));
+    model = std::make_unique<http::StatusModel>(http::make_sources(*plant, faces));
     run_until(Time{500'000});  // every station in Data_Exch
   }
   void run_until(Time end) { test::run_plant_until(*plant, now, end); }

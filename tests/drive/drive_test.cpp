@@ -2,6 +2,8 @@
 // cyclic table, event rules, the motor model, time handling and the register table.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -12,6 +14,7 @@
 #include "drive_sim/registers.hpp"
 #include "drive_sim/unitek_drive.hpp"
 #include "replay.hpp"
+#include "tests/vendor_files.hpp"
 
 namespace candp2::drive::test {
 namespace {
@@ -392,13 +395,35 @@ TEST(DriveOnBus, AnswersAMasterOnTheVirtualBus) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The register table against the list it was transcribed from
+// The register table against the list it was transcribed from: the REGID register list of the
+// Unitek short description FW 378, a vendor manual (docs/development.md "Vendor files"). The test
+// reads the plain-text manual in the folder CANDP2_MANUALS names that holds the list (the file with
+// its header row "RegNr Typ Hex value ...").
 
-TEST(RegisterTable, MatchesTheRegisterListInTheManual) {
-  std::ifstream in(CANDP2_SHARED_DIR "/spec/002_80e259dd0ac0c35a.txt");
-  ASSERT_TRUE(in) << "cannot open the REGID list";
-  std::vector<std::string> lines;
-  for (std::string l; std::getline(in, l);) lines.push_back(l);
+// The lines of the first .txt file in `dir` with the register list's header row.
+std::vector<std::string> register_list_lines(const std::filesystem::path& dir) {
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    if (e.is_regular_file() && e.path().extension() == ".txt") files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  for (const auto& f : files) {
+    std::ifstream in(f);
+    std::vector<std::string> lines;
+    bool has_list = false;
+    for (std::string l; std::getline(in, l);) {
+      has_list = has_list || l.starts_with("RegNr\tTyp\tHex value");
+      lines.push_back(l);
+    }
+    if (has_list) return lines;
+  }
+  return {};
+}
+
+TEST(VendorManual, RegisterTableMatchesTheRegisterList) {
+  CANDP2_VENDOR_DIR(manuals, candp2::test::kManualsVar);
+  const std::vector<std::string> lines = register_list_lines(manuals);
+  ASSERT_FALSE(lines.empty()) << "no REGID register list (\"RegNr\tTyp\tHex value\") in "
+                              << manuals;
   const std::regex row(R"(^0x([0-9a-f]{2})\t\((RO|RW|SP|FN|UK)\)\t(?:: )?0x([0-9a-f]+)\t.*$)");
   for (const RegisterInfo& info : register_table()) {
     SCOPED_TRACE("REGID " + std::to_string(info.regid));

@@ -1,9 +1,8 @@
 // The Unitek manuals' examples 1-12, replayed frame for frame against the simulator.
 //
-// Sources (in /work/shared/spec):
-//   EN = 000_662ca24e66f4814c.txt, Unitek CAN-BUS manual issue V1 1011 (English), examples 1-12
-//   DE = 002_80e259dd0ac0c35a.txt, German CAN-BUS manual (Beispiel 1-12) after the FW 378 short
-//        description
+// Sources (the vendor manuals):
+//   EN = Unitek CAN-BUS manual issue V1 1011 (English), examples 1-12
+//   DE = German CAN-BUS manual (Beispiel 1-12) after the FW 378 short description
 // Frames marked "as printed" are the manuals' frames; lines under "# setup" or "# check" are not
 // in the manual: setup puts the drive into the state the example assumes, checks show the
 // behaviour the example describes in words. Where a manual misprints a frame, the row says so.

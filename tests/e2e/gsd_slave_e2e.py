@@ -3,10 +3,10 @@
 e2e_gsd_slave_pty).
 
 candp2d runs `profibus.role: "slaves"` on `pty:<tmp>/pb` with, on that one line, a CAN-DP/2
-gateway at 3 (the manual §5.1.4 slots, on a virtual CAN bus) and two generic slaves from real GSD
-files of ../shared/gsd-corpus: a SIEMENS DP/DP Coupler (SIEM8070.GSD, modular, Sync/Freeze) at 9
-and a SIEMENS SIMOCODE-DP (SIEM8031.GSE, bit areas, no Sync/Freeze) at 8, each with its field side
-on a Modbus unit of its own.
+gateway at 3 (the manual §5.1.4 slots, on a virtual CAN bus) and two generic slaves from the
+project's own GSD files (tests/gsd/data/README.md): a DP/DP coupler (CP2COUPL.GSD, modular,
+Sync/Freeze) at 9 and a motor starter (CP2MOTOR.GSD, bit areas, no Sync/Freeze) at 8, each with its
+field side on a Modbus unit of its own.
 
 The master is this file and independent of our C++: it reads the same GSD files with its own small
 reader (Ident_Number, modules, User_Prm_Data, Ext_User_Prm_Data_Const/Ref, ExtUserPrmData
@@ -14,7 +14,7 @@ defaults), builds Set_Prm and Chk_Cfg from its own module list, and talks FDL th
 master of profibus_e2e.py. The test plays the field through the candp2 package (Modbus: the
 slaves' field sides and fault registers). Shown: Data_Exchange with the coupler (its outputs
 appear on the field side, inputs written there come back), a Cfg fault (another module list), a
-Prm fault (a value out of range), Sync refused by the SIMOCODE-DP and honoured by the coupler
+Prm fault (a value out of range), Sync refused by the motor starter and honoured by the coupler
 (Global_Control), the slave leaving the bus and coming back, a diagnosis alarm announced with DH,
 and the gateway exchanging data on the same line beside the slaves.
 
@@ -30,13 +30,12 @@ import pytest
 
 from profibus_e2e import CFG_514, PRM_300MS, SC, SD2, SD3, FdlMaster, sd2, slots_514
 
-SHARED = os.environ.get("CANDP2_SHARED_DIR") or os.path.join(
-    os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "shared")
-CORPUS = os.path.normpath(os.path.join(SHARED, "gsd-corpus"))
+HERE = os.path.dirname(os.path.abspath(__file__))
+GSD_DATA = os.path.normpath(os.path.join(HERE, "..", "gsd", "data"))
 WAIT = 10.0
 SAP_DIAG, SAP_GC, SAP_MASTER = 60, 58, 62
 FC_DL, FC_DH = 0x08, 0x0A
-GATEWAY, COUPLER, SIMOCODE = 3, 9, 8
+GATEWAY, COUPLER, STARTER = 3, 9, 8
 COUPLER_MODULES = ["4 Bytes Output consistent", "2 Bytes Input", "1 Byte Output"]
 
 
@@ -59,6 +58,7 @@ class Gsd:
             cur = ""
         self.ident = None
         self.modules = {}          # name (trimmed) -> config bytes
+        self.presets = []          # the modules with Preset = 1, in GSD order
         self.prm_data = {}         # ExtUserPrmData ref -> (type, bits, default)
         self.consts, self.refs = [], []
         self.user_prm_len, self.user_prm_data = 0, b""
@@ -72,6 +72,8 @@ class Gsd:
             if block and block[0] == "module":
                 if k == "endmodule":
                     block = None
+                elif k == "preset" and int(value, 0) == 1:
+                    self.presets.append(block[1])
                 continue
             if block and block[0] == "ext":
                 if k == "endextuserprmdata":
@@ -83,7 +85,7 @@ class Gsd:
                 m = re.match(r'"([^"]*)"\s*(.*)', value)
                 cfg = m.group(2).replace(" ", "").split(",")
                 self.modules[m.group(1).strip()] = bytes(int(x, 0) for x in cfg if x)
-                block = ("module",)
+                block = ("module", m.group(1).strip())
             elif k == "extuserprmdata":
                 block = ("ext", int(value.split()[0], 0))
             elif k == "ident_number":
@@ -139,6 +141,11 @@ class Gsd:
     def chk_cfg(self, names):
         return b"".join(self.modules[n] for n in names)
 
+    def tool_chk_cfg(self, names):
+        """Chk_Cfg as configuration tools build it (pyprofibus, STEP 7; docs/slaves.md "Preset
+        modules"): the preset modules first, in GSD order, then the user's modules."""
+        return self.chk_cfg(self.presets + list(names))
+
 
 # ------------------------------------------------------------------ the line
 
@@ -156,11 +163,11 @@ def line_config(link):
         "buses": {"can0": {"type": "virtual"}},
         "gateways": [{"name": "gw3", "address": GATEWAY, "bus": "can0", "slots": slots_514()}],
         "slaves": [
-            {"name": "coupler", "address": COUPLER, "gsd": os.path.join(CORPUS, "SIEM8070.GSD"),
+            {"name": "coupler", "address": COUPLER, "gsd": os.path.join(GSD_DATA, "CP2COUPL.GSD"),
              "modules": COUPLER_MODULES, "field_unit": 100 + COUPLER},
-            {"name": "simocode", "address": SIMOCODE,
-             "gsd": os.path.join(CORPUS, "SIEM8031.GSE"), "modules": ["Basic Type 2"],
-             "field_unit": 100 + SIMOCODE},
+            {"name": "starter", "address": STARTER,
+             "gsd": os.path.join(GSD_DATA, "CP2MOTOR.GSD"), "modules": ["Starter Standard"],
+             "field_unit": 100 + STARTER},
         ],
         "log": {"level": "debug"},
     }
@@ -173,7 +180,7 @@ class Line:
         self.daemon = daemon
         self.master = FdlMaster(link)
         self.coupler = daemon.slave("coupler")
-        self.simocode = daemon.slave("simocode")
+        self.starter = daemon.slave("starter")
 
     def diag(self, station):
         """Slave_Diag: SD2, or SD3 when the SAPs and data are exactly 8 bytes (a 6-byte
@@ -214,16 +221,22 @@ class Line:
 
 @pytest.fixture(scope="module")
 def gsd():
-    return {"coupler": Gsd(os.path.join(CORPUS, "SIEM8070.GSD")),
-            "simocode": Gsd(os.path.join(CORPUS, "SIEM8031.GSE"))}
+    return {"coupler": Gsd(os.path.join(GSD_DATA, "CP2COUPL.GSD")),
+            "starter": Gsd(os.path.join(GSD_DATA, "CP2MOTOR.GSD"))}
+
+
+def serve_line(candp2d, tmp_path, config_of, make_line):
+    """candp2d serving config_of(link) in role slaves on a pty link, and make_line(daemon, link)
+    (the test's master on it); the caller closes line.master."""
+    link = str(tmp_path / "pb")
+    daemon = candp2d(config_of(link))
+    assert os.path.islink(link), "no pty link at " + link
+    return make_line(daemon, link)
 
 
 @pytest.fixture
 def line(candp2d, tmp_path):
-    link = str(tmp_path / "pb")
-    daemon = candp2d(line_config(link))
-    assert os.path.islink(link), "no pty link at " + link
-    line = Line(daemon, link)
+    line = serve_line(candp2d, tmp_path, line_config, Line)
     yield line
     line.master.close()
 
@@ -233,7 +246,7 @@ def line(candp2d, tmp_path):
 def test_data_exchange_with_its_own_module_list(line, gsd):
     c = gsd["coupler"]
     diag = line.parameterize(COUPLER, c.set_prm(), c.chk_cfg(COUPLER_MODULES))
-    assert diag.hex(" ") == "00 0c 00 02 80 70"  # WD_On, master 2, ident 8070
+    assert diag.hex(" ") == "00 0c 00 02 0c 70"  # WD_On, master 2, ident 0C70
     fc, inputs = line.exchange(COUPLER, bytes([0x11, 0x22, 0x33, 0x44, 0x55]))
     assert inputs == bytes(2)
     line.coupler.wait_until(lambda s: s.field_outputs[0:5] == bytes.fromhex("11 22 33 44 55"),
@@ -259,17 +272,17 @@ def test_other_module_list_is_cfg_fault(line, gsd):
 
 
 def test_value_out_of_range_is_prm_fault(line, gsd):
-    s = gsd["simocode"]
-    # "Class" (ExtUserPrmData 21, Unsigned8 5-30) at user byte 15.
-    diag = line.parameterize(SIMOCODE, s.set_prm(values={15: 40}), s.chk_cfg(["Basic Type 2"]))
+    s = gsd["starter"]
+    # "Class" (ExtUserPrmData 6, Unsigned8 5-30) at user byte 9.
+    diag = line.parameterize(STARTER, s.set_prm(values={9: 40}), s.chk_cfg(["Starter Standard"]))
     assert diag[0] == 0x42  # Station_Not_Ready + Prm_Fault
-    diag = line.parameterize(SIMOCODE, s.set_prm(values={15: 20}), s.chk_cfg(["Basic Type 2"]))
-    assert diag.hex(" ") == "00 0c 00 02 80 31"
+    diag = line.parameterize(STARTER, s.set_prm(values={9: 20}), s.chk_cfg(["Starter Standard"]))
+    assert diag.hex(" ") == "00 0c 00 02 0c 31"
 
 
 def test_sync_refused_by_one_honoured_by_the_other(line, gsd):
-    s, c = gsd["simocode"], gsd["coupler"]
-    diag = line.parameterize(SIMOCODE, s.set_prm(sync=True), s.chk_cfg(["Basic Type 2"]))
+    s, c = gsd["starter"], gsd["coupler"]
+    diag = line.parameterize(STARTER, s.set_prm(sync=True), s.chk_cfg(["Starter Standard"]))
     assert diag[0] == 0x12  # Station_Not_Ready + Not_Supported
     diag = line.parameterize(COUPLER, c.set_prm(sync=True), c.chk_cfg(COUPLER_MODULES))
     assert diag[0] == 0x00
@@ -308,7 +321,7 @@ def test_diagnosis_alarm_is_announced_with_dh(line, gsd):
     fc, _ = line.exchange_until(COUPLER, bytes(5), lambda fc, i: fc == FC_DH)
     assert fc == FC_DH
     diag = line.diag(COUPLER)
-    assert diag.hex(" ") == "08 0c 00 02 80 70 03 42 43"  # Ext_Diag, device block
+    assert diag.hex(" ") == "08 0c 00 02 0c 70 03 42 43"  # Ext_Diag, device block
     assert line.coupler.diagnosis.raw == bytes(diag)  # what candp2d's Modbus face shows
 
 

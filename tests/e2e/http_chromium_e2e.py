@@ -58,7 +58,8 @@ def test_front_panel(candp2_binary, tmp_path):
     os.makedirs(output_dir, exist_ok=True)
     cfg = demo_config()
     # docs/slots.md "Chk_Cfg slots": Page-Mode on with a plain slot is rejected (Cfg code 9).
-    cfg["gateways"].append({"name": "gw5", "address": 5, "bus": "can0",
+    # A long name must stay in the panel's left column and in its tile.
+    cfg["gateways"].append({"name": "gw5-hall2-line7-station5-dp2can", "address": 5, "bus": "can0",
                             "parameters": {"can_bitrate": "500k", "page_mode": True},
                             "slots": [{"io": "output", "address": 32, "length": 2,
                                        "comment": "03,05,00"}]})
@@ -79,6 +80,16 @@ def test_front_panel(candp2_binary, tmp_path):
         before = browser.wait_for("slot Q0", SLOT_BYTES % "Q0")
         want = " ".join("%02X" % b for b in COMMANDS[-1])
         assert before != want, before
+        # What the page knew when the panel opened: the tile's frames/s, at once, no placeholder;
+        # no NMT state for a gateway with CANopen off (docs/canopen.md).
+        assert int(browser.evaluate("document.querySelector('#gw-3 canvas').dataset.points")) >= 1
+        rates = browser.evaluate("Array.from(document.querySelectorAll('#gw-3 .busplot dt'))"
+                                 ".find(d => d.textContent === 'rx/s, tx/s')"
+                                 ".nextElementSibling.textContent")
+        assert rates.replace(", ", "").isdigit(), rates
+        nmt = browser.evaluate("Array.from(document.querySelectorAll('#gw-3 .plate dt'))"
+                               ".find(d => d.textContent === 'NMT').nextElementSibling.textContent")
+        assert nmt == "— (CANopen off)", nmt
 
         gw = d.gateway(UNIT)
         for cmd in COMMANDS:
@@ -124,6 +135,10 @@ def test_front_panel(candp2_binary, tmp_path):
         browser.wait_for("gw5's Cfg_Fault bit",
                          "Array.from(document.querySelectorAll('#gw-5 .bit.set'))"
                          ".some(b => b.textContent === 'Cfg_Fault')")
+        # Its long name wraps inside the front plate; the plate keeps its column.
+        wide = browser.evaluate("(() => { const p = document.querySelector('#gw-5 .plate');"
+                                " return p.scrollWidth - p.clientWidth; })()")
+        assert wide <= 1, wide
     finally:
         if browser:
             browser.close()

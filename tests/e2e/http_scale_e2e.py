@@ -2,7 +2,9 @@
 six-byte slots (http_common.line_config, master cycle 10 ms) in Debian's headless chromium over the
 DevTools protocol (cdp.py), pytest on the candp2 package (ctest e2e_http_scale):
 
-  - the overview (one tile per gateway) is drawn within 2 s of the page's load;
+  - the overview (one tile per gateway) is drawn within 2 s of the page's load, no tile's text
+    overflows it (gateway names of 32 characters, the longest allowed), and a screenshot is kept
+    ($CANDP2_TEST_OUTPUT/overview-122.png);
   - a click on gateway 17's tile opens its panel with its 48 slot rows (#gw=17);
   - a Modbus write of gateway 17's first output slot shows on that open panel;
   - the demo (one gateway) opens on its panel, with no overview to go back to.
@@ -28,8 +30,16 @@ ROW_BYTES = """(() => {
   return row ? row.cells[8].textContent : null; })()""" % ROWS
 
 
+# The elements (by id or class) whose content is wider than their box.
+OVERFLOWING = """Array.from(document.querySelectorAll('%s'))
+  .filter(e => e.scrollWidth > e.clientWidth + 1).map(e => e.id || e.className)"""
+
+
 def test_overview_then_one_gateway_at_122_x_48(candp2_binary):
-    d = Daemon(candp2_binary, config=line_config(10), timeout=60)
+    config = line_config(10)
+    for g in config["gateways"]:  # the longest names, as a plant's naming scheme makes them
+        g["name"] = ("hall2-line7-station-%d-dp2can" % g["address"]).ljust(32, "x")
+    d = Daemon(candp2_binary, config=config, timeout=60)
     browser = None
     try:
         d.wait_for("every gateway in Data_Exch",
@@ -48,6 +58,15 @@ def test_overview_then_one_gateway_at_122_x_48(candp2_binary):
               % (tiles, drawn, waited))
         state = browser.evaluate("document.querySelector('#tile-%d .tstate').textContent" % GW)
         assert state == "Data_Exch", state
+        # Every tile keeps its text inside (the name is cut with an ellipsis).
+        over = browser.evaluate(OVERFLOWING % "#tiles .tile, #tiles .thead")
+        assert over == [], over
+        output_dir = os.environ.get("CANDP2_TEST_OUTPUT", "/tmp")
+        os.makedirs(output_dir, exist_ok=True)
+        path = os.path.join(output_dir, "overview-122.png")
+        browser.screenshot(path)
+        assert os.path.getsize(path) > 10000, os.path.getsize(path)
+        print("screenshot: " + path)
 
         browser.evaluate("document.getElementById('tile-%d').click()" % GW)
         browser.wait_for("gateway %d's %d slot rows" % (GW, 2 * LINE_SLOTS),

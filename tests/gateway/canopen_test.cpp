@@ -111,10 +111,12 @@ TEST_F(CanopenTest, WakeUpTimeRestartsWithPowerCycle) {
   rec.take();
   gw->power_cycle(now);  // manual §5.1.2: "nach einem RESET oder Power-On"
   ASSERT_TRUE(configure(master(kWakeupKeep, 0), kCfg));
+  exchange({0x01, 0x02});
   run_until(seconds(12) - microseconds(1));
   EXPECT_TRUE(rec.sent.empty());
+  EXPECT_FALSE(gw->status().released);
   run_until(seconds(12));
-  EXPECT_EQ(rec.take(), V({"181#R8", "00012345#R3"}));
+  EXPECT_EQ(rec.take(), V({"201#0102", "181#R8", "00012345#R3"}));
 }
 
 TEST_F(CanopenTest, RtrFramesOnePerRxIdentifier) {
@@ -129,6 +131,25 @@ TEST_F(CanopenTest, RtrFramesOnePerRxIdentifier) {
   EXPECT_EQ(rec.take(), V({"181#R2", "381#R4"}));
 }
 
+TEST_F(CanopenTest, MasterWithoutWakeUpTimeSendsTxSlotsBeforeRemoteFrames) {
+  // docs/canopen.md "CANopen master": at the release NMT start-all, then every Tx slot once, then
+  // one remote frame per Rx identifier (manual table 5.1.2 "nach Wake-Up-Time Start-Frame, TxID
+  // ausgeben, RTR-Frames auf RxId senden"). With wake-up time 0 the release comes at Chk_Cfg,
+  // before the PLC's first outputs: the remote frames wait for the Tx slot's first frame.
+  UserPrm p = master(0, 0);
+  p.start_frame = true;
+  ASSERT_TRUE(configure(p, kCfg));
+  EXPECT_TRUE(gw->status().released);
+  EXPECT_EQ(rec.take(), V({"000#0100"}));
+  now = milliseconds(5);
+  exchange({0xAA, 0xBB});
+  EXPECT_EQ(times(rec), std::vector<Time>(3, milliseconds(5)));
+  EXPECT_EQ(rec.take(), V({"201#AABB", "181#R8", "00012345#R3"}));
+  now = milliseconds(10);
+  exchange({0xAA, 0xBB});  // once only
+  EXPECT_TRUE(rec.take().empty());
+}
+
 TEST_F(CanopenTest, NoRtrFramesWhenDisabled) {
   UserPrm p = master();
   p.send_rtr = false;
@@ -141,8 +162,9 @@ TEST_F(CanopenTest, ReleaseActionsOnceStartFrameNotRepeatedAfterWatchdog) {
   UserPrm p = master();
   p.start_frame = true;
   ASSERT_TRUE(configure(p, kCfg, 50));
+  EXPECT_EQ(rec.take(), V({"000#0100"}));  // the Tx slot waits for its data, the RTR frames too
   exchange({0x01, 0x02});
-  EXPECT_EQ(rec.take(), V({"000#0100", "181#R8", "00012345#R3", "201#0102"}));
+  EXPECT_EQ(rec.take(), V({"201#0102", "181#R8", "00012345#R3"}));
   run_for(milliseconds(60));
   ASSERT_EQ(gw->dp().state(), dp::SlaveState::WaitPrm);
   ASSERT_TRUE(configure(p, kCfg, 50));
@@ -418,9 +440,9 @@ TEST_F(CanopenTest, SlaveStartedBeforeDataExchReleasesAtDataExch) {
   EXPECT_EQ(gw->status().nmt, NmtState::Operational);
   EXPECT_TRUE(rec.take().empty());  // no configuration yet: nothing to send
   gw->dp().chk_cfg(kMaster, kCfg, now);
-  EXPECT_EQ(rec.take(), V({"181#R8", "00012345#R3"}));
+  EXPECT_TRUE(rec.take().empty());  // the RTR frames follow the Tx slot's first frame
   exchange({5, 6});
-  EXPECT_EQ(rec.take(), V({"201#0506"}));
+  EXPECT_EQ(rec.take(), V({"201#0506", "181#R8", "00012345#R3"}));
 }
 
 TEST_F(CanopenTest, RoleChangeRestartsTheReleaseRules) {
@@ -428,7 +450,8 @@ TEST_F(CanopenTest, RoleChangeRestartsTheReleaseRules) {
   EXPECT_TRUE(gw->status().released);
   ASSERT_TRUE(configure(slave(4), kCfg));
   EXPECT_FALSE(gw->status().released);
-  EXPECT_EQ(rec.take(), V({"181#R8", "00012345#R3", "084#"}));
+  // The master's RTR frames waited for the first Data_Exchange, which never came: not sent.
+  EXPECT_EQ(rec.take(), V({"084#"}));
   run_for(seconds(1));
   EXPECT_TRUE(rec.take().empty());  // no SYNC as slave, nothing before NMT start
 }
@@ -443,14 +466,16 @@ TEST_F(CanopenTest, NewRoleReleasesOnlyAfterTheNewChkCfg) {
   gw->dp().set_prm(kMaster, dp::with_lock_req(make_set_prm(p)), now);
   EXPECT_TRUE(rec.take().empty());
   gw->dp().chk_cfg(kMaster, kCfg, now);
-  EXPECT_EQ(rec.take(), V({"000#0100", "181#R8", "00012345#R3"}));
+  EXPECT_EQ(rec.take(), V({"000#0100"}));
+  exchange({1, 2});
+  EXPECT_EQ(rec.take(), V({"201#0102", "181#R8", "00012345#R3"}));
 }
 
 TEST_F(CanopenTest, SlaveReleasedAtDataExchSendsEachSlotOnce) {
   ASSERT_TRUE(configure(slave(5), kCfg, 50));
   rx("000#0105");
   exchange({7, 7});
-  EXPECT_EQ(rec.take(), V({"085#", "181#R8", "00012345#R3", "201#0707"}));
+  EXPECT_EQ(rec.take(), V({"085#", "201#0707", "181#R8", "00012345#R3"}));
   rx("000#0205");  // stopped
   run_for(milliseconds(60));
   ASSERT_EQ(gw->dp().state(), dp::SlaveState::WaitPrm);

@@ -130,6 +130,31 @@ TEST_F(CommWindowTest, Manual5342ReceiveData) {
   EXPECT_TRUE(rec.take().empty());  // none of these commands transmits
 }
 
+TEST_F(CommWindowTest, TwentyNineBitIdentifierAsTheDocsWorkedExample) {
+  // docs/communication-window.md "A 29-bit identifier, worked example": 0x18FF1234 is written
+  // 12 34 38 FF (bits 15..8, 7..0, 0x20 | bits 28..24, bits 23..16).
+  ASSERT_TRUE(setup());
+  EXPECT_EQ(write(window("12 34 38 FF AA BB 00 00 00 00 00 00 02 05 00 01")), idle(0x05));
+  EXPECT_EQ(rec.take(), V({"18FF1234#AABB"}));
+  EXPECT_EQ(write(window("12 34 38 FF 00 00 00 00 00 00 00 00 00 06 00 04")), idle(0x06));
+  EXPECT_TRUE(gw->comm_window().is_enabled(Ext(0x18FF1234)));
+  rx("18FF1234#0102");
+  EXPECT_EQ(write(window("00 00 00 00 00 00 00 00 00 00 00 00 00 07 00 03")),
+            "12 34 38 FF 01 02 00 00 00 00 00 00 02 07 00 00");
+  // The misreadings of the table: the identifier as a Motorola DWORD, in the comment bytes' form,
+  // without the flag - error 2, nothing sent.
+  EXPECT_EQ(write(window("18 FF 12 34 AA BB 00 00 00 00 00 00 02 08 00 01")), idle(0x08, 0, 2));
+  EXPECT_EQ(write(window("38 FF 12 34 AA BB 00 00 00 00 00 00 02 09 00 01")), idle(0x09, 0, 2));
+  EXPECT_EQ(write(window("12 34 18 FF AA BB 00 00 00 00 00 00 02 0A 00 01")), idle(0x0A, 0, 2));
+  EXPECT_TRUE(rec.take().empty());
+  // Silent ones: a DWORD whose third byte has bit 5 set is another 29-bit identifier, and the
+  // 29-bit 0x123 without the flag is the 11-bit 0x123.
+  EXPECT_EQ(write(window("18 FF 20 34 AA BB 00 00 00 00 00 00 02 0B 00 01")), idle(0x0B));
+  EXPECT_EQ(write(window("01 23 00 00 AA BB 00 00 00 00 00 00 02 0C 00 01")), idle(0x0C));
+  EXPECT_EQ(write(window("01 23 20 00 AA BB 00 00 00 00 00 00 02 0D 00 01")), idle(0x0D));
+  EXPECT_EQ(rec.take(), V({"003418FF#AABB", "123#AABB", "00000123#AABB"}));
+}
+
 TEST_F(CommWindowTest, Manual82Fb4Sequence) {
   // manual §8.2, FB 4 networks 5-6: start frame through the window, SYNC time 0x0200, then
   // reception of the first PDO of motors 1, 10, 3, 4, 7, 8. Command 20 needs a CANopen master.
@@ -421,6 +446,41 @@ TEST_F(CommWindowTest, MsgLostSaturatesInDiagnosis) {
   rx("100#02");
   EXPECT_EQ(gw->comm_window().msg_lost(), 300u);
   EXPECT_EQ(gw->comm_window().fifo_level(), 255u);
+}
+
+TEST_F(CommWindowTest, PowerCycleStartsEveryCounterAtZero) {
+  // docs/faults.md "Power cycle and re-parameterization": a restarted gateway starts every counter
+  // at 0 - frames, Data_Exchanges, IRQ_LOST (diagnosis byte 9), MSG_LOST (byte 10), the FIFO.
+  UserPrm p = cw_prm();
+  p.can_diagnosis = true;
+  ASSERT_TRUE(setup(p));
+  command(kCwEnable, Std(0x100));
+  for (int i = 0; i < 256; ++i) rx("100#01");  // the 256th is lost at the full FIFO
+  command(kCwSend, Std(0x12), {1});
+  gw->set_controller_status(can::BusState::Ok, 7);  // the transport lost 7 frames
+  GatewayStatus st = gw->status();
+  ASSERT_EQ(st.irq_lost, 7u);
+  ASSERT_EQ(st.msg_lost, 1u);
+  const auto before = diag();
+  ASSERT_EQ(hex(std::span(before).subspan(8)), "00 07 01");
+
+  gw->power_cycle(now);
+  st = gw->status();
+  EXPECT_EQ(st.rx_frames, 0u);
+  EXPECT_EQ(st.tx_frames, 0u);
+  EXPECT_EQ(st.irq_lost, 0u);
+  EXPECT_EQ(st.msg_lost, 0u);
+  EXPECT_EQ(st.fifo_level, 0u);
+  EXPECT_EQ(st.fifo_high_water, 0u);
+  EXPECT_EQ(st.data_exchanges, 0u);
+  // The transport's own count runs on: only what it loses after the restart counts.
+  gw->set_controller_status(can::BusState::Ok, 7);
+  EXPECT_EQ(gw->status().irq_lost, 0u);
+  gw->set_controller_status(can::BusState::Ok, 9);
+  EXPECT_EQ(gw->status().irq_lost, 2u);
+  ASSERT_TRUE(setup(p));
+  const auto d = diag();
+  EXPECT_EQ(hex(std::span(d).subspan(8)), "00 02 00");
 }
 
 TEST_F(CommWindowTest, FramesStoredWhileTheDpMasterIsAway) {

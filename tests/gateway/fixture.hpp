@@ -1,5 +1,5 @@
 // Test fixture for the gateway core: a Gateway on a recording frame sink, a simulated master
-// address, an injected clock. Frames are compared in candump notation (STYLE.md lesson 8).
+// address, an injected clock. Frames are compared in candump notation, readable in a failure.
 #pragma once
 
 #include <gtest/gtest.h>

@@ -230,6 +230,18 @@ TEST_F(PageModeTest, InitialZeroImageIsPage0AndSequenceZero) {
   EXPECT_EQ(gw->status().tx_frames, 0u);
 }
 
+TEST_F(PageModeTest, PowerCycleStartsThePageCountAtZero) {
+  // docs/faults.md "Power cycle and re-parameterization": a restarted gateway starts every counter
+  // at 0, the pages processed (the HTTP status page's count) too.
+  setup({32}, {32});
+  init();
+  config(51, many(0x100, 1, 8));
+  ASSERT_GT(gw->page_mode().pages_processed(), 0u);
+  gw->power_cycle(now);
+  EXPECT_EQ(gw->page_mode().pages_processed(), 0u);
+  EXPECT_EQ(gw->page_mode().state(), PageMode::State::WaitInit);
+}
+
 // ------------------------------------------------------------------ configuration pages
 
 TEST_F(PageModeTest, Manual642Example2GatewayTakesElevenIdentifiers) {

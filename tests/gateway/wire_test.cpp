@@ -59,6 +59,9 @@ TEST(Bitrates, TextAsTable511NamesThem) {
     EXPECT_EQ(bitrate_text_bps(kBitrates[i]), bitrate_text(i));
   }
   EXPECT_EQ(bitrate_text(1), "666.6 kbit/s");  // not "666 kbit/s"
+  EXPECT_EQ(bitrate_bps(0), 1000000u);         // the one checked look-up of the table
+  EXPECT_EQ(bitrate_bps(13), 10000u);
+  EXPECT_FALSE(bitrate_bps(14));
   EXPECT_EQ(bitrate_name(14), "?");
   EXPECT_EQ(bitrate_text(14), "?");
   EXPECT_EQ(bitrate_text_bps(800000), "800 kbit/s");    // an interface outside the table
@@ -248,6 +251,21 @@ TEST(ChkCfg, CountersAddOneByte) {
   EXPECT_EQ(c.slots[1].data_len, 8u);
 }
 
+TEST(ChkCfg, CounterSlotsNeedOneDataByte) {
+  // docs/slots.md "Cfg fault codes" code 3: 1..8 data bytes plus the counter byte, so 2 is the
+  // shortest slot with a counter; the counter of the other direction does not count.
+  UserPrm p;
+  p.rx_counter = true;
+  auto c = slots_ok(cfg_of({in_slot(2, {0x01, 0x81, 0x00}), out_slot(1, {0x02, 0x01, 0x00})}), p);
+  EXPECT_EQ(c.slots[0].data_len, 1u);
+  EXPECT_EQ(c.slots[1].data_len, 1u);
+  p.rx_counter = false;
+  p.tx_counter = true;
+  c = slots_ok(cfg_of({in_slot(1, {0x01, 0x81, 0x00}), out_slot(2, {0x02, 0x01, 0x00})}), p);
+  EXPECT_EQ(c.slots[0].data_len, 1u);
+  EXPECT_EQ(c.slots[1].data_len, 1u);
+}
+
 struct CfgCase {
   const char* what;
   std::vector<std::uint8_t> cfg;
@@ -259,6 +277,11 @@ struct CfgCase {
 UserPrm with_cw() {
   UserPrm p;
   p.comm_window = true;
+  return p;
+}
+UserPrm with_counters() {
+  UserPrm p;
+  p.rx_counter = p.tx_counter = true;
   return p;
 }
 UserPrm with_page() {
@@ -325,6 +348,13 @@ INSTANTIATE_TEST_SUITE_P(
                 CfgCase{"2 word unit", cat(kOut, {0x43, 0x41, 0x01, 0x23, 0x00}), 1, 2},
                 CfgCase{"3 length 9 without counter",
                         cat(kOut, cfg_of({in_slot(9, {0x01, 0x23, 0x00})})), 1, 3},
+                // docs/slots.md "Cfg fault codes" code 3: the counter byte alone carries no data.
+                CfgCase{"3 Rx-Counter slot of length 1",
+                        cat(kOut, cfg_of({in_slot(1, {0x01, 0x23, 0x00})})), 1, 3, with_counters()},
+                CfgCase{"3 Tx-Counter slot of length 1",
+                        cfg_of({out_slot(1, {0x01, 0x00, 0x00})}), 0, 3, with_counters()},
+                CfgCase{"3 Tx-Counter dummy output of length 1", cfg_of({dummy_out()}), 0, 3,
+                        with_counters()},
                 CfgCase{"3 CW not 16", cfg_of({out_slot(8, {0xFF, 0xEF, 0x00, 0x00, 0x00})}), 0, 3,
                         with_cw()},
                 CfgCase{"4 no identifier", cat(kOut, cfg_of({in_slot(2, {})})), 1, 4},
@@ -332,10 +362,10 @@ INSTANTIATE_TEST_SUITE_P(
                 CfgCase{"5 format missing", cat(kOut, cfg_of({in_slot(2, {0x01, 0x23})})), 1, 5},
                 CfgCase{"5 29-bit without format",
                         cat(kOut, cfg_of({in_slot(2, {0x20, 0x01, 0x02, 0x03})})), 1, 5},
-                CfgCase{"6 11-bit above 7FF",
-                        cat(kOut, cfg_of({in_slot(2, {0x08, 0x00, 0x00})})), 1, 6},
-                CfgCase{"6 half cycle",
-                        cat(kOut, cfg_of({out_slot(2, {0x02, 0x00, 0x00, 0x03})})), 1, 6},
+                CfgCase{"6 11-bit above 7FF", cat(kOut, cfg_of({in_slot(2, {0x08, 0x00, 0x00})})),
+                        1, 6},
+                CfgCase{"6 half cycle", cat(kOut, cfg_of({out_slot(2, {0x02, 0x00, 0x00, 0x03})})),
+                        1, 6},
                 CfgCase{"6 m=6", cat(kOut, cfg_of({out_slot(2, {0x20, 0, 0, 1, 0, 3})})), 1, 6},
                 CfgCase{"6 Tx and Rx clash", cat(kOut, cfg_of({in_slot(2, {0x01, 0x00, 0x00})})), 1,
                         6},

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "common/hex.hpp"
+#include "gateway/cfg_reading.hpp"
 
 namespace candp2::gsd {
 namespace {
@@ -27,12 +28,13 @@ TEST(GsdCfg, GeneralFormat) {
 }
 
 TEST(GsdCfg, SpecialFormat) {
-  // SI1180fd.gse: 0xC0 -> output length byte, then input length byte, no manufacturer bytes.
+  // tests/gsd/data/CP2DPV1.GSD: 0xC0 -> output length byte, then input length byte, no manufacturer
+  // bytes.
   CfgDecode d = dec({0xC0, 0x83, 0x89});
   ASSERT_FALSE(d.error);
   ASSERT_EQ(d.entries.size(), 1u);
   EXPECT_EQ(describe(d.entries[0]), "output 4 bytes consistent, input 10 bytes consistent");
-  // SIEM8031.GSE: 0x04 -> no data, 4 manufacturer bytes.
+  // 0x04 -> no data, 4 manufacturer bytes (an empty slot as vendor files write it).
   d = dec({0x04, 0x00, 0x00, 0xAD, 0xC0, 0x10});
   ASSERT_FALSE(d.error);
   ASSERT_EQ(d.entries.size(), 2u);
@@ -137,7 +139,7 @@ TEST(GsdCfg, CanDp2Meaning) {
     const CfgDecode d = decode_config(c.cfg);
     ASSERT_FALSE(d.error) << *d.error;
     ASSERT_EQ(d.entries.size(), 1u);
-    const CanDp2Slot s = describe_candp2(d.entries[0]);
+    const gw::EntryReading s = gw::read_cfg_entry(d.entries[0].bytes);
     EXPECT_EQ(s.text, c.text);
     if (*c.problem == 0) {
       EXPECT_FALSE(s.problem) << *s.problem;
@@ -159,19 +161,19 @@ TEST(GsdCfg, IgnoredInputCycle) {
   rx.kind = gw::SlotKind::Rx;
   rx.length = 2;
   rx.comment = {0x01, 0x81, 0x00, 0x01, 0xF4};
-  EXPECT_EQ(ignored_input_cycle(rx, {}), 500);
+  EXPECT_EQ(gw::ignored_input_cycle(rx, {}), 500);
   rx.comment = {0x21, 0x00, 0x01, 0x81, 0x00, 0x00, 0x64};  // 29-bit, cycle 100 ms
-  EXPECT_EQ(ignored_input_cycle(rx, {}), 100);
+  EXPECT_EQ(gw::ignored_input_cycle(rx, {}), 100);
   rx.comment = {0x01, 0x81, 0x00};
-  EXPECT_FALSE(ignored_input_cycle(rx, {}));
+  EXPECT_FALSE(gw::ignored_input_cycle(rx, {}));
   rx.comment = {0x01, 0x81, 0x00, 0x00, 0x00};
-  EXPECT_FALSE(ignored_input_cycle(rx, {}));
+  EXPECT_FALSE(gw::ignored_input_cycle(rx, {}));
   rx.comment = {0x20, 0x00, 0x01, 0x81, 0x00};  // 29-bit with m = 5: no cycle bytes
-  EXPECT_FALSE(ignored_input_cycle(rx, {}));
+  EXPECT_FALSE(gw::ignored_input_cycle(rx, {}));
   gw::Slot tx = rx;
   tx.kind = gw::SlotKind::Tx;
   tx.comment = {0x01, 0x81, 0x00, 0x01, 0xF4};
-  EXPECT_FALSE(ignored_input_cycle(tx, {}));
+  EXPECT_FALSE(gw::ignored_input_cycle(tx, {}));
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 // Every Module of the shipped GSD against the gateway core: its configuration bytes,
 // placed in a configuration the gateway can accept, decode with gw::decode_slots to the slot the
-// module name promises; describe_candp2 (the GSD view) reports the very same slot. The
+// module name promises; gw::read_cfg_entry (the GSD view) reports the very same slot. The
 // placeholder identifier 0x7F8 has its documented meaning (docs/gsd.md): the "no CAN assignment"
 // dummy on an 11-bit output (manual §5.1.4), an ordinary identifier everywhere else.
 #include <gtest/gtest.h>
@@ -9,6 +9,7 @@
 #include <variant>
 
 #include "common/hex.hpp"
+#include "gateway/cfg_reading.hpp"
 #include "gateway/slot_config.hpp"
 #include "gsd/cfg.hpp"
 #include "gsd/gsd.hpp"
@@ -118,7 +119,7 @@ TEST(GsdModuleRoundTrip, EveryModuleDecodesToTheSlotItsNamePromises) {
     // The GSD's own view of the module is the gateway's.
     const CfgDecode d = decode_config(mod.config);
     ASSERT_EQ(d.entries.size(), 1u);
-    const CanDp2Slot g = describe_candp2(d.entries[0]);
+    const gw::EntryReading g = gw::read_cfg_entry(d.entries[0].bytes);
     ASSERT_TRUE(g.slot.has_value()) << g.problem.value_or("");
     EXPECT_EQ(g.slot->kind, s.kind);
     EXPECT_EQ(g.slot->id, s.id);

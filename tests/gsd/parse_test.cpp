@@ -121,7 +121,7 @@ TEST(GsdParse, PrmTextAndExtUserPrmDataForms) {
 TEST(GsdParse, ModulesWithReferenceParametersAndDataArea) {
   const ParseResult r = parse(
       "#Profibus_DP\n"
-      "Module=\"Leermodul\"0x00\n"  // no blank between name and bytes (SIEM8042.GSG)
+      "Module=\"Leermodul\"0x00\n"  // no blank between name and bytes (as in vendor files)
       "EndModule\n"
       "Module = \"PRM\" 0xC1,0x0F,0x0F,0x00\n"
       "6\n"

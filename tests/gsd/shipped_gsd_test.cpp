@@ -10,11 +10,13 @@
 #include <sstream>
 
 #include "common/hex.hpp"
+#include "gateway/cfg_reading.hpp"
 #include "gsd/cfg.hpp"
 #include "gsd/check.hpp"
 #include "gsd/gsd.hpp"
 #include "gsd/prm.hpp"
 #include "gsd/summary.hpp"
+#include "validate/gsd_reading.hpp"
 
 namespace candp2::gsd {
 namespace {
@@ -40,7 +42,8 @@ TEST(ShippedGsd, ParsesWithoutAnyDiagnostic) {
 }
 
 TEST(ShippedGsd, CheckHasNoFindings) {
-  for (const auto& d : check(shipped().model)) ADD_FAILURE() << format(d, kGsdPath);
+  for (const auto& d : check(shipped().model, &validate::candp2_reader()))
+    ADD_FAILURE() << format(d, kGsdPath);
 }
 
 TEST(ShippedGsd, KeywordsOfManualChapter4) {
@@ -198,7 +201,7 @@ TEST(ShippedGsd, CarriesTheManualChapter7Example) {
   EXPECT_EQ(hex_bytes(m->config), "83 05 02 03 00");
   const CfgDecode dec = decode_config(m->config);
   ASSERT_EQ(dec.entries.size(), 1u);
-  const CanDp2Slot s = describe_candp2(dec.entries[0]);
+  const gw::EntryReading s = gw::read_cfg_entry(dec.entries[0].bytes);
   EXPECT_FALSE(s.problem.has_value());
   EXPECT_EQ(s.text, "Tx 11-bit ID 0x203, 6 bytes, form 0x00");
 }
@@ -235,13 +238,13 @@ TEST(ShippedGsd, EveryModuleIsAValidCanDp2Slot) {
     const CfgDecode dec = decode_config(mod.config);
     ASSERT_FALSE(dec.error.has_value()) << *dec.error;
     ASSERT_EQ(dec.entries.size(), 1u);
-    const CanDp2Slot s = describe_candp2(dec.entries[0]);
+    const gw::EntryReading s = gw::read_cfg_entry(dec.entries[0].bytes);
     EXPECT_FALSE(s.problem.has_value()) << *s.problem;
   }
 }
 
 TEST(ShippedGsd, SummaryNamesTheEssentials) {
-  const std::string s = summary(shipped().model);
+  const std::string s = summary(shipped().model, &validate::candp2_reader());
   for (const char* part :
        {"esd CAN-DP/2", "0x04A4", "Max_Module 48", "Max_Input_Len 244", "Max_Data_Len 300",
         "defaults 00 06 00 01 00 00 FF FF FF", "CAN-Bitrate", "\"125 kbit/s\"", "byte 7..8",

@@ -1,7 +1,8 @@
-// The DP master (profibus_sim/master) drives generic slaves from real GSD files beside a CAN-DP/2,
-// over the in-process link and over FDL on a byte pipe (the rigs of tests/profibus/link_rigs.hpp,
-// STYLE.md lesson 7). The PLC-like line of docs/slaves.md: one CAN-DP/2 and two generic slaves in
-// Data_Exch; one slave leaves the bus and the others go on.
+// The DP master (profibus_sim/master) drives generic slaves from the project's GSD files
+// (tests/gsd/data) beside a CAN-DP/2, over the in-process link and over FDL on a byte pipe (the
+// rigs of tests/profibus/link_rigs.hpp: one contract, every link). The PLC-like line of
+// docs/slaves.md: one CAN-DP/2 and two generic slaves in Data_Exch; one slave leaves the bus and
+// the others go on.
 #include <gtest/gtest.h>
 
 #include "fixture.hpp"
@@ -29,9 +30,9 @@ struct Line : ::testing::Test {
   std::vector<std::unique_ptr<GsdSlave>> slaves;
   Time next_cycle{0};
 
-  std::shared_ptr<const gsd::Model> simocode = load("SIEM8031.GSE");
-  std::shared_ptr<const gsd::Model> coupler = load("SIEM8070.GSD");
-  const std::vector<std::string> simocode_mods = {"Basic Type 2"};
+  std::shared_ptr<const gsd::Model> starter = load("CP2MOTOR.GSD");
+  std::shared_ptr<const gsd::Model> coupler = load("CP2COUPL.GSD");
+  const std::vector<std::string> starter_mods = {"Starter Standard"};
   const std::vector<std::string> coupler_mods = {"4 Bytes Output consistent", "2 Bytes Input",
                                                  "1 Byte Output"};
 
@@ -41,9 +42,9 @@ struct Line : ::testing::Test {
     rig.add(master, slaves.back()->dp(), std::move(p));
     return *slaves.back();
   }
-  GsdSlave& simocode_at(std::uint8_t address, std::uint16_t in, std::uint16_t out) {
-    return slave(simocode, address, simocode_mods,
-                 params(*simocode, simocode_mods, in, out, {.watchdog_ms = 100}));
+  GsdSlave& starter_at(std::uint8_t address, std::uint16_t in, std::uint16_t out) {
+    return slave(starter, address, starter_mods,
+                 params(*starter, starter_mods, in, out, {.watchdog_ms = 100}));
   }
   GsdSlave& coupler_at(std::uint8_t address, std::uint16_t in, std::uint16_t out) {
     return slave(coupler, address, coupler_mods,
@@ -93,13 +94,13 @@ struct RigName {
 TYPED_TEST_SUITE(Line, Rigs, RigName);
 
 TYPED_TEST(Line, GenericSlavesReachDataExchangeAndCarryFieldData) {
-  auto& a = this->simocode_at(8, 100, 100);  // I 100..103, Q 100..103
-  auto& b = this->coupler_at(9, 200, 200);   // Q 200..203 + 204, I 200..201
+  auto& a = this->starter_at(8, 100, 100);  // I 100..103, Q 100..103
+  auto& b = this->coupler_at(9, 200, 200);  // Q 200..203 + 204, I 200..201
   this->run_for(milliseconds(100));
   ASSERT_EQ(this->view(8).state, MasterSlaveState::DataExch);
   ASSERT_EQ(this->view(9).state, MasterSlaveState::DataExch);
-  EXPECT_EQ(hex(this->view(8).diag_bytes), "00 0C 00 02 80 31");
-  EXPECT_EQ(hex(this->view(9).diag_bytes), "00 0C 00 02 80 70");
+  EXPECT_EQ(hex(this->view(8).diag_bytes), "00 0C 00 02 0C 31");
+  EXPECT_EQ(hex(this->view(9).diag_bytes), "00 0C 00 02 0C 70");
   auto& q = this->master.image().outputs;
   for (int i = 0; i < 4; ++i) q[100 + i] = static_cast<std::uint8_t>(0x10 + i);
   for (int i = 0; i < 5; ++i) q[200 + i] = static_cast<std::uint8_t>(0x20 + i);
@@ -115,11 +116,11 @@ TYPED_TEST(Line, GenericSlavesReachDataExchangeAndCarryFieldData) {
 
 TYPED_TEST(Line, PlcLikeLineOneSlaveLeavesTheOthersGoOn) {
   auto& g = this->gateway_at(3);
-  auto& a = this->simocode_at(8, 100, 100);
+  auto& a = this->starter_at(8, 100, 100);
   auto& b = this->coupler_at(9, 200, 200);
   this->run_for(milliseconds(100));
   for (std::uint8_t addr : {3, 8, 9}) ASSERT_EQ(this->view(addr).state, MasterSlaveState::DataExch);
-  a.set_online(false);  // the SIMOCODE leaves the bus
+  a.set_online(false);  // the motor starter leaves the bus
   const auto gw_before = this->view(3).data_exchanges, b_before = this->view(9).data_exchanges;
   this->run_for(milliseconds(300));
   const auto v = this->view(8);
@@ -153,20 +154,20 @@ TYPED_TEST(Line, ItsOwnModuleListDiffersCfgFaultAndRetry) {
 }
 
 TYPED_TEST(Line, ParameterOutOfRangePrmFault) {
-  auto p = params(*this->simocode, this->simocode_mods, 100, 100);
-  p.prm[22] = 40;  // "Class" 5-30
-  auto& s = this->slave(this->simocode, 8, this->simocode_mods, std::move(p));
+  auto p = params(*this->starter, this->starter_mods, 100, 100);
+  p.prm[16] = 40;  // "Class" 5-30
+  auto& s = this->slave(this->starter, 8, this->starter_mods, std::move(p));
   this->run_for(milliseconds(60));
   EXPECT_EQ(this->view(8).state, MasterSlaveState::Retry);
   EXPECT_EQ(this->view(8).diag_bytes.at(0), dp::kDiag1PrmFault | dp::kDiag1StationNotReady);
   EXPECT_NE(s.prm_problem().find("\"Class\""), std::string::npos);
   EXPECT_TRUE(
       this->log.contains("slave not ready after parameterization: Station_Not_Ready "
-                         "Prm_Fault Prm_Req master=none ident=8031"));
+                         "Prm_Fault Prm_Req master=none ident=0C31"));
 }
 
 TYPED_TEST(Line, ForcedFaultsTakeTheSlaveOutAndBack) {
-  auto& s = this->simocode_at(8, 100, 100);
+  auto& s = this->starter_at(8, 100, 100);
   this->run_for(milliseconds(100));
   ASSERT_EQ(this->view(8).state, MasterSlaveState::DataExch);
   s.force_cfg_fault(true, this->now);
@@ -181,13 +182,13 @@ TYPED_TEST(Line, ForcedFaultsTakeTheSlaveOutAndBack) {
 // Over FDL a new diagnosis during Data_Exch is announced with DH and read by the master.
 using LineFdl = Line<FdlRig>;
 TEST_F(LineFdl, DiagnosisAlarmReachesTheMaster) {
-  auto& s = simocode_at(8, 100, 100);
+  auto& s = starter_at(8, 100, 100);
   run_for(milliseconds(100));
   ASSERT_EQ(view(8).state, MasterSlaveState::DataExch);
   s.set_device_diag({0x42});
   run_for(milliseconds(50));
-  EXPECT_EQ(hex(view(8).diag_bytes), "08 0C 00 02 80 31 02 42");
-  EXPECT_TRUE(log.contains("Ext_Diag WD_On master=2 ident=8031 ext=02 42"));
+  EXPECT_EQ(hex(view(8).diag_bytes), "08 0C 00 02 0C 31 02 42");
+  EXPECT_TRUE(log.contains("Ext_Diag WD_On master=2 ident=0C31 ext=02 42"));
   EXPECT_EQ(view(8).state, MasterSlaveState::DataExch);  // Ext_Diag is not "not ready"
 }
 

@@ -1,12 +1,15 @@
-// Helpers for the generic-slave tests: real GSD files read from ../shared/gsd-corpus (never
-// copied, tests/README of the corpus), slaves built from them, and the master's telegrams built
-// the way a configuration tool builds them (gsd_slave::encode_user_prm / encode_set_prm).
+// Helpers for the generic-slave tests: the project's own GSD files (tests/gsd/data/README.md),
+// slaves built from them, and the master's telegrams built the way a configuration tool builds
+// them (gsd_slave::encode_user_prm / encode_set_prm). A file that cannot be read or a slave that
+// cannot be built stops the test with an exception naming the file (gtest reports it), never
+// with an empty model a test would go on with.
 #pragma once
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -14,15 +17,22 @@
 #include "gsd/gsd.hpp"
 #include "gsd_slave/gsd_slave.hpp"
 #include "profibus_sim/master/dp_master.hpp"
+#include "tests/vendor_files.hpp"
 
 namespace candp2::gsd_slave::test {
 
 inline constexpr std::uint8_t kMaster = 2;
 
+// A GSD file of tests/gsd/data, parsed; throws with the path and the first error otherwise.
 inline std::shared_ptr<const gsd::Model> load(const std::string& file) {
-  const auto path = std::filesystem::path(CANDP2_SHARED_DIR) / "gsd-corpus" / file;
-  auto r = gsd::parse_file(path.string());
-  EXPECT_TRUE(r.ok()) << path;
+  const std::string path = candp2::test::project_gsd(file).string();
+  auto r = gsd::parse_file(path);
+  if (!r.ok()) {
+    std::string why;
+    for (const auto& d : r.diagnostics)
+      if (d.severity == gsd::Severity::Error && why.empty()) why = gsd::format(d, path);
+    throw std::runtime_error("cannot use the GSD file " + path + ": " + why);
+  }
   return std::make_shared<const gsd::Model>(std::move(r.model));
 }
 
@@ -58,7 +68,8 @@ inline std::unique_ptr<GsdSlave> make_slave(std::shared_ptr<const gsd::Model> mo
   s.log = log;
   std::string error;
   auto slave = GsdSlave::create(std::move(s), &error);
-  EXPECT_TRUE(slave) << error;
+  if (!slave)
+    throw std::runtime_error("cannot build the slave at " + std::to_string(address) + ": " + error);
   return slave;
 }
 

@@ -9,7 +9,10 @@
   - conffiles: exactly /etc/candp2/candp2d.json; maintainer scripts are valid sh;
   - lintian: exit status 0 with --fail-on error,warning;
   - the installed tree (dpkg-deb -x): candp2d --version, candp2d --check on the installed
-    configuration (whose state_file lies in the unit's StateDirectory), candp2 gsd on the GSD.
+    configuration (whose state_file lies in the unit's StateDirectory), candp2 gsd on the GSD;
+  - two instances of the template candp2d@.service (docs/daemon.md "Several lines on one
+    host"): its ExecStart for line1 and line2, each with its own configuration, run side by side
+    and both answer Modbus.
 
   deb_test.py --deb dist/candp2_0.1.0-1_amd64.deb --version 0.1.0
 """
@@ -18,9 +21,12 @@ import argparse
 import json
 import os
 import re
+import socket
+import struct
 import subprocess
 import sys
 import tempfile
+import time
 
 SKIP = 77
 
@@ -66,7 +72,8 @@ def main():
         "/usr/share/man/man8/candp2d.8.gz", "/usr/share/man/man1/candp2.1.gz",
         "/usr/share/man/man1/candp2-drive.1.gz",
         "/usr/share/doc/candp2/copyright", "/usr/share/doc/candp2/changelog.Debian.gz",
-        "/lib/systemd/system/candp2d.service", "/etc/candp2/candp2d.json",
+        "/lib/systemd/system/candp2d.service", "/lib/systemd/system/candp2d@.service",
+        "/etc/candp2/candp2d.json",
     ]
     missing = [p for p in required if p not in paths]
     c.check(not missing, "contents: %d required files" % len(required), "missing %s" % missing)
@@ -144,8 +151,71 @@ def main():
         c.check(r.returncode == 0 and r.stdout.startswith("candp2-drive " + args.version),
                 "installed candp2-drive --version", r.stdout + r.stderr)
 
+        two_instances(c, root)
+
     print("%d failed" % c.failed if c.failed else "deb package test passed")
     return 1 if c.failed else 0
+
+
+def free_ports(n):
+    socks = [socket.socket() for _ in range(n)]
+    for s in socks:
+        s.bind(("127.0.0.1", 0))
+    ports = [s.getsockname()[1] for s in socks]
+    for s in socks:
+        s.close()
+    return ports
+
+
+def modbus_answers(port, unit, deadline):
+    """Reads input register 8192 (the status block, docs/modbus.md) of `unit`; True on a
+    normal answer before `deadline`."""
+    request = struct.pack(">HHHBBHH", 1, 0, 6, unit, 4, 8192, 1)
+    while time.monotonic() < deadline:
+        try:
+            with socket.create_connection(("127.0.0.1", port), timeout=2) as s:
+                s.sendall(request)
+                answer = s.recv(64)
+                return len(answer) >= 9 and answer[7] == 4
+        except OSError:
+            time.sleep(0.1)
+    return False
+
+
+def two_instances(c, root):
+    """Runs the template's ExecStart for two instances, each on its own configuration."""
+    with open(os.path.join(root, "lib/systemd/system/candp2d@.service")) as f:
+        exec_start = re.search(r"^ExecStart=(.*)$", f.read(), re.M).group(1).split()
+    with open(os.path.join(root, "usr/share/candp2/examples/demo.json")) as f:
+        demo = json.load(f)
+    procs, ports = [], {}
+    try:
+        for instance in ("line1", "line2"):
+            modbus, http, socketcand = free_ports(3)
+            cfg = json.loads(json.dumps(demo))
+            cfg["modbus"]["listen"] = "127.0.0.1:%d" % modbus
+            cfg["http"]["listen"] = "127.0.0.1:%d" % http
+            cfg["buses"]["can0"]["socketcand"] = "127.0.0.1:%d" % socketcand
+            with open(os.path.join(root, "etc/candp2/%s.json" % instance), "w") as f:
+                json.dump(cfg, f)
+            argv = [os.path.join(root, a.lstrip("/")) if a.startswith("/") else a
+                    for a in (w.replace("%i", instance) for w in exec_start)]
+            procs.append(subprocess.Popen(argv, stdout=subprocess.DEVNULL,
+                                          stderr=subprocess.DEVNULL))
+            ports[instance] = modbus
+        deadline = time.monotonic() + 20
+        for instance, port in ports.items():
+            c.check(modbus_answers(port, 3, deadline),
+                    "template instance %s runs /etc/candp2/%s.json and answers Modbus on %d"
+                    % (instance, instance, port))
+        c.check(all(p.poll() is None for p in procs), "both instances still run side by side")
+    finally:
+        for p in procs:
+            p.terminate()
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                p.kill()
 
 
 if __name__ == "__main__":

@@ -31,6 +31,7 @@ import argparse
 import filecmp
 import glob
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -192,7 +193,33 @@ def mode_deb(args, tmp):
     if "passed" not in out:
         fail("pytest -n 4 python/examples")
     print("ok: pytest -n 4 on the examples")
+    # As a user runs them (no -p no:cacheprovider): the shipped pytest.ini keeps pytest from
+    # writing a .pytest_cache beside them (under /usr/share/doc when run in place as root).
+    r = run([python, "-m", "pytest", "-q", "-k", "enable_axis1"], env=env, cwd=examples)
+    if r.returncode != 0 or os.path.exists(os.path.join(examples, ".pytest_cache")):
+        fail("pytest in the shipped examples: exit %d, .pytest_cache %s\n%s%s"
+             % (r.returncode, "written" if os.path.exists(os.path.join(examples, ".pytest_cache"))
+                else "not written", r.stdout[-2000:], r.stderr[-2000:]))
+    print("ok: the shipped examples leave no .pytest_cache")
+    readme_example(python, env, tmp)
     return 0
+
+
+def readme_example(python, env, tmp):
+    """The README's Python example, as it stands there, from an empty folder: it finds the
+    shipped demo configuration with candp2.example()."""
+    with open(os.path.join(ROOT, "README.md")) as f:
+        block = re.search(r"```python\n(.*?)```", f.read(), re.S)
+    if block is None:
+        fail("README.md has no python example")
+    folder = os.path.join(tmp, "empty")
+    os.makedirs(folder)
+    with open(os.path.join(folder, "test_readme.py"), "w") as f:
+        f.write(block.group(1))
+    out = run_pytest(python, env, folder, "-v")
+    if " PASSED" not in out or "failed" in out:
+        fail("the README's example from an empty folder:\n" + out)
+    print("ok: the README's example passes from an empty folder")
 
 
 def main():

@@ -1,4 +1,4 @@
-// One contract for the DP master/slave behaviour over every link (STYLE.md lesson 7): the
+// One contract for the DP master/slave behaviour over every link: the
 // in-process link and FDL on a byte pipe (docs/modbus.md, docs/profibus.md). Each test runs on both
 // rigs.
 #include <gtest/gtest.h>

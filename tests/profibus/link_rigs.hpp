@@ -1,4 +1,4 @@
-// Rigs for the DP master/slave link contract (link_contract_test.cpp), STYLE.md lesson 7: the
+// Rigs for the DP master/slave link contract (link_contract_test.cpp): the
 // same master/slave behaviour over every dp::SlaveLink.
 //  - InProcessRig: dp::InProcessLink straight into the gateway's DpSlave;
 //  - FdlRig: fdl::FdlMaster ↔ an in-memory byte pipe (virtual time, configurable delay, optional

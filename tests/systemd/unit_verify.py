@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""packaging/systemd/candp2d.service passes `systemd-analyze verify`.
+"""packaging/systemd/candp2d.service and the template candp2d@.service pass `systemd-analyze
+verify`, and the template differs from the unit only in its instance lines.
 
 verify checks the unit's syntax, every key and value, and that ExecStart's binary exists and is
 executable. /usr/bin/candp2d is not installed on a build machine, so the test verifies a copy whose
@@ -20,6 +21,18 @@ import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 UNIT = os.path.join(ROOT, "packaging", "systemd", "candp2d.service")
+TEMPLATE = os.path.join(ROOT, "packaging", "systemd", "candp2d@.service")
+# What the template may change of the unit (docs/daemon.md "Several lines on one host"): the
+# instance's name in the description, its configuration /etc/candp2/%i.json, its own state and
+# logs folders. Every other line (the hardening above all) stays the unit's.
+TEMPLATE_LINES = {
+    "Description=candp2d - emulator of the esd CAN-DP/2 PROFIBUS-DP/CAN gateway":
+        "Description=candp2d %i - emulator of the esd CAN-DP/2 PROFIBUS-DP/CAN gateway",
+    "ExecStart=/usr/bin/candp2d --config /etc/candp2/candp2d.json":
+        "ExecStart=/usr/bin/candp2d --config /etc/candp2/%i.json",
+    "StateDirectory=candp2": "StateDirectory=candp2/%i",
+    "LogsDirectory=candp2": "LogsDirectory=candp2/%i",
+}
 DROPINS = ["candp2d-bitrate-apply.conf", "candp2d-serial.conf"]
 
 
@@ -32,14 +45,20 @@ def verify(path):
     return r.returncode, ours
 
 
-def unit_copy(tmp, candp2d, transform=lambda text: text, dropins=()):
-    with open(UNIT) as f:
+def settings(path):
+    """The unit's key=value lines (comments and blank lines left out), in order."""
+    with open(path) as f:
+        return [l.strip() for l in f if l.strip() and not l.startswith("#")]
+
+
+def unit_copy(tmp, candp2d, transform=lambda text: text, dropins=(), unit=UNIT):
+    with open(unit) as f:
         text = f.read()
     if text.count("ExecStart=/usr/bin/candp2d ") != 1:
         raise SystemExit("FAIL: the unit must start /usr/bin/candp2d exactly once")
     text = transform(text.replace("ExecStart=/usr/bin/candp2d ", "ExecStart=%s " % candp2d))
     d = tempfile.mkdtemp(dir=tmp)
-    path = os.path.join(d, "candp2d.service")
+    path = os.path.join(d, os.path.basename(unit))
     with open(path, "w") as f:
         f.write(text)
     if dropins:
@@ -66,6 +85,32 @@ def main():
                 failed += 1
             else:
                 print("ok: %s verifies cleanly" % what)
+
+        # The template, as two instances (verify needs an instance name; the template file
+        # beside it is what it loads).
+        template = unit_copy(tmp, candp2d, unit=TEMPLATE)
+        for instance in ("line1", "line2"):
+            rc, ours = verify(template.replace("@.service", "@%s.service" % instance))
+            if rc != 0 or ours:
+                print("FAIL: template instance %s: exit %d:\n  %s" % (instance, rc,
+                                                                       "\n  ".join(ours)))
+                failed += 1
+            else:
+                print("ok: template instance %s verifies cleanly" % instance)
+        broken = unit_copy(tmp, candp2d, lambda t: t.replace("ProtectSystem=", "ProtectSystm="),
+                           unit=TEMPLATE)
+        rc, ours = verify(broken.replace("@.service", "@line1.service"))
+        if not any("ProtectSystm" in l for l in ours):
+            print("FAIL: a misspelt key in the template not reported (exit %d): %s" % (rc, ours))
+            failed += 1
+        expected = [TEMPLATE_LINES.get(l, l) for l in settings(UNIT)]
+        if settings(TEMPLATE) != expected:
+            diff = [(a, b) for a, b in zip(expected, settings(TEMPLATE)) if a != b]
+            print("FAIL: the template differs from the unit beyond its instance lines: %s"
+                  % (diff or "(lines added or removed)"))
+            failed += 1
+        else:
+            print("ok: the template is the unit but for %d instance lines" % len(TEMPLATE_LINES))
 
         # Verify does look: a misspelt key and a missing binary are reported.
         cases = [

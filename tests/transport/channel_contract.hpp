@@ -1,5 +1,5 @@
-// One contract for every can::Channel implementation (STYLE.md lesson 7, python-can's
-// back2back_test): two nodes `a` and `b` on one bus exchange frames in both directions.
+// One contract for every can::Channel implementation (python-can's back2back_test
+// does the same): two nodes `a` and `b` on one bus exchange frames in both directions.
 // Instantiated by channel_contract_test.cpp (in-process and socketcand rigs) and
 // socketcan_contract_test.cpp (SocketCAN, a separate executable that holds the CAN interface).
 //

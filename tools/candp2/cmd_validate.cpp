@@ -136,6 +136,7 @@ int run_validate(const ValidateArgs& a) {
     in.prm_source = s.json_path + (s.prm_hex ? ".prm_hex" : ".parameters");
     in.cfg_source = s.json_path + (s.cfg_hex ? ".cfg_hex" : ".modules");
     in.field_unit = s.field_unit;
+    for (const auto& n : s.notes) in.notes.push_back({n.json_path, n.message});
     report.slaves.push_back(validate::check_slave(std::move(in)));
   }
   validate::check_slave_overlaps(report.gateways, report.slaves);

@@ -1,0 +1,36 @@
+#include "http/plant_sources.hpp"
+
+#include "gateway/user_prm.hpp"
+
+namespace candp2::http {
+
+void BusMonitors::on_can(const plant::CanRecord& r) {
+  if (r.bus < buses_.size()) buses_[r.bus].on_frame(r.frame, r.time);
+}
+
+StatusSources make_sources(plant::Plant& plant, const modbus::PlantFaces& faces,
+                           const BusMonitors* monitors, const modbus::ModbusServer* modbus) {
+  StatusSources src;
+  src.master = &plant.master();
+  src.cycle_ms = plant.config().cycle_ms;
+  src.cycle = &plant.cycle_stats();
+  src.modbus = modbus;
+  for (const auto& g : plant.gateways())
+    src.gateways.push_back({&g->config(), g.get(), faces.gateways.at(g->index()).get()});
+  for (const auto& b : plant.buses()) {
+    BusSource bs{&b->config(), monitors ? &monitors->at(b->index()) : nullptr, 0};
+    for (const auto& g :
+         plant.gateways())  // manual table 5.1.1: the bit rate the gateway is set to
+      if (&g->bus() == b.get() && !bs.bitrate)
+        bs.bitrate = gw::bitrate_bps(g->config().parameters.bitrate_index).value_or(0);
+    src.buses.push_back(bs);
+  }
+  for (const auto& d : plant.drives()) src.drives.push_back({&d->config(), d.get()});
+  for (const auto& s : plant.slaves())
+    for (const auto& f : faces.gateways)
+      if (f->dp_address() == s->config().address)
+        src.slaves.push_back({&s->config(), s.get(), f.get(), plant.slave_line() != nullptr});
+  return src;
+}
+
+}  // namespace candp2::http

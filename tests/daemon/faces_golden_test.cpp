@@ -1,0 +1,161 @@
+// The faces' documents, byte for byte (docs/development.md "Golden documents"): the Modbus map
+// (`candp2d --print-modbus-map [--json]`), GET /api/v1/status and GET /metrics, rendered in
+// virtual time from config/demo.json, config/plc-line.json (generic slaves) and a line of 122
+// gateways × 48 slots (tests/e2e/http_common.py line_config). They guard refactorings of the
+// vocabulary the faces share (status/station_status.hpp): a change of any document shows here.
+//
+// The small documents are kept whole in tests/daemon/golden/; the 122 × 48 ones (megabytes) by
+// their length and FNV-1a digest, with the whole text written to the build tree for a diff.
+// Regenerate with CANDP2_UPDATE_GOLDEN=1 and review the diff before committing.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <variant>
+
+#include "config/config.hpp"
+#include "http/documents.hpp"
+#include "http_plant_support.hpp"
+#include "modbus/map_json.hpp"
+#include "modbus/map_report.hpp"
+#include "modbus/plant_faces.hpp"
+#include "plant/plant.hpp"
+#include "tests/golden_file.hpp"
+
+namespace candp2 {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kGolden = fs::path(CANDP2_SOURCE_DIR) / "tests/daemon/golden";
+
+// The text as it is kept for a large document: its length and 64-bit FNV-1a digest.
+std::string digest(const std::string& text) {
+  std::uint64_t h = 14695981039346656037ull;
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%zu bytes, fnv1a64 %016llx\n", text.size(),
+                static_cast<unsigned long long>(h));
+  return buf;
+}
+
+// Compares `actual` with golden file `name` (whole, or its digest when `whole` is false).
+void expect_golden(const std::string& name, const std::string& actual, bool whole) {
+  test::expect_golden_file(kGolden / (whole ? name : name + ".digest"), name, actual,
+                           whole ? actual : digest(actual));
+}
+
+// tests/e2e/http_common.py line_config(10): 122 gateways (DP 3..124) × 24 output and 24 input
+// slots of 6 bytes, each gateway on its own virtual bus.
+std::string line_config() {
+  nlohmann::ordered_json gws = nlohmann::ordered_json::array(),
+                         buses = nlohmann::ordered_json::object();
+  for (int i = 0; i < 122; ++i) {
+    const int a = 3 + i;
+    const std::string bus = "can" + std::to_string(a);
+    buses[bus] = {{"type", "virtual"}};
+    nlohmann::ordered_json slots = nlohmann::ordered_json::array();
+    for (const auto& [io, base] : {std::pair{"output", 0x100}, {"input", 0x300}})
+      for (int k = 0; k < 24; ++k) {
+        const int ident = base + k;
+        char comment[16];
+        std::snprintf(comment, sizeof comment, "%02X,%02X,00", ident >> 8, ident & 0xFF);
+        slots.push_back({{"io", io},
+                         {"address", (k * 6 + (a - 3) * 8) % 8000},
+                         {"length", 6},
+                         {"comment", comment}});
+      }
+    gws.push_back({{"name", "gw" + std::to_string(a)},
+                   {"address", a},
+                   {"bus", bus},
+                   {"parameters", {{"can_bitrate", "1000k"}}},
+                   {"slots", std::move(slots)}});
+  }
+  return nlohmann::ordered_json{{"modbus", {{"listen", "127.0.0.1:0"}}},
+                                {"http", {{"listen", "127.0.0.1:0"}}},
+                                {"master", {{"address", 1}, {"cycle_ms", 10}}},
+                                {"buses", std::move(buses)},
+                                {"gateways", std::move(gws)},
+                                {"log", {{"level", "info"}}}}
+      .dump(2);
+}
+
+// Feeds the bus monitors as the daemon does (daemon/daemon.cpp on_can).
+struct Monitors final : plant::Tap {
+  std::vector<http::BusMonitor> buses;
+  void on_can(const plant::CanRecord& r) override { buses.at(r.bus).on_frame(r.frame, r.time); }
+};
+
+// Renders the four documents of a configuration; the status and metrics after `run` of virtual
+// time, with PLC outputs written at 100 ms so that frames flow.
+void check_documents(const std::string& name, const config::DaemonConfig& cfg, Time run,
+                     bool whole) {
+  expect_golden(name + ".map.txt", modbus::map_text(cfg), whole);
+  expect_golden(name + ".map.json", modbus::map_json_text(cfg), whole);
+
+  std::string error;
+  auto plant = plant::Plant::build(cfg, plant::Options{}, Time{0}, &error);
+  ASSERT_TRUE(plant) << error;
+  Monitors monitors;
+  monitors.buses.resize(plant->buses().size());
+  plant->add_tap(&monitors);
+  auto faces = modbus::make_faces(*plant);
+  auto src = test::status_sources(*plant, faces, &monitors.buses);
+  for (auto& d : plant->drives()) src.drives.push_back({&d->config(), &d->drive().drive()});
+  http::StatusModel model(std::move(src));
+  Time now{0};
+  test::run_plant_until(*plant, now, Time{100'000});
+  // Read the drives' status words (REGID 0x40) and touch every gateway's first output slot.
+  for (std::size_t i = 0; i < 16; ++i) plant->master().image().outputs[i] = i % 8 == 0 ? 0x3D : 0;
+  plant->master().image().outputs[1] = 0x40;
+  plant->master().image().outputs[9] = 0x40;
+  test::run_plant_until(*plant, now, run);
+  now = run;
+  plant->advance(now);
+
+  http::StatusBuild status(model, 0);
+  while (!status.step(now)) {
+  }
+  expect_golden(name + ".status.json", status.take(), whole);
+  http::MetricsBuild metrics(model, 0);
+  while (!metrics.step(now)) {
+  }
+  expect_golden(name + ".metrics.txt", metrics.take(), whole);
+  plant->remove_tap(&monitors);
+}
+
+// A configuration of the repository, loaded from its root so that the paths in the documents
+// (a generic slave's GSD file) stay relative.
+config::DaemonConfig load(const std::string& relative) {
+  const auto cwd = fs::current_path();
+  fs::current_path(CANDP2_SOURCE_DIR);
+  auto r = config::load_daemon(relative);
+  fs::current_path(cwd);
+  if (auto* e = std::get_if<config::ConfigError>(&r)) {
+    ADD_FAILURE() << e->to_string();
+    return {};
+  }
+  return std::get<config::DaemonConfig>(r);
+}
+
+TEST(FacesGolden, Demo) {
+  check_documents("demo", load("config/demo.json"), Time{2'000'000}, true);
+}
+
+TEST(FacesGolden, PlcLineWithGenericSlaves) {
+  check_documents("plc-line", load("config/plc-line.json"), Time{2'000'000}, true);
+}
+
+TEST(FacesGolden, Line122x48) {
+  auto parsed = config::parse_daemon(line_config(), "line-122x48.json");
+  ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(parsed));
+  check_documents("line-122x48", std::get<config::DaemonConfig>(parsed), Time{500'000}, false);
+}
+
+}  // namespace
+}  // namespace candp2
