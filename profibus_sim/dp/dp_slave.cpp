@@ -47,10 +47,11 @@ void DpSlave::reject_prm(PrmFault fault, std::string_view why) {
             hex_bytes(std::array{fault.byte, fault.correct}) + ")");
 }
 
-// Standard profile (IEC 61158-6-3 Set_Prm Station_Status bits 7, 6; docs/slaves.md "Set_Prm"):
-// 1 0 locks the slave to this master and parameterizes it; 0 1 and 1 1 unlock it; 0 0 only
-// changes min_TSDR (the FDL front end takes it) and, from the master holding the lock, the user
-// parameters. A slave locked to one master ignores Set_Prm from any other.
+// IEC 61158-6-3 Set_Prm Station_Status bits 7 Lock_Req, 6 Unlock_Req, for every profile
+// (docs/dp-slave.md "Lock", docs/slaves.md "Set_Prm"): 1 0 locks the slave to this master and
+// parameterizes it; 0 1 and 1 1 unlock it; 0 0 only changes min_TSDR (the FDL front end takes it)
+// and, from the master holding the lock, the user parameters. A slave locked to one master ignores
+// Set_Prm from any other. True when the telegram was fully handled here (`*accepted` says how).
 bool DpSlave::lock_request(std::uint8_t master, const PrmStd& p, std::span<const std::uint8_t> t,
                            Time now, bool* accepted) {
   *accepted = false;
@@ -60,9 +61,12 @@ bool DpSlave::lock_request(std::uint8_t master, const PrmStd& p, std::span<const
               std::to_string(master_));
     return true;
   }
-  touch(now);
   const bool lock = p.station_status & kPrmLockReq;
   const bool unlock = p.station_status & kPrmUnlockReq;
+  if (lock && !unlock) return false;  // the ordinary parameterization
+  // docs/dp-slave.md "Lock": an unlocked CAN-DP/2 takes 0 0 as an ordinary parameterization.
+  if (!unlock && !locked && !standard()) return false;
+  touch(now);
   if (unlock) {
     log_.info("Set_Prm with Unlock_Req from master " + std::to_string(master) + ": unlocked");
     prm_fault_.reset();
@@ -72,7 +76,6 @@ bool DpSlave::lock_request(std::uint8_t master, const PrmStd& p, std::span<const
     to_wait_prm(now, "unlocked");
     return true;
   }
-  if (lock) return false;  // the ordinary parameterization
   if (!locked) {
     log_.warn("Set_Prm from master " + std::to_string(master) +
               " without Lock_Req: only min_TSDR is taken, the slave stays in " +
@@ -80,25 +83,53 @@ bool DpSlave::lock_request(std::uint8_t master, const PrmStd& p, std::span<const
     *accepted = true;
     return true;
   }
-  // 0 0 from the master holding the lock: new user parameters, state and lock unchanged.
-  if (p.ident_number == info_.ident_number && !app_.on_set_prm(t, now)) {
-    log_.info("Set_Prm without Lock_Req from master " + std::to_string(master) +
-              ": user parameters taken, still " + std::string(to_string(state_)));
+  // 0 0 from the master holding the lock: state, watchdog and lock unchanged; a generic slave takes
+  // the user parameters, the CAN-DP/2 keeps its own (docs/dp-slave.md "Lock").
+  if (!check_prm(t) && (!standard() || !app_.on_set_prm(t, now))) {
+    log_.info("Set_Prm without Lock_Req from master " + std::to_string(master) + ": " +
+              (standard() ? "user parameters taken" : "only min_TSDR is taken") + ", still " +
+              std::string(to_string(state_)));
     *accepted = true;
     return true;
   }
   return false;  // judged (and rejected) as an ordinary Set_Prm
 }
 
-std::optional<PrmFault> DpSlave::check_standard_prm(const PrmStd& p) {
+// The checks before the user parameters, in this order (docs/decisions.md "DP slave"): length,
+// Sync_Req / Freeze_Req, Ident_Number, and for the standard profile the watchdog factors.
+std::optional<DpSlave::PrmRejection> DpSlave::check_prm(std::span<const std::uint8_t> t) const {
+  const std::size_t expected = kPrmStdLen + info_.user_prm_len;
+  // docs/dp-slave.md "User parameters": checks run in telegram byte order; the length comes first.
+  // The standard profile leaves the user parameter length to the application.
+  if (standard() ? t.size() < kPrmStdLen : t.size() != expected) {
+    const auto first = static_cast<std::uint8_t>(std::min(t.size(), expected));
+    return PrmRejection{PrmFault{first, 0},
+                        "length " + std::to_string(t.size()) + ", expected " +
+                            (standard() ? "at least 7" : std::to_string(expected))};
+  }
+  const auto p = *decode_prm_std(t);
+  // docs/dp-slave.md: FREEZE/SYNC not supported -> Not_Supported (Station_Status_1 bit 4). The
+  // standard profile supports what its GSD says.
+  const bool sync_bad = p.sync_req() && !(standard() && info_.options.sync);
+  const bool freeze_bad = p.freeze_req() && !(standard() && info_.options.freeze);
+  if (sync_bad || freeze_bad)
+    return PrmRejection{std::nullopt, sync_bad ? "Sync_Req" : "Freeze_Req"};
+  if (p.ident_number != info_.ident_number) {
+    const bool high_wrong = (p.ident_number >> 8) != (info_.ident_number >> 8);
+    return PrmRejection{high_wrong
+                            ? PrmFault{4, static_cast<std::uint8_t>(info_.ident_number >> 8)}
+                            : PrmFault{5, static_cast<std::uint8_t>(info_.ident_number & 0xFF)},
+                        "wrong Ident_Number"};
+  }
   // IEC 61158-6-3: WD_Fact_1, WD_Fact_2 are 1..255 when the watchdog is on.
-  if (p.wd_on() && p.wd_fact_1 == 0) return PrmFault{1, 1};
-  if (p.wd_on() && p.wd_fact_2 == 0) return PrmFault{2, 1};
+  if (standard() && p.wd_on() && (p.wd_fact_1 == 0 || p.wd_fact_2 == 0))
+    return PrmRejection{PrmFault{static_cast<std::uint8_t>(p.wd_fact_1 == 0 ? 1 : 2), 1},
+                        "watchdog factor 0"};
   return std::nullopt;
 }
 
 bool DpSlave::set_prm(std::uint8_t master, std::span<const std::uint8_t> t, Time now) {
-  if (standard() && t.size() >= kPrmStdLen) {
+  if (t.size() >= kPrmStdLen) {
     bool accepted = false;
     if (lock_request(master, *decode_prm_std(t), t, now, &accepted)) return accepted;
   }
@@ -107,39 +138,21 @@ bool DpSlave::set_prm(std::uint8_t master, std::span<const std::uint8_t> t, Time
   prm_fault_.reset();
   cfg_fault_.reset();
   not_supported_ = false;
-  const std::size_t expected = kPrmStdLen + info_.user_prm_len;
   auto fail = [&](std::optional<PrmFault> fault, std::string_view why) {
     if (fault) reject_prm(*fault, why);
     to_wait_prm(now, "Set_Prm rejected");
     return false;
   };
-  // docs/dp-slave.md "User parameters": checks run in telegram byte order; the length comes first.
-  // The standard profile leaves the user parameter length to the application.
-  if (standard() ? t.size() < kPrmStdLen : t.size() != expected) {
-    const auto first = static_cast<std::uint8_t>(std::min(t.size(), expected));
-    return fail(PrmFault{first, 0}, "length " + std::to_string(t.size()) + ", expected " +
-                                        (standard() ? "at least 7" : std::to_string(expected)));
+  if (auto r = check_prm(t)) {
+    if (!r->fault) {
+      not_supported_ = true;
+      log_.warn("Set_Prm rejected: " + r->why + " not supported");
+      return fail(std::nullopt, "not supported");
+    }
+    return fail(r->fault, r->why);
   }
-  const auto std_part = *decode_prm_std(t);
-  // docs/dp-slave.md: FREEZE/SYNC not supported -> Not_Supported (Station_Status_1 bit 4). The
-  // standard profile supports what its GSD says.
-  const bool sync_bad = std_part.sync_req() && !(standard() && info_.options.sync);
-  const bool freeze_bad = std_part.freeze_req() && !(standard() && info_.options.freeze);
-  if (sync_bad || freeze_bad) {
-    not_supported_ = true;
-    log_.warn(std::string("Set_Prm rejected: ") + (sync_bad ? "Sync_Req" : "Freeze_Req") +
-              " not supported");
-    return fail(std::nullopt, "not supported");
-  }
-  if (std_part.ident_number != info_.ident_number) {
-    const bool high_wrong = (std_part.ident_number >> 8) != (info_.ident_number >> 8);
-    return fail(high_wrong ? PrmFault{4, static_cast<std::uint8_t>(info_.ident_number >> 8)}
-                           : PrmFault{5, static_cast<std::uint8_t>(info_.ident_number & 0xFF)},
-                "wrong Ident_Number");
-  }
-  if (standard())
-    if (auto fault = check_standard_prm(std_part)) return fail(*fault, "watchdog factor 0");
   if (auto fault = app_.on_set_prm(t, now)) return fail(*fault, "user parameter");
+  const auto std_part = *decode_prm_std(t);
   prm_ = std_part;
   master_ = master;
   watchdog_1ms_ = standard() && app_.watchdog_base_1ms();
@@ -273,8 +286,12 @@ std::optional<std::span<const std::uint8_t>> DpSlave::data_exchange(
   const bool fail_safe =
       standard() && info_.options.fail_safe && outputs.empty() && app_.output_length() > 0;
   if (outputs.size() != app_.output_length() && !fail_safe) {
+    // docs/dp-slave.md "Wrong output length" (IEC 61158-6-3): the configuration no longer holds,
+    // the slave asks to be parameterized again.
     log_.warn("Data_Exchange with " + std::to_string(outputs.size()) +
-              " output bytes, configured " + std::to_string(app_.output_length()) + ": ignored");
+              " output bytes, configured " + std::to_string(app_.output_length()) +
+              ": refused, the slave leaves Data_Exch");
+    to_wait_prm(now, "Data_Exchange with the wrong output length");
     return std::nullopt;
   }
   if (standard()) {

@@ -5,9 +5,11 @@
 //
 // Where DP-V0 leaves a device a choice, SlaveOptions::profile says which: DpProfile::CanDp2 is the
 // CAN-DP/2 firmware (docs/decisions.md "DP slave": 11-byte diagnosis with the Prm/Cfg fault in
-// bytes 8..10, one fixed Set_Prm length, Global_Control and Lock/Unlock ignored, Sync/Freeze
-// refused); DpProfile::Standard is a slave as IEC 61158-6-3 describes it, with the optional
-// services its GSD announces (docs/slaves.md "The DP-V0 slave").
+// bytes 8..10, one fixed Set_Prm length, Global_Control ignored, Sync/Freeze refused, a Set_Prm
+// without Lock_Req taken in Wait_Prm); DpProfile::Standard is a slave as IEC 61158-6-3 describes
+// it, with the optional services its GSD announces (docs/slaves.md "The DP-V0 slave"). The rules
+// of the standard both keep are written once here: the lock (docs/dp-slave.md "Lock") and a
+// Data_Exchange with the wrong output length (docs/dp-slave.md "Wrong output length").
 #pragma once
 
 #include <array>
@@ -143,7 +145,8 @@ class DpSlave {
   // made for it (status block, validate).
   Diag slave_diag(Time now);
   std::optional<std::vector<std::uint8_t>> get_cfg(Time now);
-  // nullopt when not in Data_Exch or the output length is wrong (the master sees no data).
+  // nullopt when not in Data_Exch for this master or the output length is wrong (the master sees
+  // no data; a wrong length from the lock holder also takes the slave to Wait_Prm).
   std::optional<std::span<const std::uint8_t>> data_exchange(std::uint8_t master,
                                                              std::span<const std::uint8_t> outputs,
                                                              Time now);
@@ -193,10 +196,16 @@ class DpSlave {
   void to_wait_prm(Time now, std::string_view why);
   void reject_prm(PrmFault fault, std::string_view why);
   void touch(Time now) { last_master_telegram_ = now; }
-  // Standard profile: Lock_Req/Unlock_Req; true when the telegram was fully handled here.
+  // Lock_Req/Unlock_Req; true when the telegram was fully handled here.
   bool lock_request(std::uint8_t master, const PrmStd& p, std::span<const std::uint8_t> t, Time now,
                     bool* accepted);
-  std::optional<PrmFault> check_standard_prm(const PrmStd& p);
+  // Why a Set_Prm is refused before its user parameters: a Prm fault, or (no fault) Sync_Req /
+  // Freeze_Req not supported.
+  struct PrmRejection {
+    std::optional<PrmFault> fault;
+    std::string why;
+  };
+  std::optional<PrmRejection> check_prm(std::span<const std::uint8_t> t) const;
   std::vector<std::uint8_t> standard_diag() const;
   void standard_exchange(Time now);  // one Data_Exchange: outputs to the field, inputs back
   void apply_outputs(Time now);      // hands the outputs the field should show to the application

@@ -24,6 +24,12 @@ void encode_prm_std(const PrmStd& p, std::span<std::uint8_t> out) {
   out[6] = p.group_ident;
 }
 
+std::vector<std::uint8_t> with_lock_req(std::span<const std::uint8_t> t) {
+  std::vector<std::uint8_t> out(t.begin(), t.end());
+  if (!out.empty()) out[0] = static_cast<std::uint8_t>((out[0] & ~kPrmUnlockReq) | kPrmLockReq);
+  return out;
+}
+
 std::size_t CfgEntry::out_bytes() const {
   if (io == CfgIo::Output || io == CfgIo::InputOutput) return std::size_t{count} * (words ? 2 : 1);
   return 0;

@@ -41,6 +41,9 @@ struct PrmStd {
 // Needs at least kPrmStdLen bytes.
 std::optional<PrmStd> decode_prm_std(std::span<const std::uint8_t> telegram);
 void encode_prm_std(const PrmStd& p, std::span<std::uint8_t> out);  // writes 7 bytes
+// The telegram as a class 1 master sends it to parameterize a slave: Lock_Req = 1, Unlock_Req = 0
+// whatever the configured Station_Status says (IEC 61158-6-3; docs/dp-slave.md "Lock").
+std::vector<std::uint8_t> with_lock_req(std::span<const std::uint8_t> telegram);
 
 // ---- Chk_Cfg (SAP 62) identifier bytes --------------------------------------------------------
 // Special identifier format (bits 5-4 = 00): bits 7-6 = 00 empty / 01 input / 10 output /

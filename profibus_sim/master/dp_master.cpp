@@ -231,7 +231,9 @@ void DpMaster::init_answered(Entry& e, const Response& r, Time now) {
 
 void DpMaster::on_set_prm(Entry& e, Time now) {
   ++e.parameterizations;
-  send(e, Service::SetPrm, e.params.prm, now, &DpMaster::set_prm_answered);
+  // A class 1 master parameterizes with Lock_Req (docs/dp-slave.md "Lock"): the configured
+  // Station_Status of a CAN-DP/2 (docs/validate.md) has it clear.
+  send(e, Service::SetPrm, with_lock_req(e.params.prm), now, &DpMaster::set_prm_answered);
 }
 
 void DpMaster::set_prm_answered(Entry& e, const Response& r, Time now) {

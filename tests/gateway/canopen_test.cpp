@@ -284,7 +284,7 @@ class SyncSourceTest : public GatewayFixture {
     return p;
   }
   void set_prm(std::uint16_t sync_ms) {
-    gw->dp().set_prm(kMaster, make_set_prm(prm(sync_ms)), now);
+    gw->dp().set_prm(kMaster, dp::with_lock_req(make_set_prm(prm(sync_ms))), now);
   }
   void chk_cfg(std::uint16_t cw_sync_ms) { gw->dp().chk_cfg(kMaster, cfg(cw_sync_ms), now); }
   std::uint8_t command20(std::uint16_t ms) {
@@ -463,7 +463,7 @@ TEST_F(CanopenTest, NewRoleReleasesOnlyAfterTheNewChkCfg) {
   UserPrm p = master();
   p.start_frame = true;
   // Set_Prm arrives while the slave is still in Data_Exch: nothing may go out with the old slots.
-  gw->dp().set_prm(kMaster, make_set_prm(p), now);
+  gw->dp().set_prm(kMaster, dp::with_lock_req(make_set_prm(p)), now);
   EXPECT_TRUE(rec.take().empty());
   gw->dp().chk_cfg(kMaster, kCfg, now);
   EXPECT_EQ(rec.take(), V({"000#0100"}));

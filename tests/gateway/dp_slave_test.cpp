@@ -43,11 +43,53 @@ TEST_F(GatewayFixture, DataExchangeRefusedBeforeDataExch) {
   EXPECT_FALSE(gw->dp().data_exchange(kMaster, out, now).has_value());
 }
 
-TEST_F(GatewayFixture, WrongOutputLengthIgnored) {
-  ASSERT_TRUE(configure(UserPrm{}, kCfg));
+TEST_F(GatewayFixture, WrongOutputLengthLeavesDataExch) {
+  // docs/dp-slave.md "Wrong output length" (IEC 61158-6-3): no data, Wait_Prm, Prm_Req.
+  ASSERT_TRUE(configure(UserPrm{}, kCfg, 100));
   std::vector<std::uint8_t> out(5);
   EXPECT_FALSE(gw->dp().data_exchange(kMaster, out, now).has_value());
+  EXPECT_EQ(gw->dp().state(), dp::SlaveState::WaitPrm);
+  EXPECT_EQ(hex(diag()), "02 05 00 01 04 A4 05 04 00 00 00");
+  out.resize(6);
+  EXPECT_FALSE(gw->dp().data_exchange(kMaster, out, now).has_value());  // parameterize first
+  EXPECT_TRUE(configure(UserPrm{}, kCfg, 100));
+  EXPECT_TRUE(gw->dp().data_exchange(kMaster, out, now).has_value());
+}
+
+TEST_F(GatewayFixture, LockedToTheParameterizingMaster) {
+  // docs/dp-slave.md "Lock": another master's Set_Prm, even with Lock_Req, is ignored.
+  ASSERT_TRUE(configure(UserPrm{}, kCfg, 100));
+  const auto other = dp::with_lock_req(make_set_prm(UserPrm{}, 300));
+  EXPECT_FALSE(gw->dp().set_prm(5, other, now));
+  EXPECT_FALSE(gw->dp().chk_cfg(5, kCfg, now));
   EXPECT_EQ(gw->dp().state(), dp::SlaveState::DataExch);
+  EXPECT_EQ(gw->dp().watchdog_ms(), 100u);
+  EXPECT_EQ(hex(diag()), "00 0C 00 01 04 A4 05 04 00 00 00");  // the lock holder in byte 3
+  EXPECT_TRUE(gw->dp().data_exchange(kMaster, std::vector<std::uint8_t>(6), now).has_value());
+  EXPECT_FALSE(gw->dp().data_exchange(5, std::vector<std::uint8_t>(6), now).has_value());
+  // Unlock_Req from the lock holder: Wait_Prm, no master; then the other master may lock it.
+  auto unlock = make_set_prm(UserPrm{});
+  unlock[0] = dp::kPrmUnlockReq;
+  gw->dp().set_prm(kMaster, unlock, now);
+  EXPECT_EQ(gw->dp().state(), dp::SlaveState::WaitPrm);
+  EXPECT_EQ(diag()[3], dp::kNoMaster);
+  EXPECT_TRUE(gw->dp().set_prm(5, other, now));
+  EXPECT_EQ(gw->dp().state(), dp::SlaveState::WaitCfg);
+  EXPECT_EQ(diag()[3], 5);
+}
+
+TEST_F(GatewayFixture, SetPrmWithoutLockReqKeepsStateAndWatchdog) {
+  // docs/dp-slave.md "Lock": Lock_Req = Unlock_Req = 0 from the lock holder changes min_TSDR only.
+  UserPrm p;
+  p.module_id = 7;
+  ASSERT_TRUE(configure(p, kCfg, 100));
+  EXPECT_TRUE(gw->dp().set_prm(kMaster, make_set_prm(UserPrm{}), now));  // 00: WD off, ModuleID 1
+  EXPECT_EQ(gw->dp().state(), dp::SlaveState::DataExch);
+  EXPECT_EQ(gw->dp().watchdog_ms(), 100u);
+  EXPECT_EQ(gw->user_prm()->module_id, 7);
+  EXPECT_EQ(hex(diag()), "00 0C 00 01 04 A4 05 04 00 00 00");
+  run_for(milliseconds(101));  // the watchdog still runs
+  EXPECT_EQ(gw->dp().state(), dp::SlaveState::WaitPrm);
 }
 
 TEST_F(GatewayFixture, ChkCfgFromAnotherMasterIgnored) {
@@ -59,7 +101,7 @@ TEST_F(GatewayFixture, ChkCfgFromAnotherMasterIgnored) {
 
 TEST_F(GatewayFixture, NewSetPrmInDataExchRequiresNewChkCfg) {
   ASSERT_TRUE(configure(UserPrm{}, kCfg));
-  gw->dp().set_prm(kMaster, make_set_prm(UserPrm{}), now);
+  gw->dp().set_prm(kMaster, dp::with_lock_req(make_set_prm(UserPrm{})), now);
   EXPECT_EQ(gw->dp().state(), dp::SlaveState::WaitCfg);  // docs/dp-slave.md
 }
 

@@ -55,7 +55,8 @@ class GatewayFixture : public ::testing::Test {
   // Set_Prm + Chk_Cfg; returns true when the gateway reached Data_Exch.
   bool configure(const UserPrm& p, std::vector<std::uint8_t> cfg, std::uint16_t watchdog_ms = 0) {
     if (!gw) make();
-    const auto prm = make_set_prm(p, watchdog_ms);
+    // A class 1 master parameterizes with Lock_Req (docs/dp-slave.md "Lock").
+    const auto prm = dp::with_lock_req(make_set_prm(p, watchdog_ms));
     gw->dp().set_prm(kMaster, prm, now);
     gw->dp().chk_cfg(kMaster, cfg, now);
     return gw->dp().state() == dp::SlaveState::DataExch;

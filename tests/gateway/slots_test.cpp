@@ -133,14 +133,14 @@ TEST_F(GatewayFixture, FramesBeforeDataExchUpdateSlotBuffers) {
   // the slot buffers.
   const auto cfg = cfg_of({in_slot(1, {0x01, 0x81, 0x00}), dummy_out()});
   ASSERT_TRUE(configure(UserPrm{}, cfg));
-  gw->dp().set_prm(kMaster, make_set_prm(UserPrm{}), now);  // back to Wait_Cfg
+  gw->dp().set_prm(kMaster, dp::with_lock_req(make_set_prm(UserPrm{})), now);  // to Wait_Cfg
   ASSERT_EQ(gw->dp().state(), dp::SlaveState::WaitCfg);
   rx("181#5A");
   ASSERT_TRUE(gw->dp().chk_cfg(kMaster, cfg, now));  // the same configuration keeps the buffers
   EXPECT_EQ(hex(exchange({0})), "5A");
   // A different configuration starts from a zeroed image.
   const auto other = cfg_of({in_slot(2, {0x01, 0x81, 0x00}), dummy_out()});
-  gw->dp().set_prm(kMaster, make_set_prm(UserPrm{}), now);
+  gw->dp().set_prm(kMaster, dp::with_lock_req(make_set_prm(UserPrm{})), now);
   ASSERT_TRUE(gw->dp().chk_cfg(kMaster, other, now));
   EXPECT_EQ(hex(exchange({0})), "00 00");
 }

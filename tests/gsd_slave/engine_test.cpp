@@ -198,6 +198,32 @@ TEST_F(Starter, LockedToOneMasterUntilItUnlocks) {
   EXPECT_TRUE(parameterize(*s, prm, cfg, now));  // unlocked: master 2 locks it again
 }
 
+TEST_F(Starter, SetPrmWithoutLockReqKeepsStateAndWatchdog) {
+  // docs/slaves.md "Set_Prm": 0 0 from the lock holder takes the user parameters only.
+  ASSERT_TRUE(parameterize(*s, prm, cfg, now));
+  auto no_lock = set_prm(*m, standard, {});  // watchdog off
+  no_lock[0] = 0x00;
+  EXPECT_TRUE(s->dp().set_prm(kMaster, no_lock, now));
+  EXPECT_EQ(s->dp().state(), SlaveState::DataExch);
+  EXPECT_EQ(s->dp().watchdog_ms(), 100u);
+  EXPECT_EQ(hex(s->dp().diagnosis(now)), "00 0C 00 02 0C 31");
+  now += milliseconds(101);
+  s->advance(now);
+  EXPECT_EQ(s->dp().state(), SlaveState::WaitPrm);  // the watchdog still runs
+}
+
+TEST_F(Starter, WrongOutputLengthLeavesDataExch) {
+  // docs/dp-slave.md "Wrong output length" (IEC 61158-6-3): no data, Wait_Prm, Prm_Req.
+  ASSERT_TRUE(parameterize(*s, prm, cfg, now));
+  exchange(*s, {1, 2, 3, 4}, now);
+  EXPECT_FALSE(s->dp().data_exchange(kMaster, std::vector<std::uint8_t>{1, 2, 3}, now));
+  EXPECT_EQ(s->dp().state(), SlaveState::WaitPrm);
+  EXPECT_EQ(hex(s->dp().diagnosis(now)), "02 05 00 02 0C 31");
+  EXPECT_EQ(hex(s->field_outputs()), "00 00 00 00");  // outputs in the safe state
+  EXPECT_FALSE(s->dp().data_exchange(kMaster, std::vector<std::uint8_t>{1, 2, 3, 4}, now));
+  EXPECT_TRUE(parameterize(*s, prm, cfg, now));
+}
+
 TEST_F(Starter, DeviceDiagnosisAlarmIsExtDiagData) {
   ASSERT_TRUE(parameterize(*s, prm, cfg, now));
   ASSERT_TRUE(s->set_device_diag({0x01, 0x80}));

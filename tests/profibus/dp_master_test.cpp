@@ -43,6 +43,27 @@ TEST_F(MasterFixture, ParameterizesAndExchangesManual514Slots) {
   EXPECT_TRUE(log.contains("Check_Diag -> Data_Exch"));
 }
 
+TEST_F(MasterFixture, ReparameterizesWithLockReqAndIsLockedAgainstOthers) {
+  // docs/dp-slave.md "Lock": the configured Set_Prm has no Lock_Req; the master sends it with
+  // Lock_Req, so a re-parameterization in Data_Exch takes the gateway back through Wait_Cfg, and
+  // another master cannot take the station over.
+  Gateway gw({.address = 5}, rec, now);
+  const auto cfg = cfg_of({in_slot(6, {0x02, 0x89, 0xB8}), out_slot(6, {0x03, 0x09, 0xB8})});
+  const auto prm = make_set_prm(UserPrm{}, 100);
+  ASSERT_EQ(prm[0] & dp::kPrmLockReq, 0);
+  master.add_slave(gw.dp(), {{prm.begin(), prm.end()}, cfg, {{172, {}}, {{}, 172}}, "gw"});
+  cycle(4);
+  ASSERT_EQ(gw.dp().state(), dp::SlaveState::DataExch);
+  EXPECT_FALSE(gw.dp().set_prm(9, dp::with_lock_req(prm), now));
+  EXPECT_EQ(gw.dp().slave_diag(now)[3], 2);
+  master.reparameterize(5, now);
+  cycle(2);  // Init (Slave_Diag), Set_Prm
+  EXPECT_EQ(gw.dp().state(), dp::SlaveState::WaitCfg);
+  cycle(2);
+  EXPECT_EQ(gw.dp().state(), dp::SlaveState::DataExch);
+  EXPECT_EQ(hex(dp::with_lock_req(std::vector<std::uint8_t>{0x48, 1})), "88 01");
+}
+
 TEST_F(MasterFixture, RetriesWhileTheSlaveReportsAFaultAndLogsTheDiagnosis) {
   Gateway gw({.address = 6}, rec, now);
   const auto bad = cfg_of({in_slot(2, {0x01, 0x23})});  // code 5 in slot 0... and no output

@@ -148,6 +148,37 @@ TEST_F(FdlSlaveFixture, DataExchangeBeforeParameterizationIsRs) {
   EXPECT_TRUE(log.contains("Data_Exchange in Wait_Prm: RS"));
 }
 
+TEST_F(FdlSlaveFixture, LockedStationIgnoresAnotherMastersSetPrm) {
+  // docs/dp-slave.md "Lock": master 5's Set_Prm (Lock_Req, min_TSDR 0x40) is acknowledged but not
+  // taken; its Slave_Diag shows master 2 in byte 3.
+  auto& gw = add_gateway(3);
+  parameterize();
+  const auto tsdr = fe->min_tsdr_bits(3);
+  auto prm = decode(B(kCapSetPrm)).telegram->du;
+  prm[3] = 0x40;
+  EXPECT_EQ(send(srd(3, kSapSetPrm, true, false, prm, 5)), "E5");
+  EXPECT_EQ(gw.dp().state(), dp::SlaveState::DataExch);
+  EXPECT_EQ(fe->min_tsdr_bits(3), tsdr);
+  EXPECT_EQ(H(decode(B(send(srd(3, kSapSlaveDiag, false, true, {}, 5)))).telegram->du),
+            "00 0C 00 02 04 A4 05 04 00 00 00");
+  // Master 2 goes on; its Lock_Req = Unlock_Req = 0 takes min_TSDR only.
+  EXPECT_NE(send(srd(3, std::nullopt, true, true, B("01 02 03 04 05 06"))), "10 02 03 03 08 16");
+  prm[0] = 0x00;
+  EXPECT_EQ(send(srd(3, kSapSetPrm, false, true, prm)), "E5");
+  EXPECT_EQ(fe->min_tsdr_bits(3), 0x40);
+  EXPECT_EQ(gw.dp().state(), dp::SlaveState::DataExch);
+  EXPECT_EQ(gw.dp().watchdog_ms(), 300u);
+}
+
+TEST_F(FdlSlaveFixture, WrongOutputLengthIsRsAndLeavesDataExch) {
+  // docs/dp-slave.md "Wrong output length": 5 bytes for 6 -> RS, Wait_Prm.
+  auto& gw = add_gateway(3);
+  parameterize();
+  EXPECT_EQ(send(srd(3, std::nullopt, true, true, B("01 02 03 04 05"))), "10 02 03 03 08 16");
+  EXPECT_EQ(gw.dp().state(), dp::SlaveState::WaitPrm);
+  EXPECT_EQ(send(srd(3, std::nullopt, false, true, B("01 02 03 04 05 06"))), "10 02 03 03 08 16");
+}
+
 TEST_F(FdlSlaveFixture, UnsupportedSapsAreRs) {
   add_gateway(3);
   send(kCapFdlStatus);
