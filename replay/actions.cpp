@@ -307,14 +307,16 @@ constexpr ActionSpec kTable[] = {
      &Sim::expect_field, expect_field_text},
 };
 
-// One row per action, in the enum's order, each with its key, parser, handler and description;
-// an expectation names its window key. A new action without its row does not compile.
+// One row per action, in the enum's order, each with its key; an expectation names its window key.
+// A new action without its row does not compile. (That every row has its parser, handler and
+// description is a test, ReplayActions.EveryRowIsComplete: GCC cannot compare function addresses
+// in a constant expression when it instruments the code for the sanitizers.)
 constexpr bool complete() {
   if (std::size(kTable) != static_cast<std::size_t>(Action::Count)) return false;
   for (std::size_t i = 0; i < std::size(kTable); ++i) {
     const auto& a = kTable[i];
-    if (a.action != static_cast<Action>(i) || a.key.empty() || a.parse == nullptr ||
-        a.run == nullptr || a.describe == nullptr || (a.kind != K::Act) == a.window.empty())
+    if (a.action != static_cast<Action>(i) || a.key.empty() ||
+        (a.kind != K::Act) == a.window.empty())
       return false;
   }
   return true;

@@ -85,12 +85,6 @@ std::string line_config() {
       .dump(2);
 }
 
-// Feeds the bus monitors as the daemon does (daemon/daemon.cpp on_can).
-struct Monitors final : plant::Tap {
-  std::vector<http::BusMonitor> buses;
-  void on_can(const plant::CanRecord& r) override { buses.at(r.bus).on_frame(r.frame, r.time); }
-};
-
 // Renders the four documents of a configuration; the status and metrics after `run` of virtual
 // time, with PLC outputs written at 100 ms so that frames flow.
 void check_documents(const std::string& name, const config::DaemonConfig& cfg, Time run,
@@ -101,13 +95,10 @@ void check_documents(const std::string& name, const config::DaemonConfig& cfg, T
   std::string error;
   auto plant = plant::Plant::build(cfg, plant::Options{}, Time{0}, &error);
   ASSERT_TRUE(plant) << error;
-  Monitors monitors;
-  monitors.buses.resize(plant->buses().size());
+  http::BusMonitors monitors(plant->buses().size());
   plant->add_tap(&monitors);
   auto faces = modbus::make_faces(*plant);
-  auto src = test::status_sources(*plant, faces, &monitors.buses);
-  for (auto& d : plant->drives()) src.drives.push_back({&d->config(), &d->drive().drive()});
-  http::StatusModel model(std::move(src));
+  http::StatusModel model(http::make_sources(*plant, faces, &monitors));
   Time now{0};
   test::run_plant_until(*plant, now, Time{100'000});
   // Read the drives' status words (REGID 0x40) and touch every gateway's first output slot.
