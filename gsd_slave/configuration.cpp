@@ -60,15 +60,18 @@ WithPresets with_presets(const gsd::Model& m, std::span<const std::size_t> user)
     for (std::size_t j = i; j < user.size(); ++j) {
       if (!is_preset(user[j])) continue;
       const auto slot = std::find(presets.begin(), presets.end(), user[j]) - presets.begin();
-      out.problem = PresetProblem{j, "\"" + gsd::display_name(m.modules[user[j]].name) +
-                                         "\" is a fixed preset module: it belongs at slot " +
-                                         std::to_string(slot) + " and cannot be moved" + rule};
+      // Appended piece by piece: literal + std::string trips GCC 12's false -Wrestrict at -O3.
+      std::string text = "\"";
+      text += gsd::display_name(m.modules[user[j]].name);
+      text += "\" is a fixed preset module: it belongs at slot " + std::to_string(slot) +
+              " and cannot be moved" + rule;
+      out.problem = PresetProblem{j, std::move(text)};
       return out;
     }
-    out.problem = PresetProblem{
-        std::min(i, user.size()),
-        "the fixed preset module \"" + gsd::display_name(m.modules[presets[i]].name) +
-            "\" is missing at slot " + std::to_string(i) + " and cannot be removed" + rule};
+    std::string text = "the fixed preset module \"";
+    text += gsd::display_name(m.modules[presets[i]].name);
+    text += "\" is missing at slot " + std::to_string(i) + " and cannot be removed" + rule;
+    out.problem = PresetProblem{std::min(i, user.size()), std::move(text)};
     return out;
   }
   return out;
