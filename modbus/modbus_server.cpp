@@ -111,7 +111,7 @@ class Server final : public ModbusServer {
                        std::to_string(
                            std::chrono::duration_cast<std::chrono::milliseconds>(idle_s).count()) +
                        " ms)",
-                   false, LogLevel::Warn);
+                   false, "evicted", LogLevel::Warn);
     }
     // Answers are small; without TCP_NODELAY Nagle's algorithm would hold back an answer while
     // an earlier one is unacknowledged.
@@ -134,14 +134,17 @@ class Server final : public ModbusServer {
         "connected", "client " + name + " connected (" + std::to_string(clients_.size()) + " now)");
   }
 
-  void close_client(int fd, std::string_view why, bool dropped, LogLevel level = LogLevel::Info) {
+  // `kind`: the throttle's kind of the line (docs/daemon.md "Logging"), so that one kind of
+  // closing (evicted, idle) is never hidden behind another.
+  void close_client(int fd, std::string_view why, bool dropped,
+                    std::string_view kind = "disconnected", LogLevel level = LogLevel::Info) {
     const auto it = clients_.find(fd);
     if (it == clients_.end()) return;
     if (dropped) {
       ++stats_.clients_dropped;
       clients_log_.warn("dropped", "client " + it->second.name + " dropped: " + std::string(why));
     } else {
-      clients_log_.log("disconnected", level,
+      clients_log_.log(kind, level,
                        "client " + it->second.name + " disconnected (" + std::string(why) + ")");
     }
     loop_.remove_fd(fd);
@@ -163,7 +166,7 @@ class Server final : public ModbusServer {
               std::to_string(
                   std::chrono::duration_cast<std::chrono::seconds>(options_.idle_timeout).count()) +
               " s",
-          false);
+          false, "idle");
     }
     arm_idle_timer();
   }
