@@ -20,6 +20,7 @@
 
 #include "can/socketcand_net.hpp"
 #include "common/idle_clients.hpp"
+#include "common/log_throttle.hpp"
 
 namespace candp2::can {
 
@@ -54,7 +55,8 @@ class Server final : public SocketcandServer {
         listener_(std::move(listener)),
         epoll_(std::move(epoll)),
         port_(port),
-        pending_(options_.idle_timeout) {}
+        pending_(options_.idle_timeout),
+        notes_(log_) {}
 
   std::uint16_t port() const override { return port_; }
   std::vector<int> poll_fds() const override { return {epoll_.get()}; }
@@ -65,6 +67,7 @@ class Server final : public SocketcandServer {
   Stats stats() const override { return stats_; }
 
   void on_readable(int fd, Time now) override {
+    now_ = now;
     if (fd != epoll_.get()) return;
     epoll_event events[64];
     const int n = ::epoll_wait(epoll_.get(), events, 64, 0);
@@ -133,21 +136,33 @@ class Server final : public SocketcandServer {
     listener_watched_ = on;
   }
 
-  std::optional<Time> next_deadline() const override { return pending_.next_expiry(); }
+  std::optional<Time> next_deadline() const override {
+    const auto idle = pending_.next_expiry();
+    const auto flush = notes_.next_flush();
+    if (!idle || !flush) return idle ? idle : flush;
+    return std::min(*idle, *flush);
+  }
 
   void advance(Time now) override {
+    now_ = now;
+    notes_.flush(now);
     for (const auto id : pending_.expired(now)) {
       Client* c = find(id);
       if (!c || c->dead) continue;
       ++stats_.clients_timed_out;
-      log_.info(
+      note(
+          "timed out", LogLevel::Info,
           "client " + c->peer + " closed: no raw mode after " +
-          std::to_string(
-              std::chrono::duration_cast<std::chrono::seconds>(options_.idle_timeout).count()) +
-          " s idle");
+              std::to_string(
+                  std::chrono::duration_cast<std::chrono::seconds>(options_.idle_timeout).count()) +
+              " s idle");
       c->dead = true;
     }
     reap();
+  }
+
+  void note(std::string_view kind, LogLevel level, std::string line) {
+    notes_.log(now_, kind, level, std::move(line));
   }
 
   // At max_clients: close the client idle longest (those not in raw mode first) for `peer`.
@@ -158,10 +173,11 @@ class Server final : public SocketcandServer {
     if (!c) return false;
     const auto idle =
         now - pending_.last_activity(*victim).value_or(raw_.last_activity(*victim).value_or(now));
-    log_.warn("client " + c->peer + " evicted for " + peer + " (limit " +
-              std::to_string(options_.max_clients) + " clients; idle longest, " +
-              std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(idle).count()) +
-              " ms)");
+    note("evicted", LogLevel::Warn,
+         "client " + c->peer + " evicted for " + peer + " (limit " +
+             std::to_string(options_.max_clients) + " clients; idle longest, " +
+             std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(idle).count()) +
+             " ms)");
     ++stats_.clients_evicted;
     c->dead = true;
     reap();
@@ -193,8 +209,9 @@ class Server final : public SocketcandServer {
         static constexpr char kBusy[] = "< error too many clients >";
         [[maybe_unused]] const auto n =
             ::send(fd.get(), kBusy, sizeof kBusy - 1, MSG_DONTWAIT | MSG_NOSIGNAL);
-        log_.warn("refused client " + peer + ": " + std::to_string(options_.max_clients) +
-                  " clients connected already");
+        note("refused", LogLevel::Warn,
+             "refused client " + peer + ": " + std::to_string(options_.max_clients) +
+                 " clients connected already");
         continue;
       }
       const int on = 1;
@@ -211,7 +228,7 @@ class Server final : public SocketcandServer {
       }
       c->fd = std::move(fd);
       ++stats_.clients_accepted;
-      log_.info("client " + peer + " connected");
+      note("connected", LogLevel::Info, "client " + peer + " connected");
       Client& ref = *c;
       pending_.touch(c->id, now);
       clients_.emplace(c->id, std::move(c));
@@ -223,14 +240,15 @@ class Server final : public SocketcandServer {
     char buf[4096];
     const ssize_t n = ::recv(c.fd.get(), buf, sizeof buf, MSG_DONTWAIT);
     if (n == 0) {
-      log_.info("client " + c.peer + " disconnected");
+      note("disconnected", LogLevel::Info, "client " + c.peer + " disconnected");
       c.dead = true;
       return;
     }
     if (n < 0) {
       const int err = errno;
       if (err == EAGAIN || err == EWOULDBLOCK || err == EINTR) return;
-      log_.info("client " + c.peer + " connection error: " + errno_text(err));
+      note("connection error", LogLevel::Info,
+           "client " + c.peer + " connection error: " + errno_text(err));
       c.dead = true;
       return;
     }
@@ -250,8 +268,9 @@ class Server final : public SocketcandServer {
             drop(c, "sent " + std::to_string(c.stray) + " bytes outside < > (limit " +
                         std::to_string(options_.max_stray_bytes) + "; not a socketcand client?)");
           } else {
-            log_.warn("client " + c.peer + ": ignored " + std::to_string(item.bytes) +
-                      " bytes outside < >: '" + printable(item.text) + "'");
+            note("ignored", LogLevel::Warn,
+                 "client " + c.peer + ": ignored " + std::to_string(item.bytes) +
+                     " bytes outside < >: '" + printable(item.text) + "'");
           }
           break;
         case ElementSplitter::Kind::Overflow:
@@ -265,7 +284,8 @@ class Server final : public SocketcandServer {
   void command(Client& c, const std::string& element, Time now) {
     if (log_.enabled(LogLevel::Debug)) log_.debug("client " + c.peer + ": " + printable(element));
     if (!is_printable_element(element)) {
-      log_.warn("client " + c.peer + ": command with non-ASCII bytes: " + printable(element));
+      note("non-ASCII", LogLevel::Warn,
+           "client " + c.peer + ": command with non-ASCII bytes: " + printable(element));
       queue(c, "< error malformed command >");
       return;
     }
@@ -277,12 +297,13 @@ class Server final : public SocketcandServer {
       if (cmd == "open") {
         if (w.size() == 2 && w[1] == options_.channel) {
           c.mode = Mode::Bcm;  // socketcand starts every opened bus in BCM mode
-          log_.info("client " + c.peer + " opened " + options_.channel);
+          note("opened", LogLevel::Info, "client " + c.peer + " opened " + options_.channel);
           queue(c, "< ok >");
         } else {
-          log_.warn("client " + c.peer + " asked for bus '" +
-                    printable(w.size() > 1 ? w[1] : std::string_view()) +
-                    "', this server exports '" + options_.channel + "'; closing");
+          note("wrong bus", LogLevel::Warn,
+               "client " + c.peer + " asked for bus '" +
+                   printable(w.size() > 1 ? w[1] : std::string_view()) +
+                   "', this server exports '" + options_.channel + "'; closing");
           queue(c, "< error could not open bus >");
           c.close_after_flush = true;  // socketcand shuts the connection down
           finish_if_flushed(c);
@@ -298,7 +319,8 @@ class Server final : public SocketcandServer {
     if (cmd == "send") {
       auto r = socketcand::parse_send(element);
       if (!r.frame) {
-        log_.warn("client " + c.peer + ": " + r.error + " in '" + printable(element) + "'");
+        note("bad command", LogLevel::Warn,
+             "client " + c.peer + ": " + r.error + " in '" + printable(element) + "'");
         queue(c, "< error " + r.error + " >");
         return;
       }
@@ -307,9 +329,10 @@ class Server final : public SocketcandServer {
       const std::uint32_t dropped_before = bus_channel_ ? bus_channel_->tx_dropped() : 0;
       bus_.send(*r.frame);
       if (bus_channel_ && bus_channel_->tx_dropped() != dropped_before) {
-        log_.warn("client " + c.peer + ": frame " + format_candump(*r.frame) +
-                  " not sent, the bus dropped it (bus state " +
-                  std::string(to_string(bus_channel_->bus_state())) + ")");
+        note("bad frame", LogLevel::Warn,
+             "client " + c.peer + ": frame " + format_candump(*r.frame) +
+                 " not sent, the bus dropped it (bus state " +
+                 std::string(to_string(bus_channel_->bus_state())) + ")");
         return;
       }
       ++stats_.frames_from_clients;
@@ -339,13 +362,14 @@ class Server final : public SocketcandServer {
   }
 
   void unknown(Client& c, std::string_view element, std::string reply) {
-    log_.warn("client " + c.peer + ": rejected '" + printable(element) + "'");
+    note("rejected", LogLevel::Warn,
+         "client " + c.peer + ": rejected '" + printable(element) + "'");
     queue(c, std::move(reply));
   }
 
   void drop(Client& c, const std::string& reason) {
     if (c.dead) return;
-    log_.warn("client " + c.peer + " dropped: " + reason);
+    note("dropped", LogLevel::Warn, "client " + c.peer + " dropped: " + reason);
     ++stats_.clients_dropped;
     c.dead = true;
   }
@@ -372,7 +396,8 @@ class Server final : public SocketcandServer {
       const int err = errno;
       if (n < 0 && err == EINTR) continue;
       if (n < 0 && (err == EAGAIN || err == EWOULDBLOCK)) return true;
-      log_.info("client " + c.peer + " write failed: " + errno_text(err));
+      note("write failed", LogLevel::Info,
+           "client " + c.peer + " write failed: " + errno_text(err));
       c.dead = true;
       return false;
     }
@@ -408,7 +433,7 @@ class Server final : public SocketcandServer {
 
   void finish_if_flushed(Client& c) {
     if (c.close_after_flush && c.out.empty()) {
-      log_.info("client " + c.peer + " closed");
+      note("closed", LogLevel::Info, "client " + c.peer + " closed");
       c.dead = true;
     }
   }
@@ -443,6 +468,10 @@ class Server final : public SocketcandServer {
   std::map<std::uint64_t, std::unique_ptr<Client>> clients_;
   std::vector<ElementSplitter::Item> items_;
   Stats stats_;
+  // Every per-client line goes through the throttle (common/log_throttle.hpp, docs/daemon.md
+  // "Logging"): one a second per kind with the count; its clock is the latest `now` seen.
+  LogThrottle notes_;
+  Time now_{0};
 };
 
 }  // namespace
