@@ -20,6 +20,7 @@ struct Interface {
   std::uint16_t linktype = 0;
   std::string name;
   std::optional<std::uint8_t> tsresol;
+  std::optional<std::uint64_t> speed;  // if_speed, bit/s
 };
 
 struct Packet {
@@ -83,6 +84,11 @@ inline Capture read_capture(const std::vector<std::uint8_t>& file) {
       good = good && options(body, 8, [&](std::uint16_t code, const std::vector<std::uint8_t>& v) {
                if (code == 2) i.name.assign(v.begin(), v.end());
                if (code == 9 && v.size() == 1) i.tsresol = v[0];
+               if (code == 8 && v.size() == 8) {
+                 std::uint64_t s = 0;
+                 for (std::size_t k = 0; k < 8; ++k) s |= std::uint64_t{v[k]} << (8 * k);
+                 i.speed = s;
+               }
              });
       c.interfaces.push_back(i);
     } else if (type == 6) {

@@ -43,7 +43,8 @@ Capture write_records(ProfibusLinktype linktype) {
                .line = 0,
                .line_name = "in-process",
                .telegram = kSetPrmTelegram,
-               .from_emulation = true});
+               .from_emulation = true,
+               .baud = 1'500'000});  // a line in time (docs/profibus.md "The line in time")
     tap.on_can({.time = Time(20),
                 .bus = 0,
                 .bus_name = "can0",
@@ -79,6 +80,10 @@ TEST(PcapngTap, InterfacesPacketsDirectionsAndTimes) {
   ASSERT_EQ(c.interfaces.size(), 4u);  // in order of first appearance
   EXPECT_EQ(c.interfaces[0].linktype, 252);
   EXPECT_EQ(c.interfaces[0].name, "in-process");
+  // A line in time states its baud rate (if_speed); the CAN bus and a line of unknown rate don't.
+  EXPECT_EQ(c.interfaces[0].speed, std::optional<std::uint64_t>{1'500'000});
+  EXPECT_FALSE(c.interfaces[1].speed.has_value());
+  EXPECT_FALSE(c.interfaces[3].speed.has_value());
   EXPECT_EQ(c.interfaces[1].linktype, 227);
   EXPECT_EQ(c.interfaces[1].name, "demo");
   EXPECT_EQ(c.interfaces[2].linktype, 252);
