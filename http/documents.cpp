@@ -232,6 +232,21 @@ void MetricsBuild::tail() {
   one("candp2_http_snapshots_dropped_total", "", h.snapshots_dropped);
   family("candp2_http_event_bytes_total", "counter", "bytes of Server-Sent Events written");
   one("candp2_http_event_bytes_total", "", h.event_bytes);
+  if (src.line) {  // the line in time (docs/profibus.md "The line in time")
+    const auto& c = src.line->bus_cycle();
+    family("candp2_line_bus_cycle_seconds", "gauge",
+           "the measured PROFIBUS bus cycle: the last, shortest, mean and longest token rotation");
+    for (const auto& [stat, d] :
+         {std::pair{"last", c.last}, {"min", c.min}, {"mean", c.mean()}, {"max", c.max}}) {
+      out_ += "candp2_line_bus_cycle_seconds{stat=\"";
+      out_ += stat;
+      out_ += "\"} ";
+      put(out_, static_cast<double>(d.count()) / 1e6);
+      out_ += '\n';
+    }
+    family("candp2_line_retries_total", "counter", "requests the master repeated on the line");
+    one("candp2_line_retries_total", "", src.line->retries());
+  }
   if (src.cycle) {
     const auto s = src.cycle->summary();
     family("candp2_master_cycles_total", "counter", "DP master cycles started");

@@ -246,6 +246,20 @@ json StatusModel::cycle_json() const {
   return cycle;
 }
 
+json StatusModel::line_json() const {
+  if (!src_.line) return nullptr;
+  const auto& c = src_.line->bus_cycle();
+  return {{"baud", src_.line->baud()},
+          {"bus_cycle_us",
+           {{"last", c.last.count()},
+            {"min", c.min.count()},
+            {"mean", c.mean().count()},
+            {"max", c.max.count()},
+            {"cycles", c.count}}},
+          {"retries", src_.line->retries()},
+          {"gap_polls", src_.line->gap_polls()}};
+}
+
 json StatusModel::modbus_json() const {
   if (!src_.modbus) return nullptr;
   const auto& ms = src_.modbus->stats();
@@ -325,6 +339,7 @@ json StatusModel::status_head(Time now, bool parts) {
   j["version"] = 1;
   j["time_ms"] = static_cast<double>(now.count()) / 1000.0;
   j["cycle"] = cycle_json();
+  if (src_.line) j["line"] = line_json();
   if (src_.modbus) j["modbus"] = modbus_json();
   j["http"] = http_json();
   if (!parts) return j;

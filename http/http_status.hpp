@@ -23,6 +23,7 @@
 #include "modbus/modbus_map.hpp"
 #include "modbus/modbus_server.hpp"
 #include "plant/cycle_stats.hpp"
+#include "plant/timed_line.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::plant {
@@ -104,6 +105,9 @@ struct StatusSources {
   const dp::DpMaster* master = nullptr;
   std::uint32_t cycle_ms = 10;
   const plant::CycleStats* cycle = nullptr;
+  // The line in time (docs/profibus.md "The line in time"); null on an ideal line, which then
+  // shows no "line" (and no candp2_line_* metrics) at all.
+  const plant::TimedLine* line = nullptr;
   const modbus::ModbusServer* modbus = nullptr;
   std::vector<GatewaySource> gateways;
   std::vector<SlaveSource> slaves;
@@ -139,6 +143,9 @@ class StatusModel {
   // A generic slave's tile: address, name, model, DP state, fault (no LEDs, no frames).
   nlohmann::json slave_tile(std::size_t slave, Time now) const;
   nlohmann::json cycle_json() const;
+  // The line in time: baud rate, measured bus cycle (last, min, mean, max in µs), retries; null
+  // on an ideal line (docs/daemon.md "HTTP face").
+  nlohmann::json line_json() const;
   nlohmann::json modbus_json() const;
   nlohmann::json http_json() const;
   nlohmann::json bus_json(std::size_t bus, Time now, bool trace);

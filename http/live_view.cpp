@@ -87,6 +87,7 @@ bool LiveView::step(Time now) {
         nlohmann::json h;
         h["time_ms"] = static_cast<double>(now.count()) / 1000.0;
         h["cycle"] = model_.cycle_json();
+        if (const auto l = model_.line_json(); !l.is_null()) h["line"] = l;
         if (const auto m = model_.modbus_json(); !m.is_null()) h["modbus"] = m;
         h["http"] = model_.http_json();
         h["gateway_count"] = tiles_.size();

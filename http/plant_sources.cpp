@@ -14,6 +14,7 @@ StatusSources make_sources(plant::Plant& plant, const modbus::PlantFaces& faces,
   src.master = &plant.master();
   src.cycle_ms = plant.config().cycle_ms;
   src.cycle = &plant.cycle_stats();
+  src.line = plant.timed_line();
   src.modbus = modbus;
   for (const auto& g : plant.gateways())
     src.gateways.push_back({&g->config(), g.get(), faces.gateways.at(g->index()).get()});

@@ -132,6 +132,9 @@ function renderHeader(s) {
   let text = c.period_ms + ' ms';
   if (c.missed !== undefined) text += ' · missed ' + c.missed;
   if (lat) text += ' · late p50 ' + lat.p50 + ' µs, p99 ' + lat.p99 + ' µs';
+  // The line in time (docs/profibus.md): the measured bus cycle, last and longest.
+  if (s.line) text += ' · bus cycle ' + s.line.bus_cycle_us.last + ' µs (max ' +
+    s.line.bus_cycle_us.max + ' µs at ' + s.line.baud / 1000 + ' kbit/s)';
   const cyc = document.getElementById('cycle');
   setText(cyc, text);
   setClass(cyc, c.missed ? 'warn' : '');

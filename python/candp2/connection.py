@@ -17,6 +17,7 @@ from .bus import Bus
 from .drive import Drive
 from .errors import Candp2Error, ModbusError
 from .gateway import Gateway
+from .line import Line
 from .registers import GatewayMap, RegisterMap, SlaveMap
 from .slave import Slave
 
@@ -78,6 +79,13 @@ class Connection:
         if self.http is None:
             raise Candp2Error("no HTTP face: connect(http=\"HOST:PORT\") or http.listen")
         return self.http.status()
+
+    @property
+    def line(self) -> Line | None:
+        """The built-in master's line in time (`master.baud`, docs/profibus.md): its baud rate
+        and measured bus cycle, from the HTTP face; None on an ideal line (no `master.baud`)."""
+        line = self.http_status().get("line")
+        return None if line is None else Line.from_status(line)
 
     # ---- the objects a test works with ---------------------------------------------------
 
