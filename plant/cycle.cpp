@@ -1,0 +1,148 @@
+// The plant in time (docs/architecture.md "The plant"): when it next needs attention, advancing to
+// a time, the DP master's cycle on its grid with the missed grid points counted, and the delivery
+// of frames between in-process endpoints. Part of plant::Plant (plant/plant.hpp); the assembly is
+// in plant.cpp, the control surface in control.cpp.
+#include <algorithm>
+
+#include "plant/master_line.hpp"
+#include "plant/plant.hpp"
+#include "plant/slave_line.hpp"
+#include "plant/timed_line.hpp"
+
+namespace candp2::plant {
+
+std::optional<Time> Plant::next_deadline() const {
+  // A rotation still on the timed line holds the next cycle back: the line says when it ends.
+  std::optional<Time> next;
+  if (!timed_line_ || !timed_line_->rotating()) next = next_cycle_;
+  auto earliest = [&](std::optional<Time> d) {
+    if (d && (!next || *d < *next)) next = d;
+  };
+  for (const auto& g : gateways_) earliest(g->gateway_->next_deadline());
+  for (const auto& d : drives_) earliest(d->drive_->next_deadline());
+  for (const auto& sl : slaves_) earliest(sl->slave_->next_deadline());
+  if (master_line_) earliest(master_line_->next_deadline());
+  if (timed_line_) earliest(timed_line_->next_deadline());
+  return next;
+}
+
+void Plant::set_now(Time now) {
+  if (now < now_) return;
+  now_ = now;
+  for (auto& b : buses_)
+    if (b->vbus_) b->vbus_->set_now(now);
+}
+
+void Plant::run_timers(Time now) {
+  for (auto& g : gateways_)
+    if (const auto d = g->gateway_->next_deadline(); d && *d <= now) g->gateway_->advance(now);
+  for (auto& d : drives_)
+    if (const auto t = d->drive_->next_deadline(); t && *t <= now)
+      d->drive_->advance(now, *d->endpoint_);
+  for (auto& sl : slaves_)
+    if (const auto t = sl->slave_->next_deadline(); t && *t <= now) sl->slave_->advance(now);
+  if (master_line_)
+    if (const auto t = master_line_->next_deadline(); t && *t <= now) master_line_->advance(now);
+  if (timed_line_)
+    if (const auto t = timed_line_->next_deadline(); t && *t <= now) timed_line_->advance(now);
+}
+
+void Plant::advance(Time now) {
+  set_now(now);
+  run_timers(now_);
+  deliver(now_);
+  // docs/profibus.md "The line in time": a cycle starts when the line's last rotation has ended;
+  // when that is later than its grid point the cycles run back to back (missed grid points count).
+  if (now_ >= next_cycle_ && !(timed_line_ && timed_line_->rotating())) {
+    run_cycle(now_);
+    deliver(now_);
+  }
+}
+
+void Plant::run_cycle(Time now) {
+  // The grid starts with the first cycle: the time between building the plant and its driver's
+  // first turn (candp2d opening its listeners) is no lateness.
+  if (!grid_started_) {
+    grid_started_ = true;
+    next_cycle_ = std::max(next_cycle_, now);
+  }
+  // A cycle whose grid point is more than one period past is not caught up: the grid points in
+  // between are missed (counted, docs/daemon.md "Cycle timing"), and this cycle is as late as
+  // its own grid point says.
+  const Time due = next_cycle_;
+  std::uint64_t missed = 0;
+  if (period_.count() > 0 && next_cycle_ + period_ <= now) {
+    missed = static_cast<std::uint64_t>((now - next_cycle_) / period_);
+    next_cycle_ += period_ * static_cast<std::int64_t>(missed);
+  }
+  next_cycle_ += period_;
+  if (master_cycles_) {
+    cycle_stats_.record(due, now, missed);
+    log_misses(due, now, missed);
+    if (timed_line_) timed_line_->begin_rotation(now);
+    master_->cycle(now);
+    if (timed_line_) timed_line_->end_issue(now);
+    ++cycles_;
+    if (master_line_) master_line_->check_presence(*master_);
+  }
+  if (slave_line_) slave_line_->check_presence(now);
+  for (const auto& hook : cycle_hooks_) hook(now);
+}
+
+// One line when a run of missed cycles starts and one when it ends: after a second without a
+// miss, with the count (docs/daemon.md "Cycle timing").
+void Plant::log_misses(Time due, Time now, std::uint64_t missed) {
+  auto ms = [](Duration d) {
+    return std::to_string(d.count() / 1000) + "." + std::to_string(d.count() % 1000 / 100) + " ms";
+  };
+  if (missed > 0) {
+    if (!miss_run_) {
+      miss_run_ = MissRun{now, now, 0};
+      log_.warn("master cycle: " + std::to_string(missed) + " cycle(s) missed, started " +
+                ms(now - due) + " late (cycle " + std::to_string(period_.count() / 1000) +
+                " ms); counting until the cycle keeps its grid for 1 s");
+    }
+    miss_run_->count += missed;
+    miss_run_->last = now;
+  } else if (miss_run_ && now - miss_run_->last >= seconds(1)) {
+    log_.info("master cycle back on its grid: " + std::to_string(miss_run_->count) +
+              " cycle(s) missed within " + ms(miss_run_->last - miss_run_->first) + " (" +
+              std::to_string(cycle_stats_.missed()) + " since start)");
+    miss_run_.reset();
+  }
+}
+
+bool Plant::deliver(Time now) {
+  set_now(now);
+  bool any = false;
+  for (bool work = true; work;) {
+    work = false;
+    for (auto& g : gateways_) {
+      if (!g->endpoint_) continue;
+      while (auto f = g->endpoint_->receive()) {
+        g->receive(*f, now_);
+        work = true;
+      }
+      g->update_controller();
+    }
+    for (auto& d : drives_)
+      while (auto f = d->endpoint_->receive()) {
+        d->drive_->on_frame(*f, now_, *d->endpoint_);  // muted: stops answering
+        work = true;
+      }
+    any = any || work;
+  }
+  return any;
+}
+
+void Plant::receive(std::size_t index, Time now) {
+  set_now(now);
+  GatewayUnit& g = *gateways_.at(index);
+  while (auto f = g.channel_->receive()) {
+    if (g.logs_bus_) tap_can(*g.bus_, *f, "bus", now_);
+    g.receive(*f, now_);
+  }
+  g.update_controller();
+}
+
+}  // namespace candp2::plant
