@@ -14,6 +14,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -207,6 +208,8 @@ struct Model {
 // A DP rate (bit/s) as the GSD names it in its keywords: 1500000 → "1.5M" ("1.5M_supp",
 // "MaxTsdr_1.5M"); nullopt for a rate without a keyword.
 std::optional<std::string_view> rate_name(std::uint32_t baud);
+// Every rate a GSD can name, slowest first (the eleven of the GSD specification, 31.25k included).
+std::span<const std::uint32_t> gsd_rates();
 // The GSD says the station supports `baud` (<rate>_supp = 1).
 bool supports_rate(const Model& m, std::uint32_t baud);
 // MaxTsdr_<rate>: the latest the station answers at `baud`, in bit times; nullopt when missing.

@@ -1,5 +1,6 @@
 // Model accessors.
 #include <algorithm>
+#include <array>
 
 #include "gsd/gsd.hpp"
 #include "gsd/text.hpp"
@@ -185,6 +186,15 @@ constexpr RateName kRateNames[] = {{9600, "9.6"},    {19200, "19.2"},   {31250, 
                                    {500000, "500"},  {1500000, "1.5M"}, {3000000, "3M"},
                                    {6000000, "6M"},  {12000000, "12M"}};
 }  // namespace
+
+std::span<const std::uint32_t> gsd_rates() {
+  static constexpr auto kRates = [] {
+    std::array<std::uint32_t, std::size(kRateNames)> out{};
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] = kRateNames[i].baud;
+    return out;
+  }();
+  return kRates;
+}
 
 std::optional<std::string_view> rate_name(std::uint32_t baud) {
   for (const auto& r : kRateNames)

@@ -25,12 +25,6 @@ std::string shown(std::string_view s) {
   return to_utf8(detail::trim(s));
 }
 
-constexpr std::pair<std::string_view, std::string_view> kBaudNames[] = {
-    {"9.6_supp", "9.6k"},     {"19.2_supp", "19.2k"},   {"31.25_supp", "31.25k"},
-    {"45.45_supp", "45.45k"}, {"93.75_supp", "93.75k"}, {"187.5_supp", "187.5k"},
-    {"500_supp", "500k"},     {"1.5M_supp", "1.5M"},    {"3M_supp", "3M"},
-    {"6M_supp", "6M"},        {"12M_supp", "12M"}};
-
 // Up to 16 bytes inline; longer dumps continue on indented lines of 16 bytes.
 std::string hex_block(const std::vector<std::uint8_t>& b, const std::string& indent) {
   if (b.empty()) return "(none)";
@@ -96,11 +90,12 @@ std::string summary(const Model& m, const DeviceReader* reader) {
   if (!hw.empty() || !sw.empty()) rev += " (hardware " + hw + ", software " + sw + ")";
   line("Revision", rev);
   std::string bauds;
-  for (const auto& [key, name] : kBaudNames)
-    if (m.number(key).value_or(0) != 0) {
+  for (const auto baud : gsd_rates())
+    if (supports_rate(m, baud)) {
       // Appended piece by piece: literal + std::string trips GCC 12's false -Wrestrict at -O3.
       if (!bauds.empty()) bauds += ' ';
-      bauds += name;
+      bauds += *rate_name(baud);
+      if (baud < 1'000'000) bauds += 'k';  // "9.6k" .. "500k", then "1.5M" .. "12M"
     }
   line("Baud rates", bauds.empty() ? "(none)" : bauds);
 
