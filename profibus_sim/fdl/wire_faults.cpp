@@ -27,6 +27,12 @@ bool level(std::span<const std::uint8_t> t, std::uint64_t bit) {
 
 }  // namespace
 
+std::optional<StationFault> station_fault(std::string_view name) {
+  for (std::size_t i = 0; i < kStationFaultNames.size(); ++i)
+    if (kStationFaultNames[i] == name) return static_cast<StationFault>(i);
+  return std::nullopt;
+}
+
 std::vector<std::uint8_t> corrupt_fcs(std::span<const std::uint8_t> telegram) {
   std::vector<std::uint8_t> out(telegram.begin(), telegram.end());
   if (out.size() == 1) {

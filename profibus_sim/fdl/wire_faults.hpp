@@ -4,11 +4,34 @@
 // two transmitters drive it at once a 0 wins (the model of a collision, deterministic). Pure.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <span>
+#include <string_view>
 #include <vector>
 
 namespace candp2::fdl {
+
+// The faults a station's answers can be given on cue (docs/faults.md "Line faults"); public
+// names, and the codes of the Modbus line fault register (docs/modbus.md).
+enum class StationFault : std::uint8_t {
+  None = 0,
+  Corrupt = 1,
+  Silent = 2,
+  Late = 3,
+  DoubleAddress = 4
+};
+inline constexpr std::array<std::string_view, 5> kStationFaultNames = {"none", "corrupt", "silent",
+                                                                       "late", "double_address"};
+inline constexpr std::string_view to_string(StationFault f) {
+  return kStationFaultNames.at(static_cast<std::size_t>(f));
+}
+std::optional<StationFault> station_fault(std::string_view name);
+
+// How many bits later the second station at the same address starts its answer (its TSDR
+// differs): half a character, so the two answers garble each other.
+inline constexpr std::uint64_t kTwinOffsetBits = 5;
 
 // The telegram with a wrong frame check sequence (the byte before the end delimiter inverted);
 // a short acknowledgement (SC), which has none, arrives as another character (0xE4).
