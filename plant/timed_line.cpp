@@ -28,6 +28,25 @@ class TimedLine::Station final : public dp::SlaveLink {
   std::uint32_t min_tsdr_ = 11;  // IEC 61158-6-3: 11 bit times until Set_Prm sets another
   bool known_ = false;           // FDL_Status answered since the start or the last loss
   fdl::FcbSequence seq_;
+
+  // The fault on cue (docs/faults.md "Line faults") and how far it has gone.
+  Fault fault_;
+  std::uint32_t remaining_ = 0;
+  std::uint64_t received_ = 0;  // requests received since it was injected
+  Time until_{0};
+  // The fault the answer to a request received at `t` gets (None: none).
+  fdl::StationFault applies(Time t) {
+    if (fault_.kind == fdl::StationFault::None) return fault_.kind;
+    if (fault_.duration && t >= until_) {
+      fault_.kind = fdl::StationFault::None;
+      return fault_.kind;
+    }
+    const std::uint64_t n = received_++;
+    if (n % std::max<std::uint32_t>(fault_.every, 1) != 0) return fdl::StationFault::None;
+    const fdl::StationFault kind = fault_.kind;
+    if (!fault_.duration && --remaining_ == 0) fault_.kind = fdl::StationFault::None;
+    return kind;
+  }
 };
 
 TimedLine::TimedLine(std::uint32_t baud, fdl::BusParameters params, std::uint8_t master,
@@ -45,6 +64,7 @@ dp::SlaveLink& TimedLine::add_station(dp::SlaveLink& inner, const dp::DpSlave& s
                                       std::optional<std::uint32_t> max_tsdr_bits) {
   auto s = std::make_unique<Station>(*this, inner, slave, max_tsdr_bits);
   Station& ref = *s;
+  stats_.configure(inner.address());
   stations_[inner.address()] = std::move(s);
   return ref;
 }
@@ -54,6 +74,46 @@ void TimedLine::restarted(std::uint8_t address) {
     it->second->known_ = false;
     it->second->min_tsdr_ = 11;
   }
+}
+
+bool TimedLine::inject(std::uint8_t address, const Fault& fault, Time now) {
+  const auto it = stations_.find(address);
+  if (it == stations_.end()) return false;
+  Station& s = *it->second;
+  s.fault_ = fault;
+  s.remaining_ = fault.count;
+  s.received_ = 0;
+  s.until_ = fault.duration ? now + *fault.duration : Time{0};
+  if (fault.kind != fdl::StationFault::None && !fault.duration && fault.count == 0)
+    s.fault_.kind = fdl::StationFault::None;
+  if (log_.enabled(LogLevel::Info))
+    log_.info("station " + std::to_string(address) + ": line fault " +
+              std::string(fdl::to_string(s.fault_.kind)));
+  return true;
+}
+
+void TimedLine::noise(Duration duration, Time now) {
+  noise_from_ = now;
+  noise_until_ = now + duration;
+  if (log_.enabled(LogLevel::Info))
+    log_.info("line noise for " + std::to_string(duration.count() / 1000) + " ms");
+}
+
+TimedLine::FaultState TimedLine::fault(std::uint8_t address, Time now) const {
+  const auto it = stations_.find(address);
+  if (it == stations_.end()) return {};
+  const Station& s = *it->second;
+  if (s.fault_.kind == fdl::StationFault::None) return {};
+  if (s.fault_.duration) {
+    if (now >= s.until_) return {};
+    return {s.fault_.kind, 0, s.fault_.every, s.until_ - now};
+  }
+  return {s.fault_.kind, s.remaining_, s.fault_.every, Duration(0)};
+}
+
+bool TimedLine::noisy(std::uint64_t bit) const {
+  const Time t = time_of(bit);
+  return t >= noise_from_ && t < noise_until_;
 }
 
 std::uint32_t TimedLine::tsdr_bits(std::uint8_t address) const {
@@ -142,10 +202,23 @@ void TimedLine::put_request(OnLine o, std::uint64_t at_bit) {
                               : fdl::dp_request(o.job->request, s.address(), master_, s.seq_);
   }
   o.request = fdl::encode(o.telegram);
+  if (late_ && std::max(at_bit, free_bit_) != late_->bit) flush_late();
   const std::uint64_t start = std::max(at_bit, free_bit_);
   if (rotating_ && !rotation_start_) rotation_start_ = start;
   request_start_ = start;
   request_end_ = start + kBitsPerChar * o.request.size();
+  // docs/faults.md "Line faults": noise garbles it; a late answer starting with it collides.
+  if (noisy(start)) {
+    o.request = fdl::garble(o.request, start);
+    o.deaf = true;
+  }
+  if (late_) {
+    const fdl::Superposed both = fdl::superpose(o.request, late_->bytes, 0);
+    late_.reset();
+    o.request = both.bytes;
+    request_end_ = start + both.bits;
+    o.deaf = true;
+  }
   event_bit_ = start;
   current_ = std::move(o);
   phase_ = Phase::Sync;
@@ -156,12 +229,6 @@ void TimedLine::on_request_start() {
   emit(current_->request, true, request_start_, request_end_);
   phase_ = Phase::Request;
   event_bit_ = request_end_;
-}
-
-void TimedLine::on_response_start() {
-  phase_ = Phase::Response;
-  event_bit_ = response_start_ + kBitsPerChar * current_->response.size();
-  emit(current_->response, false, response_start_, event_bit_);
 }
 
 // ------------------------------------------------------------------------------------ events
@@ -198,7 +265,17 @@ void TimedLine::advance(Time now) {
     }
     holding_ = false;
     if (phase_ == Phase::Idle) start_next(event_bit_);
+    if (late_) flush_late();  // nothing started with it
   }
+}
+
+void TimedLine::flush_late() {
+  // A late answer alone on the line: nothing started with it (docs/faults.md "Line faults").
+  Late l = std::move(*late_);
+  late_.reset();
+  const std::uint64_t end = l.bit + kBitsPerChar * l.bytes.size();
+  emit(l.bytes, false, l.bit, end);
+  free_bit_ = std::max(free_bit_, end + fdl::kTsynBits);
 }
 
 void TimedLine::emit(std::span<const std::uint8_t> bytes, bool from_master, std::uint64_t start,
@@ -206,6 +283,7 @@ void TimedLine::emit(std::span<const std::uint8_t> bytes, bool from_master, std:
   if (record_)
     recorded_.push_back(
         {start, end, from_master, std::vector<std::uint8_t>(bytes.begin(), bytes.end())});
+  stats_.observe(bytes, time_of(start));
   if (tap_) tap_(bytes, from_master, time_of(start));
 }
 
@@ -223,25 +301,38 @@ void TimedLine::on_request_end() {
     return;
   }
   Station& s = *o.job->station;
+  const bool sdn = !o.fdl_status && o.job->request.service == dp::Service::GlobalControl;
+  // A garbled request reaches nobody; a silent station answers nothing (docs/faults.md).
+  const fdl::StationFault fault = o.deaf ? fdl::StationFault::None : s.applies(time_of(end));
+  if (o.deaf || fault == fdl::StationFault::Silent) {
+    phase_ = sdn ? Phase::Unanswered : Phase::SlotTime;
+    event_bit_ = end + (sdn ? fdl::tid2_bits(params_) : params_.slot_time_bits);
+    if (sdn) o.answer = dp::Response{};
+    return;
+  }
   std::optional<fdl::Telegram> answer;
   if (o.fdl_status) {
     if (!s.slave_.offline()) answer = fdl::short_answer(o.telegram, fdl::kFcOk);
   } else {
     const dp::Service service = o.job->request.service;
-    if (service == dp::Service::SetPrm && o.job->request.data.size() > 3 &&
-        o.job->request.data[3] != 0)
-      s.min_tsdr_ = o.job->request.data[3];  // min_TSDR, Set_Prm byte 3 (IEC 61158-6-3)
-    // The station gets the request now: its last character has arrived.
-    std::optional<dp::Response> r;
-    s.inner_.request(o.job->request, time_of(end),
-                     [&r](const dp::Response& resp, Time /*at*/) { r = resp; });
-    o.answer = r.value_or(dp::Response{});
+    if (!o.stored) {
+      if (service == dp::Service::SetPrm && o.job->request.data.size() > 3 &&
+          o.job->request.data[3] != 0)
+        s.min_tsdr_ = o.job->request.data[3];  // min_TSDR, Set_Prm byte 3 (IEC 61158-6-3)
+      // The station gets the request now: its last character has arrived.
+      std::optional<dp::Response> r;
+      s.inner_.request(o.job->request, time_of(end),
+                       [&r](const dp::Response& resp, Time /*at*/) { r = resp; });
+      o.answer = r.value_or(dp::Response{});
+    }
     answer = fdl::dp_answer(o.telegram, service, *o.answer);
-    if (service == dp::Service::GlobalControl) {  // SDN: no answer; TID2
+    if (sdn) {  // SDN: no answer; TID2
       phase_ = Phase::Unanswered;
       event_bit_ = end + fdl::tid2_bits(params_);
       return;
     }
+    // It answered: a repeat of this request gets the same answer, as FCB repetition says.
+    o.stored = answer.has_value();
   }
   if (!answer) {
     phase_ = Phase::SlotTime;
@@ -249,15 +340,49 @@ void TimedLine::on_request_end() {
     return;
   }
   o.response = fdl::encode(*answer);
+  o.response_bits = kBitsPerChar * o.response.size();
+  o.illegal = false;
+  switch (fault) {
+    case fdl::StationFault::Corrupt:
+      o.response = fdl::corrupt_fcs(o.response);
+      o.illegal = true;
+      break;
+    case fdl::StationFault::DoubleAddress: {
+      const fdl::Superposed both = fdl::superpose(o.response, o.response, fdl::kTwinOffsetBits);
+      o.response = both.bytes;
+      o.response_bits = both.bits;
+      o.illegal = true;
+      break;
+    }
+    case fdl::StationFault::Late:  // it starts when the slot time has expired
+      o.late = std::move(o.response);
+      o.response.clear();
+      phase_ = Phase::SlotTime;
+      event_bit_ = end + params_.slot_time_bits;
+      return;
+    default:
+      break;
+  }
   response_start_ = end + s.tsdr();
+  if (noisy(response_start_)) {
+    o.response = fdl::garble(o.response, response_start_);
+    o.illegal = true;
+  }
   event_bit_ = response_start_;
   phase_ = Phase::Tsdr;
+}
+
+void TimedLine::on_response_start() {
+  phase_ = Phase::Response;
+  event_bit_ = response_start_ + current_->response_bits;
+  emit(current_->response, false, response_start_, event_bit_);
 }
 
 void TimedLine::on_response_end() {
   OnLine o = std::move(*current_);
   current_.reset();
   phase_ = Phase::Idle;
+  if (o.illegal) return unanswered(std::move(o), event_bit_ + fdl::tid1_bits(params_));
   free_bit_ = event_bit_ + fdl::tid1_bits(params_);
   Station& s = *o.job->station;
   if (o.fdl_status) {
@@ -273,31 +398,32 @@ void TimedLine::on_response_end() {
 }
 
 void TimedLine::on_slot_expired() {
-  OnLine& o = *current_;
-  free_bit_ = event_bit_;  // the line has been idle for the slot time (> TSYN)
-  if (!o.job) {            // the GAP: nobody answered; the token follows
-    current_.reset();
-    phase_ = Phase::Idle;
+  OnLine o = std::move(*current_);
+  current_.reset();
+  phase_ = Phase::Idle;
+  // A late answer starts now, with whatever the master sends next (docs/faults.md).
+  if (!o.late.empty()) late_ = Late{event_bit_, std::move(o.late)};
+  if (!o.job) {  // the GAP: nobody answered; the token follows
+    free_bit_ = event_bit_;
     return;
   }
+  unanswered(std::move(o), event_bit_);  // the line has been idle for the slot time (> TSYN)
+}
+
+void TimedLine::unanswered(OnLine o, std::uint64_t free_bit) {
+  free_bit_ = free_bit;
   if (o.attempt < params_.retry_limit) {
     ++o.attempt;
     ++retries_;
-    OnLine again = std::move(o);
-    current_.reset();
-    phase_ = Phase::Idle;
-    return put_request(std::move(again), free_bit_);
+    o.deaf = o.illegal = false;
+    return put_request(std::move(o), free_bit_);
   }
   // Retries exhausted: the station is lost; FDL_Status again before its next request.
-  OnLine lost = std::move(o);
-  current_.reset();
-  phase_ = Phase::Idle;
-  lost.job->station->known_ = false;
+  o.job->station->known_ = false;
   if (log_.enabled(LogLevel::Debug))
-    log_.debug("station " + std::to_string(lost.job->station->address()) +
-               ": no answer within the slot time after " + std::to_string(params_.retry_limit) +
-               " retries");
-  lost.job->done(dp::Response{}, time_of(free_bit_));
+    log_.debug("station " + std::to_string(o.job->station->address()) + ": no valid answer after " +
+               std::to_string(params_.retry_limit) + " retries");
+  o.job->done(dp::Response{}, time_of(free_bit_));
 }
 
 void TimedLine::on_unanswered_end() {

@@ -30,7 +30,9 @@
 #include "common/time.hpp"
 #include "profibus_sim/dp/slave_link.hpp"
 #include "profibus_sim/fdl/dp_wire.hpp"
+#include "profibus_sim/fdl/line_stats.hpp"
 #include "profibus_sim/fdl/line_timing.hpp"
+#include "profibus_sim/fdl/wire_faults.hpp"
 
 namespace candp2::plant {
 
@@ -95,6 +97,32 @@ class TimedLine {
   std::uint64_t retries() const { return retries_; }
   std::uint64_t gap_polls() const { return gap_polls_; }
 
+  // What an analyser on this line counts (docs/profibus.md "Line statistics").
+  const fdl::LineStatistics& statistics() const { return stats_; }
+
+  // Faults on cue (docs/faults.md "Line faults"). A station's fault applies to one answer in every
+  // `every` requests it receives (repeats included), `count` times, or for `duration` instead; a
+  // new fault replaces the one before, kind None cancels. False: no such station.
+  struct Fault {
+    fdl::StationFault kind = fdl::StationFault::None;
+    std::uint32_t count = 1;
+    std::uint32_t every = 1;
+    std::optional<Duration> duration;
+  };
+  bool inject(std::uint8_t address, const Fault& fault, Time now);
+  // Every telegram that starts on the line from now for `duration` is garbled.
+  void noise(Duration duration, Time now);
+  // The station's active fault: kind, remaining count (0 with a duration), every, remaining time.
+  struct FaultState {
+    fdl::StationFault kind = fdl::StationFault::None;
+    std::uint32_t remaining = 0, every = 1;
+    Duration remaining_time{0};
+  };
+  FaultState fault(std::uint8_t address, Time now) const;
+  Duration noise_remaining(Time now) const {
+    return now < noise_until_ ? noise_until_ - now : Duration(0);
+  }
+
  private:
   class Station;
   struct Job {
@@ -113,7 +141,17 @@ class TimedLine {
     fdl::Telegram telegram;
     std::uint32_t attempt = 0;
     std::optional<dp::Response> answer;
+    bool stored = false;  // the station answered it once: a repeat gets the same answer (FCB)
     std::vector<std::uint8_t> response;
+    std::uint64_t response_bits = 0;
+    bool deaf = false;     // the request was garbled on the wire: the station did not get it
+    bool illegal = false;  // the answer was garbled: the master cannot use it
+    std::vector<std::uint8_t> late;  // an answer that comes after the slot time
+  };
+  // A late answer: it starts on the line when the slot time has expired.
+  struct Late {
+    std::uint64_t bit = 0;
+    std::vector<std::uint8_t> bytes;
   };
 
   void enqueue(Job job, Time now);
@@ -125,6 +163,10 @@ class TimedLine {
   void on_response_end();
   void on_slot_expired();
   void on_unanswered_end();
+  void unanswered(OnLine o, std::uint64_t free_bit);
+  void flush_late();
+  bool noisy(std::uint64_t bit) const;
+  void answer(OnLine& o, std::optional<fdl::Telegram> answer, std::uint64_t end);
   void finish(dp::Response r);
   void emit(std::span<const std::uint8_t> bytes, bool from_master, std::uint64_t start,
             std::uint64_t end);
@@ -156,6 +198,9 @@ class TimedLine {
   std::uint8_t gap_next_ = 0;
   std::uint64_t retries_ = 0, gap_polls_ = 0;
   CycleTimes cycles_;
+  fdl::LineStatistics stats_;
+  std::optional<Late> late_;
+  Time noise_from_{0}, noise_until_{0};
 };
 
 }  // namespace candp2::plant

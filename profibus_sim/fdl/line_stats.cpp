@@ -7,8 +7,8 @@
 
 namespace candp2::fdl {
 
-const StationStatField* station_stat(std::string_view name) {
-  for (const auto& f : kStationStats)
+const StationCounterField* station_counter(std::string_view name) {
+  for (const auto& f : kStationCounters)
     if (f.name == name) return &f;
   return nullptr;
 }
@@ -41,7 +41,7 @@ Live LineStatistics::live(std::uint8_t address) const {
 std::vector<std::uint8_t> LineStatistics::stations() const {
   std::vector<std::uint8_t> out;
   for (std::size_t a = 0; a < kStations; ++a)
-    if (configured_[a] || heard_[a] || stats_[a] != StationStats{})
+    if (configured_[a] || heard_[a] || stats_[a] != StationCounters{})
       out.push_back(static_cast<std::uint8_t>(a));
   return out;
 }
@@ -72,7 +72,7 @@ void LineStatistics::on_request(std::span<const std::uint8_t> bytes, std::uint8_
   if (outstanding_ && !outstanding_->answered) {
     if (outstanding_->da == da && std::ranges::equal(outstanding_->bytes, bytes)) {
       // The same telegram again (same FCB): a repeat.
-      StationStats& s = stats_[da];
+      StationCounters& s = stats_[da];
       ++s.repeats;
       if (++cycle_repeats_[da] == 1) repeated_.push_back(da);
       s.repeats_max = std::max<std::uint64_t>(s.repeats_max, cycle_repeats_[da]);

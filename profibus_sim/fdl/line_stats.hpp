@@ -3,7 +3,7 @@
 // from the telegrams alone, as they are on the wire, so that the same code counts for the
 // in-process timed line (plant/timed_line.hpp), candp2d in profibus.role "master" and
 // `candp2 sniff --stats` on a foreign line. The names and meanings are defined here once
-// (kStationStats); every face iterates them. Pure: bytes and their time in, counters out.
+// (kStationCounters); every face iterates them. Pure: bytes and their time in, counters out.
 #pragma once
 
 #include <array>
@@ -18,7 +18,7 @@
 namespace candp2::fdl {
 
 // One station's counters. They start at 0 and only grow (a fault never resets them).
-struct StationStats {
+struct StationCounters {
   std::uint64_t lost = 0;         // dropped: a live station's request abandoned unanswered
   std::uint64_t syncs = 0;        // parameterizations started: Set_Prm requests (not repeats)
   std::uint64_t repeats = 0;      // requests repeated because no valid answer came
@@ -26,32 +26,32 @@ struct StationStats {
   std::uint64_t illegals = 0;     // telegrams that were not a valid answer to the master
   std::uint64_t diagnostics = 0;  // Slave_Diag requests answered
 
-  friend bool operator==(const StationStats&, const StationStats&) = default;
+  friend bool operator==(const StationCounters&, const StationCounters&) = default;
 };
 
 // The one table of the per-station counters (public names, docs/profibus.md "Line statistics"):
 // replay's expect_line, GET /api/v1/status, /metrics, the Modbus line block, the Python package
 // and `candp2 sniff --stats` all iterate it. `analyser` names the same figure in ProfiTrace /
 // PB-INspektor terms.
-struct StationStatField {
+struct StationCounterField {
   std::string_view name;
-  std::uint64_t StationStats::*member;
+  std::uint64_t StationCounters::*member;
   std::string_view meaning;
   bool counter = true;  // a Prometheus counter (false: a gauge, the highest value seen)
 };
-inline constexpr StationStatField kStationStats[] = {
-    {"lost", &StationStats::lost,
+inline constexpr StationCounterField kStationCounters[] = {
+    {"lost", &StationCounters::lost,
      "times the station dropped out: a request to it abandoned unanswered after the retries"},
-    {"syncs", &StationStats::syncs, "parameterizations started (Set_Prm requests, not repeats)"},
-    {"repeats", &StationStats::repeats, "requests repeated because no valid answer came"},
-    {"repeats_max", &StationStats::repeats_max, "the most repeats in one bus cycle", false},
-    {"illegals", &StationStats::illegals,
+    {"syncs", &StationCounters::syncs, "parameterizations started (Set_Prm requests, not repeats)"},
+    {"repeats", &StationCounters::repeats, "requests repeated because no valid answer came"},
+    {"repeats_max", &StationCounters::repeats_max, "the most repeats in one bus cycle", false},
+    {"illegals", &StationCounters::illegals,
      "illegal telegrams: wrong FCS, parity, delimiter or length where its answer was due, or "
      "an answer the master did not expect"},
-    {"diagnostics", &StationStats::diagnostics, "Slave_Diag requests answered"},
+    {"diagnostics", &StationCounters::diagnostics, "Slave_Diag requests answered"},
 };
-inline constexpr std::size_t kStationStatCount = std::size(kStationStats);
-const StationStatField* station_stat(std::string_view name);
+inline constexpr std::size_t kStationCounterCount = std::size(kStationCounters);
+const StationCounterField* station_counter(std::string_view name);
 
 // An address in the live list.
 enum class Live : std::uint8_t {
@@ -84,7 +84,9 @@ class LineStatistics {
   // A telegram the receiver dropped before its bytes were whole (a parity error, a gap).
   void observe_illegal(Time start);
 
-  const StationStats& station(std::uint8_t address) const { return stats_.at(address % kStations); }
+  const StationCounters& station(std::uint8_t address) const {
+    return stats_.at(address % kStations);
+  }
   Live live(std::uint8_t address) const;
   // Illegal telegrams no station could be blamed for (no answer was due).
   std::uint64_t illegals_unattributed() const { return unattributed_; }
@@ -108,7 +110,7 @@ class LineStatistics {
                   bool set_prm, bool diag, bool answer_expected);
   void on_token(std::uint8_t sa, Time start);
 
-  std::array<StationStats, kStations> stats_{};
+  std::array<StationCounters, kStations> stats_{};
   std::array<std::uint32_t, kStations> cycle_repeats_{};
   std::array<bool, kStations> configured_{};
   std::array<bool, kStations> live_{};
