@@ -133,6 +133,45 @@ void Plant::power_cycle(SlaveUnit& s, Time now, std::string_view origin) {
   restarted(s.config().address);
 }
 
+bool Plant::line_fault(std::uint8_t address, const TimedLine::Fault& fault, Time now,
+                       std::string_view origin) {
+  set_now(now);
+  const std::string name = station_name(address);
+  if (!timed_line_) {
+    log_.warn(name + ": line fault requested " + std::string(origin) +
+              " ignored: the line has no baud rate ($.master.baud, docs/profibus.md)");
+    return false;
+  }
+  if (!timed_line_->inject(address, fault, now_)) {
+    log_.warn("line fault requested " + std::string(origin) + " for station " +
+              std::to_string(address) + " ignored: no such station on the line");
+    return false;
+  }
+  std::string what = "line fault " + std::string(fdl::to_string(fault.kind));
+  if (fault.kind != fdl::StationFault::None) {
+    what += fault.duration ? " for " + std::to_string(fault.duration->count() / 1000) + " ms"
+                           : ", " + std::to_string(fault.count) + " answer(s)";
+    if (fault.every > 1) what += ", one in every " + std::to_string(fault.every);
+  }
+  log_.warn(name + ": " + what + " " + std::string(origin));
+  tap_note(name + ": " + what, now_);
+  return true;
+}
+
+bool Plant::line_noise(Duration duration, Time now, std::string_view origin) {
+  set_now(now);
+  if (!timed_line_) {
+    log_.warn("line noise requested " + std::string(origin) +
+              " ignored: the line has no baud rate ($.master.baud, docs/profibus.md)");
+    return false;
+  }
+  timed_line_->noise(duration, now_);
+  const std::string what = "line noise for " + std::to_string(duration.count() / 1000) + " ms";
+  log_.warn(what + " " + std::string(origin));
+  tap_note(what, now_);
+  return true;
+}
+
 void Plant::note(std::string_view text, Time now) {
   set_now(now);
   tap_note(std::string(text), now_);

@@ -392,4 +392,8 @@ std::map<std::uint8_t, StoredValues> Plant::stored() const {
   return out;
 }
 
+const fdl::LineStatistics* Plant::line_statistics() const {
+  return timed_line_ ? &timed_line_->statistics() : nullptr;
+}
+
 }  // namespace candp2::plant

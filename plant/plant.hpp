@@ -39,6 +39,7 @@
 #include "gsd_slave/gsd_slave.hpp"
 #include "plant/cycle_stats.hpp"
 #include "plant/tap.hpp"
+#include "plant/timed_line.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::plant {
@@ -233,6 +234,11 @@ class Plant {
   void power_cycle(SlaveUnit& s, Time now, std::string_view origin);
   // A note on the tap without any action (replay's "note" steps, the daemon's start and stop).
   void note(std::string_view text, Time now);
+  // Faults on cue on the line in time (docs/faults.md "Line faults"): a station's answers, or
+  // noise on the whole line. False (the reason logged) without a timed line or such a station.
+  bool line_fault(std::uint8_t address, const TimedLine::Fault& fault, Time now,
+                  std::string_view origin);
+  bool line_noise(Duration duration, Time now, std::string_view origin);
 
   // ---- inspection ---------------------------------------------------------------------------
   const config::DaemonConfig& config() const { return config_; }
@@ -265,6 +271,9 @@ class Plant {
   // the measured bus cycle; nullptr on the ideal line.
   TimedLine* timed_line() { return timed_line_.get(); }
   const TimedLine* timed_line() const { return timed_line_.get(); }
+  // What an analyser counts on the PROFIBUS line (docs/profibus.md "Line statistics"): the timed
+  // line's, or in role master the FDL master's; nullptr on an ideal line and in role slaves.
+  const fdl::LineStatistics* line_statistics() const;
   LogSink* log_sink() const { return log_sink_; }
 
  private:

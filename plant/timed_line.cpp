@@ -86,17 +86,12 @@ bool TimedLine::inject(std::uint8_t address, const Fault& fault, Time now) {
   s.until_ = fault.duration ? now + *fault.duration : Time{0};
   if (fault.kind != fdl::StationFault::None && !fault.duration && fault.count == 0)
     s.fault_.kind = fdl::StationFault::None;
-  if (log_.enabled(LogLevel::Info))
-    log_.info("station " + std::to_string(address) + ": line fault " +
-              std::string(fdl::to_string(s.fault_.kind)));
   return true;
 }
 
 void TimedLine::noise(Duration duration, Time now) {
   noise_from_ = now;
   noise_until_ = now + duration;
-  if (log_.enabled(LogLevel::Info))
-    log_.info("line noise for " + std::to_string(duration.count() / 1000) + " ms");
 }
 
 TimedLine::FaultState TimedLine::fault(std::uint8_t address, Time now) const {

@@ -136,6 +136,28 @@ std::string expect_field_text(const Step& st, std::string s) {
   return s + " +" + std::to_string(st.offset) + ": " + st.pattern.text() + within(st);
 }
 
+std::string line_fault_text(const Step& st, std::string s) {
+  s += ' ';  // not `" " + ...`: GCC 12 -O3 false -Wrestrict
+  s += st.fault_kind;
+  if (st.station) s += " station " + std::to_string(*st.station);
+  if (st.duration)
+    s += " for " + ms_text(*st.duration);
+  else
+    s += " count " + std::to_string(st.count);
+  if (st.every > 1) s += " every " + std::to_string(st.every);
+  return s;
+}
+std::string expect_line_text(const Step& st, std::string s) {
+  if (st.station) s += " station " + std::to_string(*st.station);
+  std::string c;
+  for (const auto& [name, value] : st.counters)
+    c += (c.empty() ? " " : ", ") + name + " " + std::to_string(value);
+  s += c;
+  if (!st.live.empty()) s += " live " + st.live;
+  if (st.bus_cycle_max_le) s += " bus cycle ≤ " + std::to_string(*st.bus_cycle_max_le) + " µs";
+  return s + within(st);
+}
+
 // ------------------------------------------------------------------------------- the table
 
 using namespace parse;
@@ -305,6 +327,16 @@ constexpr ActionSpec kTable[] = {
      field_write_text},
     {Action::ExpectField, "expect_field", K::ExpectPolled, T::Slave, kWithin, parse_field,
      &Sim::expect_field, expect_field_text},
+    {Action::LineFault,
+     "line_fault",
+     K::Act,
+     T::None,
+     {},
+     parse_line_fault,
+     &Sim::line_fault,
+     line_fault_text},
+    {Action::ExpectLine, "expect_line", K::ExpectPolled, T::None, kWithin, parse_expect_line,
+     &Sim::expect_line, expect_line_text},
 };
 
 // One row per action, in the enum's order, each with its key; an expectation names its window key.

@@ -4,6 +4,8 @@
 
 #include "common/hex.hpp"
 #include "config/json_reader.hpp"
+#include "profibus_sim/fdl/line_stats.hpp"
+#include "profibus_sim/fdl/wire_faults.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 #include "replay/parse_internal.hpp"
 #include "station/status.hpp"
@@ -253,6 +255,87 @@ void parse_field(Step& s, const StepInput& in) {
     s.bytes = as_hex(w.at("bytes"), w.path("bytes"), "01 02");
   else
     s.pattern = as_pattern(w.at("bytes"), w.path("bytes"));
+}
+
+namespace {
+
+// A station of the line: a configured gateway's or generic slave's DP address.
+std::uint8_t line_station(const Object& w, const StepInput& in) {
+  const auto a = static_cast<std::uint8_t>(
+      as_uint(w.at("station"), w.path("station"), 0, 126, "(a DP address)"));
+  const auto& inst = in.scenario.installation;
+  for (const auto& g : inst.gateways)
+    if (g.dp_address() == a) return a;
+  for (const auto& sl : inst.slaves)
+    if (sl.address == a) return a;
+  fail(w.path("station"),
+       "no gateway or slave of the configuration has DP address " + std::to_string(a));
+}
+
+void need_timed_line(const StepInput& in) {
+  if (!in.scenario.installation.line)
+    fail(in.path,
+         "needs a line in time: give the configuration a baud rate ($.master.baud, "
+         "docs/profibus.md \"The line in time\")");
+}
+
+}  // namespace
+
+// line_fault: {"station", "kind", "count", "every", "for_ms"} or {"kind": "noise", "for_ms"}
+// (docs/replay-format.md, docs/faults.md "Line faults").
+void parse_line_fault(Step& s, const StepInput& in) {
+  need_timed_line(in);
+  const Object w(in.value, in.path, {"station", "kind", "count", "every", "for_ms"});
+  s.fault_kind = as_string(w.at("kind"), w.path("kind"), "a fault kind");
+  if (w.has("for_ms")) s.duration = as_ms(w.at("for_ms"), w.path("for_ms"));
+  if (s.fault_kind == "noise") {
+    for (const char* k : {"station", "count", "every"})
+      if (w.has(k)) fail(w.path(k), "noise is on the whole line: give only \"for_ms\"");
+    if (!s.duration) fail(in.path, "noise needs \"for_ms\"");
+    return;
+  }
+  if (!fdl::station_fault(s.fault_kind))
+    fail(w.path("kind"), "expected corrupt, silent, late, double_address, none or noise, got \"" +
+                             s.fault_kind + "\"");
+  s.station = line_station(w, in);
+  if (w.has("count") && s.duration) fail(w.path("count"), "give \"count\" or \"for_ms\", not both");
+  s.count = get_uint<std::uint32_t>(w, "count", 1, 1, 65535, "answers");
+  s.every = get_uint<std::uint32_t>(w, "every", 1, 1, 65535, "requests");
+}
+
+// expect_line: {"station", the counters of fdl::kStationCounters, "live", "bus_cycle_us":
+// {"max_le"}} (docs/replay-format.md).
+void parse_expect_line(Step& s, const StepInput& in) {
+  need_timed_line(in);
+  std::vector<std::string> keys = {"station", "live", "bus_cycle_us"};
+  for (const auto& f : fdl::kStationCounters) keys.emplace_back(f.name);
+  const Object w(in.value, in.path, keys);
+  if (w.has("station")) s.station = line_station(w, in);
+  for (const auto& f : fdl::kStationCounters) {
+    const std::string n(f.name);
+    if (!w.has(n)) continue;
+    if (!s.station) fail(w.path(n), "a station's counter needs \"station\"");
+    s.counters.emplace_back(
+        n, static_cast<std::uint32_t>(as_uint(w.at(n), w.path(n), 0, 0xFFFFFFFFull)));
+  }
+  if (w.has("live")) {
+    if (!s.station) fail(w.path("live"), "the live state needs \"station\"");
+    s.live = as_string(w.at("live"), w.path("live"), "ok, missing, phantom or none");
+    if (s.live != "ok" && s.live != "missing" && s.live != "phantom" && s.live != "none")
+      fail(w.path("live"), "expected ok, missing, phantom or none, got \"" + s.live + "\"");
+  }
+  if (w.has("bus_cycle_us")) {
+    const Object c(w.at("bus_cycle_us"), w.path("bus_cycle_us"), {"max_le"});
+    s.bus_cycle_max_le = as_uint(c.at("max_le"), c.path("max_le"), 0, 0xFFFFFFFFull, "µs");
+  }
+  if (s.counters.empty() && s.live.empty() && !s.bus_cycle_max_le)
+    fail(
+        in.path, "give a station's counters (" + [] {
+          std::string t;
+          for (const auto& f : fdl::kStationCounters)
+            t += (t.empty() ? "" : ", ") + std::string(f.name);
+          return t;
+        }() + "), \"live\" or \"bus_cycle_us\"");
 }
 
 namespace {

@@ -90,7 +90,10 @@ enum class Action : std::uint8_t {
   SlaveCfgFault,  // slave_cfg_fault: every Chk_Cfg refused while true
   FieldWrite,     // field_write: input bytes the slave reports, from an offset
   ExpectField,    // expect_field: output bytes the slave applies, from an offset
-  Count,          // not an action: the number of actions (the action table's size)
+  // The line in time (docs/faults.md "Line faults", docs/profibus.md "Line statistics").
+  LineFault,   // line_fault: a station's answers corrupt/silent/late/double_address, or noise
+  ExpectLine,  // expect_line: a station's line counters and live state, the bus cycle
+  Count,       // not an action: the number of actions (the action table's size)
 };
 std::string_view to_string(Action a);
 
@@ -124,6 +127,14 @@ struct Step {
   std::uint16_t bits = 0;       // drive_error_bits / drive_warning_bits
   // expect_counters: name → value, names as the Modbus status block (docs/modbus.md).
   std::vector<std::pair<std::string, std::uint32_t>> counters;
+  // line_fault / expect_line (docs/replay-format.md): the station's DP address (none: noise, or
+  // only the bus cycle), the fault, how often and how long, the bus cycle's bound in µs.
+  std::optional<std::uint8_t> station;
+  std::string fault_kind;  // a fdl::StationFault name or "noise"
+  std::uint32_t every = 1;
+  std::optional<Duration> duration;
+  std::string live;  // expect_line: "ok", "missing", "phantom", "none"; empty: not checked
+  std::optional<std::uint64_t> bus_cycle_max_le;
   // The gateway the step concerns (index into Scenario::installation.gateways) and, for inject,
   // the bus the frames enter (index into installation.buses).
   std::size_t gateway = 0;

@@ -74,6 +74,8 @@ class Sim final : private plant::Tap {
   void slave_fault(const Step& s, StepResult& r);  // slave_prm_fault, slave_cfg_fault
   void field_write(const Step& s, StepResult& r);
   void expect_field(const Step& s, StepResult& r);
+  void line_fault(const Step& s, StepResult& r);
+  void expect_line(const Step& s, StepResult& r);
 
  private:
   void on_can(const plant::CanRecord& r) override;

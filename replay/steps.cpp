@@ -391,4 +391,59 @@ void Sim::drive_fault(const Step& s, StepResult&) {
   drain_testers();
 }
 
+// ---------------------------------------------------------- the line in time (docs/faults.md)
+
+void Sim::line_fault(const Step& s, StepResult& r) {
+  bool ok = false;
+  if (s.fault_kind == "noise") {
+    ok = plant_->line_noise(*s.duration, now_, kOrigin);
+  } else {
+    plant::TimedLine::Fault f;
+    f.kind = *fdl::station_fault(s.fault_kind);
+    f.count = s.count;
+    f.every = s.every;
+    f.duration = s.duration;
+    ok = plant_->line_fault(*s.station, f, now_, kOrigin);
+  }
+  if (!ok) {
+    r.passed = false;
+    r.detail = "the plant refused the line fault (see the log)";
+  }
+}
+
+// The station's counters as an analyser on the line counts them (docs/profibus.md "Line
+// statistics"), its live state and the measured bus cycle.
+void Sim::expect_line(const Step& s, StepResult& r) {
+  const fdl::LineStatistics* stats = plant_->line_statistics();
+  const plant::TimedLine* line = plant_->timed_line();
+  r.passed = poll(
+      s,
+      [&](std::string& d) {
+        d.clear();
+        bool all = true;
+        auto add = [&](const std::string& text, bool ok) {
+          d += (d.empty() ? "" : ", ") + text;
+          all = all && ok;
+        };
+        if (s.station) {
+          const fdl::StationCounters& c = stats->station(*s.station);
+          for (const auto& [name, want] : s.counters) {
+            const std::uint64_t got = c.*(fdl::station_counter(name)->member);
+            add(name + " " + std::to_string(got), got == want);
+          }
+          if (!s.live.empty()) {
+            const std::string live(fdl::to_string(stats->live(*s.station)));
+            add("live " + live, live == s.live);
+          }
+        }
+        if (s.bus_cycle_max_le) {
+          const auto max = static_cast<std::uint64_t>(line->bus_cycle().max.count());
+          add("bus cycle max " + std::to_string(max) + " µs", max <= *s.bus_cycle_max_le);
+        }
+        return all;
+      },
+      r.detail);
+  if (!r.passed) r.detail = "got " + r.detail;
+}
+
 }  // namespace candp2::replay

@@ -59,16 +59,22 @@ void LineStatistics::observe_illegal(Time start) {
   illegal(start);
 }
 
-void LineStatistics::close_unanswered(const Outstanding& o) {
-  // The master gave up on a request without a valid answer: a live station is lost.
-  if (live_[o.da]) {
-    live_[o.da] = false;
-    ++stats_[o.da].lost;
+void LineStatistics::drop_out(std::uint8_t da) {
+  // docs/profibus.md "Line statistics": lost counts a station leaving data exchange.
+  if (exchanging_[da]) {
+    exchanging_[da] = false;
+    ++stats_[da].lost;
   }
 }
 
+void LineStatistics::close_unanswered(const Outstanding& o) {
+  // The master gave up on a request without a valid answer.
+  live_[o.da] = false;
+  drop_out(o.da);
+}
+
 void LineStatistics::on_request(std::span<const std::uint8_t> bytes, std::uint8_t da,
-                                bool dp_service, bool set_prm, bool diag, bool answer_expected) {
+                                RequestKind k) {
   if (outstanding_ && !outstanding_->answered) {
     if (outstanding_->da == da && std::ranges::equal(outstanding_->bytes, bytes)) {
       // The same telegram again (same FCB): a repeat.
@@ -81,10 +87,14 @@ void LineStatistics::on_request(std::span<const std::uint8_t> bytes, std::uint8_
     close_unanswered(*outstanding_);
   }
   outstanding_.reset();
-  if (dp_service && !told_) configured_[da] = true;
-  if (set_prm) ++stats_[da].syncs;
-  if (!answer_expected) return;
-  outstanding_ = Outstanding{da, std::vector<std::uint8_t>(bytes.begin(), bytes.end()), diag};
+  if (k.dp_service && !told_) configured_[da] = true;
+  if (k.set_prm) {
+    ++stats_[da].syncs;
+    drop_out(da);  // parameterized again while in data exchange: it had dropped out
+  }
+  if (!k.answer_expected) return;
+  outstanding_ = Outstanding{da, std::vector<std::uint8_t>(bytes.begin(), bytes.end()), k.diag,
+                             k.data_exchange};
 }
 
 void LineStatistics::on_token(std::uint8_t sa, Time start) {
@@ -117,6 +127,7 @@ void LineStatistics::observe(std::span<const std::uint8_t> bytes, Time start) {
     if (outstanding_ && !outstanding_->answered) {
       outstanding_->answered = true;
       live_[outstanding_->da] = heard_[outstanding_->da] = true;
+      if (outstanding_->data_exchange) exchanging_[outstanding_->da] = true;
     } else {
       ++unattributed_;
     }
@@ -130,8 +141,12 @@ void LineStatistics::observe(std::span<const std::uint8_t> bytes, Time start) {
     // DP services: a DSAP of the DP range, or Data_Exchange (SRD to the default SAP).
     const bool dp = t.dsap ? (*t.dsap >= kSapMasterMaster && *t.dsap <= kSapChkCfg)
                            : (f == kFcSrdLow || f == kFcSrdHigh);
-    on_request(bytes, da, dp && t.da != kBroadcast, t.dsap == kSapSetPrm, t.dsap == kSapSlaveDiag,
-               answer_expected);
+    on_request(bytes, da,
+               {.dp_service = dp && t.da != kBroadcast,
+                .set_prm = t.dsap == kSapSetPrm,
+                .diag = t.dsap == kSapSlaveDiag,
+                .data_exchange = !t.dsap && (f == kFcSrdLow || f == kFcSrdHigh),
+                .answer_expected = answer_expected});
     return;
   }
   // A response: the answer that is due when it comes from the addressed station to the master.
@@ -139,6 +154,7 @@ void LineStatistics::observe(std::span<const std::uint8_t> bytes, Time start) {
     outstanding_->answered = true;
     live_[sa] = heard_[sa] = true;
     if (outstanding_->diag) ++stats_[sa].diagnostics;
+    if (outstanding_->data_exchange) exchanging_[sa] = true;
     return;
   }
   ++stats_[sa].illegals;  // an answer the master did not expect

@@ -19,7 +19,7 @@ namespace candp2::fdl {
 
 // One station's counters. They start at 0 and only grow (a fault never resets them).
 struct StationCounters {
-  std::uint64_t lost = 0;         // dropped: a live station's request abandoned unanswered
+  std::uint64_t lost = 0;         // dropped out of data exchange (ProfiTrace "Lost")
   std::uint64_t syncs = 0;        // parameterizations started: Set_Prm requests (not repeats)
   std::uint64_t repeats = 0;      // requests repeated because no valid answer came
   std::uint64_t repeats_max = 0;  // the most repeats in one token rotation
@@ -41,7 +41,8 @@ struct StationCounterField {
 };
 inline constexpr StationCounterField kStationCounters[] = {
     {"lost", &StationCounters::lost,
-     "times the station dropped out: a request to it abandoned unanswered after the retries"},
+     "times the station dropped out of data exchange: a Data_Exchange abandoned without a valid "
+     "answer after the repeats, or the master parameterizing it again"},
     {"syncs", &StationCounters::syncs, "parameterizations started (Set_Prm requests, not repeats)"},
     {"repeats", &StationCounters::repeats, "requests repeated because no valid answer came"},
     {"repeats_max", &StationCounters::repeats_max, "the most repeats in one bus cycle", false},
@@ -101,19 +102,25 @@ class LineStatistics {
   struct Outstanding {
     std::uint8_t da = 0;
     std::vector<std::uint8_t> bytes;
-    bool diag = false;      // a Slave_Diag request
-    bool answered = false;  // a valid answer came
+    bool diag = false;           // a Slave_Diag request
+    bool data_exchange = false;  // a Data_Exchange request (SRD to the default SAP)
+    bool answered = false;       // a valid answer came
   };
   void illegal(Time start);
   void close_unanswered(const Outstanding& o);
-  void on_request(std::span<const std::uint8_t> bytes, std::uint8_t da, bool dp_service,
-                  bool set_prm, bool diag, bool answer_expected);
+  struct RequestKind {
+    bool dp_service = false, set_prm = false, diag = false, data_exchange = false;
+    bool answer_expected = true;
+  };
+  void on_request(std::span<const std::uint8_t> bytes, std::uint8_t da, RequestKind k);
+  void drop_out(std::uint8_t da);
   void on_token(std::uint8_t sa, Time start);
 
   std::array<StationCounters, kStations> stats_{};
   std::array<std::uint32_t, kStations> cycle_repeats_{};
   std::array<bool, kStations> configured_{};
   std::array<bool, kStations> live_{};
+  std::array<bool, kStations> exchanging_{};  // its last Data_Exchange was answered
   std::array<bool, kStations> heard_{};
   bool told_ = false;  // configure() was called: no learning
   std::optional<Outstanding> outstanding_;
