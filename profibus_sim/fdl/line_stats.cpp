@@ -141,10 +141,11 @@ void LineStatistics::observe(std::span<const std::uint8_t> bytes, Time start) {
     // DP services: a DSAP of the DP range, or Data_Exchange (SRD to the default SAP).
     const bool dp = t.dsap ? (*t.dsap >= kSapMasterMaster && *t.dsap <= kSapChkCfg)
                            : (f == kFcSrdLow || f == kFcSrdHigh);
+    const bool one = t.da != kBroadcast;  // a broadcast is nobody's request (no station 0)
     on_request(bytes, da,
-               {.dp_service = dp && t.da != kBroadcast,
-                .set_prm = t.dsap == kSapSetPrm,
-                .diag = t.dsap == kSapSlaveDiag,
+               {.dp_service = dp && one,
+                .set_prm = one && t.dsap == kSapSetPrm,
+                .diag = one && t.dsap == kSapSlaveDiag,
                 .data_exchange = !t.dsap && (f == kFcSrdLow || f == kFcSrdHigh),
                 .answer_expected = answer_expected});
     return;

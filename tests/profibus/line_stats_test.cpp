@@ -57,7 +57,7 @@ struct Line {
   }
 };
 
-StationStats counters(std::uint64_t lost, std::uint64_t syncs, std::uint64_t repeats,
+StationCounters counters(std::uint64_t lost, std::uint64_t syncs, std::uint64_t repeats,
                       std::uint64_t repeats_max, std::uint64_t illegals,
                       std::uint64_t diagnostics) {
   return {lost, syncs, repeats, repeats_max, illegals, diagnostics};
@@ -65,16 +65,16 @@ StationStats counters(std::uint64_t lost, std::uint64_t syncs, std::uint64_t rep
 
 TEST(LineStatistics, TheTableNamesEveryCounterOnce) {
   std::set<std::string_view> names;
-  StationStats s;
+  StationCounters s;
   std::uint64_t v = 1;
-  for (const auto& f : kStationStats) {
+  for (const auto& f : kStationCounters) {
     EXPECT_TRUE(names.insert(f.name).second) << f.name;
-    EXPECT_EQ(station_stat(f.name), &f);
+    EXPECT_EQ(station_counter(f.name), &f);
     s.*f.member = v++;
   }
-  EXPECT_EQ(kStationStatCount, 6u);
+  EXPECT_EQ(kStationCounterCount, 6u);
   EXPECT_EQ(s, counters(1, 2, 3, 4, 5, 6)) << "table order = struct order";
-  EXPECT_EQ(station_stat("nonsense"), nullptr);
+  EXPECT_EQ(station_counter("nonsense"), nullptr);
 }
 
 TEST(LineStatistics, AParameterizationAndDataExchangeCountSyncsAndDiagnostics) {
@@ -125,11 +125,15 @@ TEST(LineStatistics, ARepeatAfterAnUnansweredRequest) {
   EXPECT_EQ(l.stats.station(3).repeats, 1u);
 }
 
-TEST(LineStatistics, LostOnlyForALiveStationANeverAnsweringOneIsMissing) {
+// docs/profibus.md "Line statistics": lost counts a drop out of data exchange.
+TEST(LineStatistics, LostOnlyForAStationInDataExchangeANeverAnsweringOneIsMissing) {
   Line l;
   FcbSequence seq;
   Bytes r = request(dp::Service::SlaveDiag, 3, seq);
   l.exchange(r, answer(r, dp::Service::SlaveDiag, kDiag));  // 3 is live
+  seq.advance();
+  r = request(dp::Service::DataExchange, 3, seq, {0x01});
+  l.exchange(r, answer(r, dp::Service::DataExchange, {0x02}));  // and in data exchange
   seq.advance();
   r = request(dp::Service::DataExchange, 3, seq, {0x01});
   l.put(r);
@@ -146,6 +150,12 @@ TEST(LineStatistics, LostOnlyForALiveStationANeverAnsweringOneIsMissing) {
   // 3 again unanswered after it was lost: no second loss.
   l.put(r);
   l.put(token());
+  // 7 answers its Slave_Diag but never reaches data exchange: unanswered later, it is not lost.
+  const Bytes r7 = request(dp::Service::SlaveDiag, 7);
+  l.exchange(r7, answer(r7, dp::Service::SlaveDiag, kDiag));
+  l.put(r7);
+  l.put(token());
+  EXPECT_EQ(l.stats.station(7).lost, 0u);
 
   EXPECT_EQ(l.stats.station(3), counters(1, 0, 2, 2, 0, 1));
   EXPECT_EQ(l.stats.live(3), Live::Missing);
@@ -158,6 +168,19 @@ TEST(LineStatistics, LostOnlyForALiveStationANeverAnsweringOneIsMissing) {
   EXPECT_EQ(l.stats.live(3), Live::Ok);
   EXPECT_EQ(l.stats.station(3).lost, 1u);
   EXPECT_EQ(l.stats.station(3).diagnostics, 2u);
+}
+
+// A new Set_Prm to a station in data exchange: it had dropped out (the master starts again).
+TEST(LineStatistics, SetPrmToAStationInDataExchangeCountsItLost) {
+  Line l;
+  FcbSequence seq;
+  Bytes r = request(dp::Service::DataExchange, 3, seq, {0x01});
+  l.exchange(r, answer(r, dp::Service::DataExchange, {0x02}));
+  const Bytes p = request(dp::Service::SetPrm, 3, {}, kPrm);
+  l.exchange(p, answer(p, dp::Service::SetPrm));
+  l.exchange(p, answer(p, dp::Service::SetPrm));  // not in data exchange since: no second loss
+  EXPECT_EQ(l.stats.station(3).lost, 1u);
+  EXPECT_EQ(l.stats.station(3).syncs, 2u);
 }
 
 TEST(LineStatistics, SyncsCountSetPrmRequestsNotTheirRepeats) {

@@ -111,9 +111,9 @@ std::vector<Timed> scenario() {
 }
 constexpr std::uint64_t kValidTelegrams = 31 - 4;  // all but the 4 damaged
 
-nlohmann::json station(int address, const char* live, fdl::StationStats s) {
+nlohmann::json station(int address, const char* live, fdl::StationCounters s) {
   nlohmann::json j = {{"address", address}, {"live", live}};
-  for (const auto& f : fdl::kStationStats) j[std::string(f.name)] = s.*f.member;
+  for (const auto& f : fdl::kStationCounters) j[std::string(f.name)] = s.*f.member;
   return j;
 }
 
@@ -277,7 +277,7 @@ TEST(SniffStats, ARawCaptureHasNoTimes) {
   std::istringstream words(first);
   std::vector<std::string> got, want = {"station", "live"};
   for (std::string w; words >> w;) got.push_back(w);
-  for (const auto& f : fdl::kStationStats) want.emplace_back(f.name);
+  for (const auto& f : fdl::kStationCounters) want.emplace_back(f.name);
   EXPECT_EQ(got, want);
   std::istringstream r3(row3);
   got.clear();

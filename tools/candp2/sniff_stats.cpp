@@ -19,12 +19,12 @@ std::string pad(std::string_view text, std::size_t width) {
 std::string stats_table(const fdl::LineStatistics& s, bool times) {
   constexpr std::size_t kMinWidth = 7;
   std::string out = pad("station", kMinWidth) + pad("live", kMinWidth + 2);
-  for (const auto& f : fdl::kStationStats)
+  for (const auto& f : fdl::kStationCounters)
     out += pad(f.name, std::max(kMinWidth, f.name.size()) + 2);
   out += "\n";
   for (const std::uint8_t a : s.stations()) {
     out += pad(std::to_string(a), kMinWidth) + pad(fdl::to_string(s.live(a)), kMinWidth + 2);
-    for (const auto& f : fdl::kStationStats)
+    for (const auto& f : fdl::kStationCounters)
       out += pad(std::to_string(s.station(a).*f.member), std::max(kMinWidth, f.name.size()) + 2);
     out += "\n";
   }
@@ -54,7 +54,7 @@ std::string stats_json(const fdl::LineStatistics& s, bool times) {
   for (const std::uint8_t a : s.stations()) {
     const fdl::Live l = s.live(a);
     nlohmann::ordered_json st = {{"address", a}, {"live", fdl::to_string(l)}};
-    for (const auto& f : fdl::kStationStats) st[std::string(f.name)] = s.station(a).*f.member;
+    for (const auto& f : fdl::kStationCounters) st[std::string(f.name)] = s.station(a).*f.member;
     stations.push_back(std::move(st));
     if (l != fdl::Live::None) live[std::string(fdl::to_string(l))].push_back(a);
   }
