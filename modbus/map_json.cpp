@@ -161,6 +161,46 @@ json diagnosis_bytes_json() {
            "and 2i+1 (low) in register first + i"}};
 }
 
+// docs/modbus.md "Line block": the analyser's counters (fdl::kStationCounters), the live state,
+// the bus cycle, and the line fault registers; null without line statistics.
+json line_json(const config::DaemonConfig& config) {
+  if (!has_line_block(config)) return nullptr;
+  json fields = json::array();
+  std::uint16_t at = line::kCounters;
+  for (const auto& f : fdl::kStationCounters) {
+    fields.push_back(
+        {{"name", f.name}, {"register", kLineBase + at}, {"registers", 2}, {"meaning", f.meaning}});
+    at = static_cast<std::uint16_t>(at + 2);
+  }
+  json live = json::array();
+  for (auto l : {fdl::Live::None, fdl::Live::Ok, fdl::Live::Missing, fdl::Live::Phantom})
+    live.push_back(fdl::to_string(l));
+  json cycle = json::array();
+  std::uint16_t c = line::kBusCycle;
+  for (const char* n : {"bus_cycle_last_us", "bus_cycle_min_us", "bus_cycle_mean_us",
+                        "bus_cycle_max_us", "bus_cycles"}) {
+    cycle.push_back({{"name", n}, {"register", kLineBase + c}, {"registers", 2}});
+    c = static_cast<std::uint16_t>(c + 2);
+  }
+  json kinds = json::array();
+  for (const auto k : fdl::kStationFaultNames) kinds.push_back(k);
+  return {{"table", table_name(Table::InputRegisters)},
+          {"unit", "the station's DP address"},
+          {"first", kLineBase},
+          {"count", line::kCount},
+          {"counters", std::move(fields)},
+          {"live", {{"register", kLineBase + line::kLive}, {"values", std::move(live)}}},
+          {"bus_cycle", std::move(cycle)},
+          {"faults",
+           {{"table", table_name(Table::HoldingRegisters)},
+            {"kind", kLineBase + line::kFaultKind},
+            {"count", kLineBase + line::kFaultCount},
+            {"every", kLineBase + line::kFaultEvery},
+            {"for_ms", kLineBase + line::kFaultForMs},
+            {"noise_for_ms", kLineBase + line::kNoiseForMs},
+            {"kinds", std::move(kinds)}}}};
+}
+
 json exceptions_json() {
   json out = json::array();
   for (auto e :
@@ -332,7 +372,7 @@ json drives_json(const config::DaemonConfig& config) {
 }  // namespace
 
 nlohmann::ordered_json map_json(const config::DaemonConfig& config) {
-  return {
+  nlohmann::ordered_json j = {
       {"format", kFormat},
       {"version", kVersion},
       {"listen", config.modbus_listen.to_string()},
@@ -353,6 +393,8 @@ nlohmann::ordered_json map_json(const config::DaemonConfig& config) {
       {"slaves", slaves_json(config)},
       {"drives", drives_json(config)},
   };
+  if (has_line_block(config)) j["line"] = line_json(config);  // an ideal line's map as before
+  return j;
 }
 
 std::string map_json_text(const config::DaemonConfig& config) {

@@ -80,6 +80,24 @@ std::string map_text(const config::DaemonConfig& config) {
   out << "  " << kDiagnosisBase << ".." << kDiagnosisBase + kDiagnosisRegisters - 1
       << "  the whole Slave_Diag answer: " << kDiagnosisBase << " its length, then 2 bytes a "
       << "register, high first (docs/modbus.md \"Whole diagnosis\")\n";
+  if (has_line_block(config)) {  // docs/modbus.md "Line block"
+    out << "\nLine block (unit ID = DP address; docs/modbus.md \"Line block\"), input registers:\n";
+    std::uint16_t at = line::kCounters;
+    for (const auto& f : fdl::kStationCounters) {
+      std::snprintf(line, sizeof line, "  %u..%u  ", kLineBase + at, kLineBase + at + 1);
+      out << line << f.name << ": " << f.meaning << "\n";
+      at = static_cast<std::uint16_t>(at + 2);
+    }
+    out << "  " << kLineBase + line::kLive << "        live: 0 none, 1 ok, 2 missing, 3 phantom\n"
+        << "  " << kLineBase + line::kBusCycle << ".." << kLineBase + line::kCount - 1
+        << "  the bus cycle, µs: last, min, mean, max, then the rotations measured (32 bit each)\n"
+        << "Line faults (docs/faults.md \"Line faults\"), holding registers: "
+        << kLineBase + line::kFaultKind
+        << " kind (0 none, 1 corrupt, 2 silent, 3 late, 4 double_address; applied when written), "
+        << kLineBase + line::kFaultCount << " count, " << kLineBase + line::kFaultEvery
+        << " every, " << kLineBase + line::kFaultForMs << " for_ms, "
+        << kLineBase + line::kNoiseForMs << " noise on the line for_ms\n";
+  }
   out << "\nControl (holding register " << kControlRegister
       << ", unit ID = DP address): write 1 = power cycle, 2 = re-parameterize, 3 = the master "
          "stops addressing the gateway, 4 = it resumes; reads the last command\n";

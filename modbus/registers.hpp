@@ -12,8 +12,10 @@
 #include <string>
 #include <string_view>
 
+#include "config/config.hpp"
 #include "gateway/gateway.hpp"
 #include "profibus_sim/fdl/line_stats.hpp"
+#include "profibus_sim/fdl/wire_faults.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 #include "station/status.hpp"
 
@@ -144,6 +146,10 @@ inline constexpr std::uint16_t kNoiseForMs = 4;
 inline constexpr std::uint16_t kFaultRegisters = 5;
 }  // namespace line
 using LineBlock = std::array<std::uint16_t, line::kCount>;
+// Whether a configuration's stations have the line block: a line in time or profibus role master.
+inline bool has_line_block(const config::DaemonConfig& c) {
+  return c.line.has_value() || c.remote_gateways();
+}
 
 // LED codes in the status block (manual §3.3, table 3.3.1): station/status.hpp.
 namespace led = station::led;
