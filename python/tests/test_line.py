@@ -27,6 +27,7 @@ def test_the_measured_bus_cycle_is_seen_from_outside(candp2d: Factory) -> None:
     line = daemon.line
     assert line is not None and line.baud == 187500
     c = line.bus_cycle_us
+    assert c is not None
     # A rotation carries at least one Data_Exchange: SD2 request and answer at 187.5 kbit/s
     # take well over 1 ms of line time; the figures are ordered.
     assert 1000 < c.min <= c.mean <= c.max and c.min <= c.last <= c.max and c.cycles > 0
