@@ -73,6 +73,8 @@ def test_front_panel(candp2_binary, tmp_path):
         browser.wait_for("the overview's two tiles, gw5 faulty",
                          "document.querySelectorAll('#tiles .tile').length === 2 && "
                          "document.getElementById('tile-5').classList.contains('faulty')")
+        # An ideal line: no line view (it polled the status once and found no "line").
+        assert browser.evaluate("document.getElementById('line').hidden") is True
         browser.evaluate("document.getElementById('tile-3').click()")
         browser.wait_for("gateway 3's panel", "!!document.getElementById('gw-3')")
         assert browser.evaluate("location.hash") == "#gw=3"
