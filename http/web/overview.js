@@ -216,9 +216,11 @@ function lineView() {
   v.info = el('span', { class: 'hw' });
   v.tiles = el('div', { class: 'tiles ltiles' });
   v.canvas = el('canvas');
-  v.plot = el('div', { class: 'card lplot' }, el('h3', { text: 'Bus cycle (µs), last two minutes' }),
+  // (The unit in the legend: the headings' capitals would make µs "ΜS".)
+  v.plot = el('div', { class: 'card lplot' }, el('h3', { text: 'Bus cycle, last two minutes' }),
     v.canvas, el('div', { class: 'legend' },
-      ...LINE_SERIES.map(([k, color]) => el('span', { style: 'color:' + color, text: '— ' + k + ' ' }))));
+      ...LINE_SERIES.map(([k, color]) => el('span', { style: 'color:' + color, text: '— ' + k + ' ' })),
+      'µs, a point a second'));
   v.root = document.getElementById('line');
   v.root.append(el('div', { class: 'card' }, el('div', { class: 'lhead' },
     el('h2', { text: 'PROFIBUS line' }), v.info), v.tiles), v.plot);
