@@ -63,11 +63,7 @@ def test_line_view(candp2_binary, tmp_path):
                                      ".map(d => d.textContent)" % UNIT)
             assert shown == names, (shown, names)
         path = os.path.join(output_dir, "front-panel-line.png")
-        height = int(browser.evaluate("document.documentElement.scrollHeight"))
-        browser.call("Emulation.setDeviceMetricsOverride", width=1400, height=min(height, 8000),
-                     deviceScaleFactor=1, mobile=False)
-        browser.evaluate("new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
-        browser.screenshot(path)
+        browser.screenshot_page(path)
         assert os.path.getsize(path) > 10000, os.path.getsize(path)
         print("screenshot: " + path)
     finally:
