@@ -247,6 +247,30 @@ void MetricsBuild::tail() {
     family("candp2_line_retries_total", "counter", "requests the master repeated on the line");
     one("candp2_line_retries_total", "", src.line->retries());
   }
+  if (src.line_stats) {  // docs/profibus.md "Line statistics": one family a counter of the table
+    const fdl::LineStatistics& st = *src.line_stats;
+    const auto stations = st.stations();
+    std::string labels;
+    for (const auto& f : fdl::kStationCounters) {
+      const std::string name =
+          "candp2_line_" + std::string(f.name) + (f.counter ? "_total" : std::string());
+      family(name, f.counter ? "counter" : "gauge", f.meaning);
+      for (const std::uint8_t a : stations) {
+        labels = "station=\"" + std::to_string(a) + "\"";
+        one(name, labels, st.station(a).*f.member);
+      }
+    }
+    family("candp2_line_station_live", "gauge",
+           "the live list: 0 none, 1 ok (configured, answering), 2 missing (configured, not "
+           "answering), 3 phantom (answering, not configured)");
+    for (const std::uint8_t a : stations) {
+      labels = "station=\"" + std::to_string(a) + "\"";
+      one("candp2_line_station_live", labels, static_cast<std::uint64_t>(st.live(a)));
+    }
+    family("candp2_line_illegals_unattributed_total", "counter",
+           "illegal telegrams on the line no station could be blamed for (no answer was due)");
+    one("candp2_line_illegals_unattributed_total", "", st.illegals_unattributed());
+  }
   if (src.cycle) {
     const auto s = src.cycle->summary();
     family("candp2_master_cycles_total", "counter", "DP master cycles started");

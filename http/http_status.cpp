@@ -247,17 +247,45 @@ json StatusModel::cycle_json() const {
 }
 
 json StatusModel::line_json() const {
-  if (!src_.line) return nullptr;
-  const auto& c = src_.line->bus_cycle();
-  return {{"baud", src_.line->baud()},
-          {"bus_cycle_us",
-           {{"last", c.last.count()},
-            {"min", c.min.count()},
-            {"mean", c.mean().count()},
-            {"max", c.max.count()},
-            {"cycles", c.count}}},
-          {"retries", src_.line->retries()},
-          {"gap_polls", src_.line->gap_polls()}};
+  if (!src_.line && !src_.line_stats) return nullptr;
+  json j = {{"baud", src_.line_baud}};
+  if (src_.line) {
+    const auto& c = src_.line->bus_cycle();
+    j["bus_cycle_us"] = {{"last", c.last.count()},
+                         {"min", c.min.count()},
+                         {"mean", c.mean().count()},
+                         {"max", c.max.count()},
+                         {"cycles", c.count}};
+    j["retries"] = src_.line->retries();
+    j["gap_polls"] = src_.line->gap_polls();
+  }
+  if (!src_.line_stats) return j;
+  // docs/profibus.md "Line statistics": the analyser's counters (fdl::kStationCounters) per
+  // station, the live list and the faults on cue.
+  const fdl::LineStatistics& st = *src_.line_stats;
+  j["illegals_unattributed"] = st.illegals_unattributed();
+  json live = {{"ok", json::array()}, {"missing", json::array()}, {"phantom", json::array()}};
+  json stations = json::array();
+  for (const std::uint8_t a : st.stations()) {
+    const fdl::Live l = st.live(a);
+    if (l != fdl::Live::None) live[std::string(fdl::to_string(l))].push_back(a);
+    json s = {{"address", a}, {"live", fdl::to_string(l)}};
+    for (const auto& f : fdl::kStationCounters) s[std::string(f.name)] = st.station(a).*f.member;
+    s["fault"] = nullptr;
+    if (src_.line) {
+      if (const auto f = src_.line->fault(a); f.kind != fdl::StationFault::None)
+        s["fault"] = {{"kind", fdl::to_string(f.kind)},
+                      {"remaining", f.remaining},
+                      {"every", f.every},
+                      {"remaining_ms", f.remaining_time.count() / 1000}};
+    }
+    stations.push_back(std::move(s));
+  }
+  j["live_list"] = std::move(live);
+  j["stations"] = std::move(stations);
+  if (src_.line)
+    j["noise_remaining_ms"] = src_.line->noise_remaining(src_.line->now()).count() / 1000;
+  return j;
 }
 
 json StatusModel::modbus_json() const {
@@ -339,7 +367,7 @@ json StatusModel::status_head(Time now, bool parts) {
   j["version"] = 1;
   j["time_ms"] = static_cast<double>(now.count()) / 1000.0;
   j["cycle"] = cycle_json();
-  if (src_.line) j["line"] = line_json();
+  if (src_.line || src_.line_stats) j["line"] = line_json();
   if (src_.modbus) j["modbus"] = modbus_json();
   j["http"] = http_json();
   if (!parts) return j;

@@ -108,6 +108,10 @@ struct StatusSources {
   // The line in time (docs/profibus.md "The line in time"); null on an ideal line, which then
   // shows no "line" (and no candp2_line_* metrics) at all.
   const plant::TimedLine* line = nullptr;
+  // What an analyser counts on the line (docs/profibus.md "Line statistics"): the timed line's or
+  // in role master the FDL master's; null otherwise.
+  const fdl::LineStatistics* line_stats = nullptr;
+  std::uint32_t line_baud = 0;  // of the line the statistics are counted on
   const modbus::ModbusServer* modbus = nullptr;
   std::vector<GatewaySource> gateways;
   std::vector<SlaveSource> slaves;

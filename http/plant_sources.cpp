@@ -15,6 +15,8 @@ StatusSources make_sources(plant::Plant& plant, const modbus::PlantFaces& faces,
   src.cycle_ms = plant.config().cycle_ms;
   src.cycle = &plant.cycle_stats();
   src.line = plant.timed_line();
+  src.line_stats = plant.line_statistics();
+  if (src.line) src.line_baud = src.line->baud();
   src.modbus = modbus;
   for (const auto& g : plant.gateways())
     src.gateways.push_back({&g->config(), g.get(), faces.gateways.at(g->index()).get()});

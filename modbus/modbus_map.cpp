@@ -96,6 +96,18 @@ std::optional<DecodeFailure> ProcessImageMap::read_registers(Table t, GatewayFac
     }
     return std::nullopt;
   }
+  if (g.line() && t == Table::InputRegisters && within(address, count, kLineBase, line::kCount)) {
+    const LineBlock block = g.line()->block(g.dp_address(), now);
+    std::copy_n(block.begin() + (address - kLineBase), count, out.registers.begin());
+    return std::nullopt;
+  }
+  if (g.line() && t == Table::HoldingRegisters &&
+      within(address, count, kLineBase, line::kFaultRegisters)) {
+    for (std::uint32_t i = 0; i < count; ++i)
+      out.registers[i] = g.line()->fault_register(
+          g.dp_address(), static_cast<std::uint16_t>(address + i - kLineBase), now);
+    return std::nullopt;
+  }
   if (t == Table::HoldingRegisters && g.has_slave_faults() &&
       within(address, count, kSlaveFaultBase, kSlaveFaultRegisters)) {
     for (std::uint32_t i = 0; i < count; ++i)
@@ -238,7 +250,8 @@ std::optional<DecodeFailure> ProcessImageMap::write_registers(GatewayFace& g, co
   const bool image = within(wa, wc, 0, kImageRegisters);
   const bool control = within(wa, wc, kControlRegister, kControlRegisters);
   const bool slave = g.has_slave_faults() && within(wa, wc, kSlaveFaultBase, kSlaveFaultRegisters);
-  if (!image && !control && !slave) return address_error(Table::HoldingRegisters, wa, wc);
+  const bool line = g.line() && within(wa, wc, kLineBase, line::kFaultRegisters);
+  if (!image && !control && !slave && !line) return address_error(Table::HoldingRegisters, wa, wc);
   if (image && outputs_read_only_) return read_only_error();
   // FC 23: both ranges are checked before anything is written (all or nothing).
   if (r.function == Function::ReadWriteMultipleRegisters &&
@@ -253,15 +266,22 @@ std::optional<DecodeFailure> ProcessImageMap::write_registers(GatewayFace& g, co
       continue;
     }
     // MB spec §6.16: (current AND and_mask) OR (or_mask AND NOT and_mask).
-    const std::uint16_t current = image                        ? image_register(q, wa)
-                                  : slave                      ? g.slave_fault(wa - kSlaveFaultBase)
-                                  : wa == kControlRegister     ? last_control(g.dp_address())
-                                  : wa == kForcedStateRegister ? g.forced_bus_state()
-                                                               : g.drop_remaining();
+    const std::uint16_t current =
+        image                        ? image_register(q, wa)
+        : line                       ? g.line()->fault_register(g.dp_address(),
+                                                                static_cast<std::uint16_t>(wa - kLineBase), now)
+        : slave                      ? g.slave_fault(wa - kSlaveFaultBase)
+        : wa == kControlRegister     ? last_control(g.dp_address())
+        : wa == kForcedStateRegister ? g.forced_bus_state()
+                                     : g.drop_remaining();
     values[i] = static_cast<std::uint16_t>((current & r.and_mask) | (r.or_mask & ~r.and_mask));
   }
   if (control) {
     if (auto failure = write_control(g, wa, values, now)) return failure;
+  } else if (line) {
+    if (auto failure = g.line()->write_faults(
+            g.dp_address(), static_cast<std::uint16_t>(wa - kLineBase), values, now))
+      return failure;
   } else if (slave) {
     if (auto failure =
             g.write_slave_faults(static_cast<std::uint16_t>(wa - kSlaveFaultBase), values, now))

@@ -18,10 +18,27 @@
 
 namespace candp2::modbus {
 
+// The line block (docs/modbus.md "Line block") of every station, on a line whose statistics
+// the daemon counts.
+class LineAccess {
+ public:
+  virtual ~LineAccess() = default;
+  virtual LineBlock block(std::uint8_t address, Time now) const = 0;
+  virtual std::uint16_t fault_register(std::uint8_t address, std::uint16_t offset,
+                                       Time now) const = 0;
+  // Checked first, applied after (all or nothing); writing the kind applies the fault.
+  virtual std::optional<DecodeFailure> write_faults(std::uint8_t address, std::uint16_t offset,
+                                                    std::span<const std::uint16_t> values,
+                                                    Time now) = 0;
+};
+
 // One gateway as the map sees it.
 class GatewayFace {
  public:
   virtual ~GatewayFace() = default;
+  // Its line block; null: no line statistics (those addresses are outside the map).
+  LineAccess* line() const { return line_; }
+  void set_line(LineAccess* line) { line_ = line; }
   virtual std::uint8_t dp_address() const = 0;
   virtual StatusBlock status(Time now) = 0;
   virtual void control(Control command, Time now) = 0;
@@ -50,6 +67,9 @@ class GatewayFace {
                                                           Time /*now*/) {
     return DecodeFailure{Exception::IllegalDataAddress, "no fault registers"};
   }
+
+ private:
+  LineAccess* line_ = nullptr;
 };
 
 // A generic slave's field side on its own unit ID (docs/slaves.md "Field side"): holding registers

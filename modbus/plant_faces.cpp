@@ -198,6 +198,109 @@ std::optional<DecodeFailure> GenericSlaveFace::write_slave_faults(
   return std::nullopt;
 }
 
+// ------------------------------------------------------------------------------------ line
+
+LineBlock PlantLineAccess::block(std::uint8_t address, Time) const {
+  LineBlock b{};
+  auto put32 = [&b](std::uint16_t at, std::uint64_t v) {
+    const std::uint32_t x = station::sat32(v);
+    b[at] = static_cast<std::uint16_t>(x >> 16);
+    b[at + 1] = static_cast<std::uint16_t>(x & 0xFFFF);
+  };
+  const fdl::LineStatistics* st = plant_.line_statistics();
+  if (!st) return b;
+  std::uint16_t at = line::kCounters;
+  for (const auto& f : fdl::kStationCounters) {
+    put32(at, st->station(address).*f.member);
+    at = static_cast<std::uint16_t>(at + 2);
+  }
+  b[line::kLive] = static_cast<std::uint16_t>(st->live(address));
+  if (const plant::TimedLine* tl = plant_.timed_line()) {
+    const auto& c = tl->bus_cycle();
+    const std::uint64_t values[] = {static_cast<std::uint64_t>(c.last.count()),
+                                    static_cast<std::uint64_t>(c.min.count()),
+                                    static_cast<std::uint64_t>(c.mean().count()),
+                                    static_cast<std::uint64_t>(c.max.count()), c.count};
+    for (std::size_t i = 0; i < std::size(values); ++i)
+      put32(static_cast<std::uint16_t>(line::kBusCycle + 2 * i), values[i]);
+  }
+  return b;
+}
+
+std::uint16_t PlantLineAccess::fault_register(std::uint8_t address, std::uint16_t offset,
+                                              Time now) const {
+  const plant::TimedLine* tl = plant_.timed_line();
+  if (!tl) return 0;
+  const auto f = tl->fault(address, now);
+  switch (offset) {
+    case line::kFaultKind:
+      return static_cast<std::uint16_t>(f.kind);
+    case line::kFaultCount:
+      return static_cast<std::uint16_t>(station::sat16(f.remaining));
+    case line::kFaultEvery:
+      return static_cast<std::uint16_t>(f.kind == fdl::StationFault::None ? 0 : f.every);
+    case line::kFaultForMs:
+      return static_cast<std::uint16_t>(station::sat16(f.remaining_time.count() / 1000));
+    case line::kNoiseForMs:
+      return static_cast<std::uint16_t>(station::sat16(tl->noise_remaining(now).count() / 1000));
+    default:
+      return 0;
+  }
+}
+
+std::optional<DecodeFailure> PlantLineAccess::write_faults(std::uint8_t address,
+                                                           std::uint16_t offset,
+                                                           std::span<const std::uint16_t> values,
+                                                           Time now) {
+  if (!plant_.timed_line())
+    return DecodeFailure{Exception::ServerDeviceFailure,
+                         "line faults need the line in time ($.master.baud, docs/faults.md)"};
+  // Checked first, applied after: all or nothing (docs/modbus.md "Line block").
+  Pending p = pending_.at(address);
+  std::optional<std::uint16_t> kind, noise;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const std::uint16_t v = values[i];
+    switch (offset + i) {
+      case line::kFaultKind:
+        if (v >= fdl::kStationFaultNames.size())
+          return DecodeFailure{Exception::IllegalDataValue,
+                               "line fault kind " + std::to_string(v) +
+                                   " (0 none, 1 corrupt, 2 silent, 3 late, 4 double_address)"};
+        kind = v;
+        break;
+      case line::kFaultCount:
+        p.count = v;
+        break;
+      case line::kFaultEvery:
+        if (v == 0)
+          return DecodeFailure{Exception::IllegalDataValue,
+                               "line fault every: one answer in every 1..65535 requests, got 0"};
+        p.every = v;
+        break;
+      case line::kFaultForMs:
+        p.for_ms = v;
+        break;
+      default:
+        noise = v;
+        break;
+    }
+  }
+  if (kind && *kind != 0 && p.count == 0 && p.for_ms == 0)
+    return DecodeFailure{Exception::IllegalDataValue,
+                         "line fault: give a count (8401) or for_ms (8403) above 0"};
+  pending_.at(address) = p;
+  if (kind) {
+    plant::TimedLine::Fault f;
+    f.kind = static_cast<fdl::StationFault>(*kind);
+    f.count = p.count;
+    f.every = p.every;
+    if (p.for_ms) f.duration = milliseconds(p.for_ms);
+    plant_.line_fault(address, f, now, kOrigin);
+  }
+  if (noise) plant_.line_noise(milliseconds(*noise), now, kOrigin);
+  return std::nullopt;
+}
+
 // ------------------------------------------------------------------------------------- all
 
 std::vector<GatewayFace*> PlantFaces::gateway_list() const {
@@ -235,6 +338,10 @@ PlantFaces make_faces(plant::Plant& plant, BitrateFn bitrate) {
   }
   for (auto& d : plant.drives())
     if (d->config().modbus_unit) f.drives.push_back(std::make_unique<PlantDriveFace>(plant, *d));
+  if (plant.line_statistics()) {  // docs/modbus.md "Line block"
+    f.line = std::make_unique<PlantLineAccess>(plant);
+    for (auto& g : f.gateways) g->set_line(f.line.get());
+  }
   return f;
 }
 

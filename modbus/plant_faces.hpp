@@ -120,7 +120,27 @@ class PlantDriveFace final : public DriveFace {
 // Every face of a plant: its stations, the drives that have a Modbus unit, the generic slaves'
 // field sides.
 // Stations: the gateways (or remote stations) in configuration order, then the generic slaves.
+// The line block of every station (docs/modbus.md "Line block") from the plant's line statistics,
+// its faults through the plant's control surface.
+class PlantLineAccess final : public LineAccess {
+ public:
+  explicit PlantLineAccess(plant::Plant& plant) : plant_(plant) {}
+  LineBlock block(std::uint8_t address, Time now) const override;
+  std::uint16_t fault_register(std::uint8_t address, std::uint16_t offset, Time now) const override;
+  std::optional<DecodeFailure> write_faults(std::uint8_t address, std::uint16_t offset,
+                                            std::span<const std::uint16_t> values,
+                                            Time now) override;
+
+ private:
+  struct Pending {
+    std::uint16_t count = 1, every = 1, for_ms = 0;
+  };
+  plant::Plant& plant_;
+  std::array<Pending, 128> pending_{};  // count, every, for_ms as last written, per address
+};
+
 struct PlantFaces {
+  std::unique_ptr<PlantLineAccess> line;  // with line statistics only
   std::vector<std::unique_ptr<GatewayFace>> gateways;
   std::vector<std::unique_ptr<DriveFace>> drives;
   std::vector<std::unique_ptr<FieldFace>> fields;

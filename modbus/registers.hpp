@@ -13,6 +13,7 @@
 #include <string_view>
 
 #include "gateway/gateway.hpp"
+#include "profibus_sim/fdl/line_stats.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 #include "station/status.hpp"
 
@@ -119,6 +120,30 @@ inline constexpr std::uint16_t kDiagnosisBase = 8260;
 static_assert(kStatusBase + status::kCount <= kDiagnosisBase,
               "the status block runs into the whole diagnosis at 8260 (docs/modbus.md)");
 inline constexpr std::uint16_t kDiagnosisRegisters = 1 + dp::kDiagMaxLen / 2;  // 8260..8382
+
+// The line block (docs/modbus.md "Line block"), on a line whose statistics the daemon counts
+// (a line in time, profibus role master); elsewhere these addresses answer exception 0x02.
+// Input registers of the station's unit: the analyser's counters (fdl::kStationCounters, 32 bit
+// each, high word first, in the table's order), its live state, then the line's measured bus
+// cycle last/min/mean/max in µs and the rotations measured (32 bit each; the same in every unit).
+// Holding registers: a line fault for the station (kind, count, every, for_ms; writing the kind
+// applies it) and noise on the whole line (for_ms).
+inline constexpr std::uint16_t kLineBase = 8400;
+namespace line {
+inline constexpr std::uint16_t kCounters = 0;  // 2 registers a counter
+inline constexpr std::uint16_t kLive = kCounters + 2 * fdl::kStationCounterCount;
+inline constexpr std::uint16_t kBusCycle = kLive + 1;  // last, min, mean, max, cycles
+inline constexpr std::uint16_t kCount = kBusCycle + 2 * 5;
+static_assert(kLive == 12 && kCount == 23, "published register numbers (docs/modbus.md)");
+// Holding registers from kLineBase.
+inline constexpr std::uint16_t kFaultKind = 0;  // 0 none (cancel), 1 corrupt .. 4 double_address
+inline constexpr std::uint16_t kFaultCount = 1;
+inline constexpr std::uint16_t kFaultEvery = 2;
+inline constexpr std::uint16_t kFaultForMs = 3;
+inline constexpr std::uint16_t kNoiseForMs = 4;
+inline constexpr std::uint16_t kFaultRegisters = 5;
+}  // namespace line
+using LineBlock = std::array<std::uint16_t, line::kCount>;
 
 // LED codes in the status block (manual §3.3, table 3.3.1): station/status.hpp.
 namespace led = station::led;

@@ -234,6 +234,7 @@ std::optional<Time> TimedLine::next_deadline() const {
 }
 
 void TimedLine::advance(Time now) {
+  now_ = std::max(now_, now);
   while (phase_ != Phase::Idle && time_of(event_bit_) <= now) {
     holding_ = true;
     switch (phase_) {

@@ -119,6 +119,9 @@ class TimedLine {
     Duration remaining_time{0};
   };
   FaultState fault(std::uint8_t address, Time now) const;
+  // The same at the line's last advance (the faces' view between events).
+  FaultState fault(std::uint8_t address) const { return fault(address, now_); }
+  Time now() const { return now_; }
   Duration noise_remaining(Time now) const {
     return now < noise_until_ ? noise_until_ - now : Duration(0);
   }
@@ -201,6 +204,7 @@ class TimedLine {
   fdl::LineStatistics stats_;
   std::optional<Late> late_;
   Time noise_from_{0}, noise_until_{0};
+  Time now_{0};  // of the last advance()
 };
 
 }  // namespace candp2::plant

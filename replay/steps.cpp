@@ -416,6 +416,11 @@ void Sim::line_fault(const Step& s, StepResult& r) {
 void Sim::expect_line(const Step& s, StepResult& r) {
   const fdl::LineStatistics* stats = plant_->line_statistics();
   const plant::TimedLine* line = plant_->timed_line();
+  if (!stats || !line) {
+    r.passed = false;
+    r.detail = "the line has no baud rate ($.master.baud): nothing to count";
+    return;
+  }
   r.passed = poll(
       s,
       [&](std::string& d) {

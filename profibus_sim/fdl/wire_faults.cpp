@@ -35,8 +35,10 @@ std::optional<StationFault> station_fault(std::string_view name) {
 
 std::vector<std::uint8_t> corrupt_fcs(std::span<const std::uint8_t> telegram) {
   std::vector<std::uint8_t> out(telegram.begin(), telegram.end());
-  if (out.size() == 1) {
-    out[0] = static_cast<std::uint8_t>(out[0] ^ 0x01);  // SC 0xE5 -> 0xE4: no delimiter
+  if (out.size() == 1 || (!out.empty() && out[0] == kSD4)) {
+    // No FCS (SC, token): the start delimiter is hit instead (SC 0xE5 -> 0xE4, SD4 0xDC ->
+    // 0xDD: no delimiter). Inverting a token's DA would make a valid token to another station.
+    out[0] = static_cast<std::uint8_t>(out[0] ^ 0x01);
   } else if (out.size() >= 2) {
     out[out.size() - 2] = static_cast<std::uint8_t>(~out[out.size() - 2]);
   }

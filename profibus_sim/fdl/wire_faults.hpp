@@ -34,7 +34,8 @@ std::optional<StationFault> station_fault(std::string_view name);
 inline constexpr std::uint64_t kTwinOffsetBits = 5;
 
 // The telegram with a wrong frame check sequence (the byte before the end delimiter inverted);
-// a short acknowledgement (SC), which has none, arrives as another character (0xE4).
+// a short acknowledgement (SC) or a token (SD4), which have none, arrive with another first
+// character (0xE4, 0xDD): no start delimiter.
 std::vector<std::uint8_t> corrupt_fcs(std::span<const std::uint8_t> telegram);
 
 // Two telegrams on the wire at once, `b` starting `offset_bits` after `a`: the bytes a receiver

@@ -126,6 +126,8 @@ TEST(ReplayGolden, TheParsersAnswers) {
       R"({"slave_cfg_fault": true})",
       R"({"field_write": {"bytes": "01"}})",
       R"({"expect_field": {"offset": 1, "bytes": "01"}})",
+      R"({"line_fault": {"station": 5, "kind": "corrupt"}})",
+      R"({"expect_line": {"station": 5, "repeats": 0}})",
   };
   std::string out;
   for (const char* step : steps) {

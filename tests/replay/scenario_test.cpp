@@ -355,5 +355,24 @@ TEST(ReplayRun, JunitEscapesAndUnreadableScenario) {
   EXPECT_NE(std::get<config::ConfigError>(missing).message.find("cannot open"), std::string::npos);
 }
 
+// docs/faults.md "Line faults": every line fault scenario holds its exact counters, and a second
+// run gives the same report to the microsecond (faults on cue, the same in every run).
+TEST(ReplayRun, LineFaultScenariosAreExactAndRepeatable) {
+  for (const char* name : {"corrupt", "silent", "late", "double-address", "noise"}) {
+    auto loaded = load_scenario(std::string(CANDP2_SOURCE_DIR) + "/config/scenarios/line-fault-" +
+                                name + ".json");
+    ASSERT_TRUE(std::holds_alternative<Scenario>(loaded))
+        << std::get<config::ConfigError>(loaded).to_string();
+    const auto& sc = std::get<Scenario>(loaded);
+    const auto first = run(sc), second = run(sc);
+    EXPECT_TRUE(first.passed()) << format_report(sc, first);
+    EXPECT_EQ(format_report(sc, first), format_report(sc, second)) << name;
+    // On the ideal line the scenario cannot run: the line has no time to be faulty in.
+    Scenario ideal = sc;
+    ideal.installation.line.reset();
+    EXPECT_FALSE(run(ideal).passed()) << name;
+  }
+}
+
 }  // namespace
 }  // namespace candp2::replay

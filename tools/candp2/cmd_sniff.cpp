@@ -5,8 +5,10 @@
 // generic DP decoding (profibus_sim/fdl/fdl_describe.hpp) the CAN-DP/2 payloads are decoded with
 // the gateway's own decoders: Set_Prm user parameters (docs/dp-slave.md "User parameters"), Chk_Cfg
 // slots with their comment bytes (docs/slots.md "Chk_Cfg slots") and the extended diagnosis bytes
-// (docs/dp-slave.md "Diagnosis"). Exit status: 0 at end of file / after --count telegrams / on
-// SIGINT, 2 when the source cannot be opened or read.
+// (docs/dp-slave.md "Diagnosis"). FILE may also be a pcapng capture (candp2d's, docs/capture.md):
+// its PROFIBUS telegrams with their time stamps. --stats prints what an analyser counts
+// (fdl::LineStatistics) instead of the telegrams. Exit status: 0 at end of file / after --count
+// telegrams / on SIGINT, 2 when the source cannot be opened or read.
 #include <poll.h>
 #include <signal.h>
 #include <sys/stat.h>
@@ -21,6 +23,7 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <optional>
@@ -29,6 +32,7 @@
 #include <variant>
 #include <vector>
 
+#include "capture/pcapng_read.hpp"
 #include "capture/pcapng_tap.hpp"
 #include "common/hex.hpp"
 #include "config/capture_config.hpp"
@@ -38,6 +42,7 @@
 #include "profibus_sim/fdl/fdl_describe.hpp"
 #include "serial/serial_port.hpp"
 #include "tools/candp2/commands.hpp"
+#include "tools/candp2/sniff_stats.hpp"
 
 namespace candp2::cli {
 
@@ -52,6 +57,8 @@ struct SniffArgs {
   std::uint64_t count = 0;   // 0 = unlimited
   std::string pcapng;        // also write a pcapng capture (docs/capture.md)
   bool profibus_dl = false;  // ... with LINKTYPE_PROFIBUS_DL instead of exported PDUs
+  bool stats = false;        // the line statistics instead of the telegrams (docs/sniff.md)
+  bool json = false;         // ... as JSON
 };
 
 std::string hex2(std::uint8_t b) {
@@ -167,10 +174,12 @@ class CanDp2Decoder {
 class Sniffer {
  public:
   // `capture`: also write every telegram (and abandoned candidate, with the parser's error as a
-  // comment) to it, at the time `time_of` gives for the event.
+  // comment) to it, at the time `time_of` gives for the event. `observe`: the events go to it
+  // instead of being printed (--stats).
   Sniffer(const SniffArgs& a, capture::PcapngTap* capture = nullptr,
-          std::function<Time(const fdl::ParserEvent&)> time_of = {})
-      : args_(a), capture_(capture), time_of_(std::move(time_of)) {}
+          std::function<Time(const fdl::ParserEvent&)> time_of = {},
+          std::function<void(const fdl::ParserEvent&)> observe = {})
+      : args_(a), capture_(capture), time_of_(std::move(time_of)), observe_(std::move(observe)) {}
 
   // Prints the parser's pending events; `stamp` prefixes each line. False once --count is reached.
   bool print_events(fdl::StreamParser& p, const std::string* stamp) {
@@ -181,6 +190,11 @@ class Sniffer {
                            ev->error == fdl::Error::None
                                ? std::string()
                                : "candp2 sniff: " + std::string(fdl::to_string(ev->error)));
+      if (observe_) {
+        observe_(*ev);
+        if (ev->error == fdl::Error::None && args_.count && ++printed_ >= args_.count) return false;
+        continue;
+      }
       if (ev->error != fdl::Error::None) {
         if (!args_.errors) continue;
         line += " ERROR " + std::string(fdl::to_string(ev->error)) + ": " + hex_bytes(ev->raw);
@@ -211,6 +225,7 @@ class Sniffer {
   const SniffArgs& args_;
   capture::PcapngTap* capture_;
   std::function<Time(const fdl::ParserEvent&)> time_of_;
+  std::function<void(const fdl::ParserEvent&)> observe_;
   fdl::Describer describer_;
   CanDp2Decoder candp2_;
   std::uint64_t printed_ = 0;
@@ -221,6 +236,37 @@ void print_stats(const fdl::ParserStats& s) {
   std::cerr << "candp2 sniff: " << s.telegrams << " telegrams, " << s.bytes << " bytes, "
             << s.fcs_errors << " FCS errors, " << s.framing_errors << " framing errors, "
             << s.parity_errors << " parity errors, " << s.garbage_bytes << " garbage bytes\n";
+}
+
+// --stats (docs/sniff.md "Line statistics: --stats"): the statistics of the telegrams read and
+// their output. `times`: the source gives times (a port, a pcapng capture; not a raw file).
+struct StatsOut {
+  const SniffArgs& args;
+  bool times;
+  fdl::LineStatistics stats;
+  // A parser's event: a telegram, or an abandoned candidate as an illegal telegram.
+  void event(const fdl::ParserEvent& ev, Time t) {
+    if (ev.error == fdl::Error::None)
+      stats.observe(ev.raw, t);
+    else
+      stats.observe_illegal(t);
+  }
+  // `stamp`: a heading line for a table printed during the run.
+  void print(const std::string* stamp = nullptr) const {
+    if (args.json) {
+      std::cout << stats_json(stats, times) << "\n";
+    } else {
+      if (stamp) std::cout << *stamp << "\n";
+      std::cout << stats_table(stats, times);
+    }
+    std::cout.flush();
+  }
+};
+
+std::string seconds_stamp(Duration d) {
+  char stamp[40];
+  std::snprintf(stamp, sizeof stamp, "(%.6f)", std::chrono::duration<double>(d).count());
+  return stamp;
 }
 
 // Warnings and errors of the capture on stderr ("candp2 sniff: pcapng capture stopped: ...").
@@ -261,26 +307,101 @@ int sniff_file(const SniffArgs& a, capture::PcapngTap* capture) {
     return 2;
   }
   fdl::StreamParser parser;
+  // A raw file has no times: the statistics' token rotation is unknown.
+  std::optional<StatsOut> st;
+  if (a.stats) st.emplace(StatsOut{a, false, {}});
   // Capture time stamps: the file's modification time, plus the wire time of the bytes before
   // each telegram at --baud (11 bits a character), docs/sniff.md.
-  Sniffer sniffer(a, capture, [baud = a.baud](const fdl::ParserEvent& ev) {
-    return Time(static_cast<std::int64_t>(ev.offset * 11 * 1'000'000 / baud));
-  });
+  Sniffer sniffer(
+      a, capture,
+      [baud = a.baud](const fdl::ParserEvent& ev) {
+        return Time(static_cast<std::int64_t>(ev.offset * 11 * 1'000'000 / baud));
+      },
+      st ? std::function<void(const fdl::ParserEvent&)>(
+               [&](const fdl::ParserEvent& ev) { st->event(ev, Time(0)); })
+         : nullptr);
   std::vector<char> buf(4096);
-  while (in) {
+  bool more = true;
+  while (in && more) {
     in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
     const auto n = static_cast<std::size_t>(in.gcount());
     if (n == 0) break;
     parser.feed(std::span(reinterpret_cast<const std::uint8_t*>(buf.data()), n));
-    if (!sniffer.print_events(parser, nullptr)) return 0;
+    more = sniffer.print_events(parser, nullptr);
   }
-  if (in.bad()) {
+  if (more && in.bad()) {
     std::cerr << "candp2 sniff: " << a.source << ": read error\n";
     return 2;
   }
-  parser.gap();  // end of file ends a partial telegram
-  sniffer.print_events(parser, nullptr);
+  if (more) {
+    parser.gap();  // end of file ends a partial telegram
+    sniffer.print_events(parser, nullptr);
+    if (a.errors) print_stats(parser.stats());
+  }
+  if (st) st->print();
+  return 0;
+}
+
+// The PROFIBUS telegram a capture's packet carries: LINKTYPE_PROFIBUS_DL, or an exported PDU for
+// the "fdl" dissector (docs/capture.md); nullopt for CAN frames, notes and anything else.
+std::optional<std::span<const std::uint8_t>> profibus_telegram(const capture::pcapng::Interface& i,
+                                                               const capture::pcapng::Packet& p) {
+  if (i.linktype == capture::pcapng::kLinktypeProfibusDl) return std::span(p.data);
+  if (i.linktype != capture::pcapng::kLinktypeWiresharkUpperPdu) return std::nullopt;
+  const auto e = capture::pcapng::parse_exported_pdu(p.data);
+  if (!e || e->dissector != "fdl") return std::nullopt;
+  return e->pdu;
+}
+
+// A pcapng capture (candp2d's, or sniff --pcapng's; docs/capture.md): the telegrams of its first
+// PROFIBUS interface with their time stamps; each packet is one telegram as the receiver framed
+// it (a packet that does not decode is an illegal telegram).
+int sniff_pcapng(const SniffArgs& a, capture::PcapngTap* capture,
+                 const std::vector<std::uint8_t>& file) {
+  const capture::pcapng::Capture c = capture::pcapng::read(file);
+  if (c.sections == 0) {
+    std::cerr << "candp2 sniff: " << a.source << ": not a pcapng capture: " << c.error << "\n";
+    return 2;
+  }
+  if (!c.ok)
+    std::cerr << "candp2 sniff: " << a.source << ": " << c.error
+              << " (a capture still being written?): the packets before it are read\n";
+  std::optional<StatsOut> st;
+  if (a.stats) st.emplace(StatsOut{a, true, {}});
+  Time now{0};   // the current packet's time, from the first telegram's
+  Time wall{0};  // ... since the Unix epoch (for --pcapng)
+  Sniffer sniffer(
+      a, capture, [&](const fdl::ParserEvent&) { return wall; },
+      st ? std::function<void(const fdl::ParserEvent&)>([](const fdl::ParserEvent&) {}) : nullptr);
+  fdl::StreamParser parser;
+  std::optional<std::uint32_t> line;
+  std::optional<std::uint64_t> first_ns;
+  std::uint64_t other = 0;
+  for (const auto& p : c.packets) {
+    const auto& i = c.interfaces[p.interface];
+    const auto telegram = profibus_telegram(i, p);
+    if (!telegram) continue;
+    if (!line) line = p.interface;
+    if (*line != p.interface) {
+      ++other;
+      continue;
+    }
+    const std::uint64_t ns = capture::pcapng::time_ns(i, p.time).value_or(0);
+    if (!first_ns) first_ns = ns;
+    now = Time(static_cast<std::int64_t>((ns - std::min(ns, *first_ns)) / 1000));
+    wall = Time(static_cast<std::int64_t>(ns / 1000));
+    if (st) st->stats.observe(*telegram, now);
+    parser.feed(*telegram);
+    parser.gap();  // a packet is one telegram
+    const std::string stamp = seconds_stamp(now);
+    if (!sniffer.print_events(parser, &stamp)) break;
+  }
+  if (other)
+    std::cerr << "candp2 sniff: " << a.source << ": " << other
+              << " packets of other PROFIBUS interfaces left out (only " << c.interfaces[*line].name
+              << " is read)\n";
   if (a.errors) print_stats(parser.stats());
+  if (st) st->print();
   return 0;
 }
 
@@ -315,14 +436,31 @@ int sniff_port(const SniffArgs& a, capture::PcapngTap* capture) {
       static_cast<long long>(std::ceil(33.0 * 1e6 / static_cast<double>(a.baud))));
   fdl::StreamParser parser;
   Time event_time{0};  // when the bytes that completed the current events arrived
-  Sniffer sniffer(a, capture, [&](const fdl::ParserEvent&) { return event_time; });
   std::optional<Time> first;
+  // --stats: times since the first byte; the statistics printed every second and at the end.
+  std::optional<StatsOut> st;
+  if (a.stats) st.emplace(StatsOut{a, true, {}});
+  Time next_report = seconds(1), last_rx{0};
+  Sniffer sniffer(
+      a, capture, [&](const fdl::ParserEvent&) { return event_time; },
+      st ? std::function<void(const fdl::ParserEvent&)>([&](const fdl::ParserEvent& ev) {
+        st->event(ev, event_time - first.value_or(event_time));
+      })
+         : nullptr);
   std::vector<serial::RxByte> rx;
   int rc = 0;
   while (!g_stop) {
     pollfd pfd{port->fd(), POLLIN, 0};
-    const timespec ts{0, static_cast<long>(tsyn.count()) * 1000};
-    const int r = ppoll(&pfd, 1, parser.buffered() ? &ts : nullptr, nullptr);
+    timespec ts{0, static_cast<long>(tsyn.count()) * 1000};
+    bool wait = parser.buffered();
+    if (st) {  // wake for the next report too
+      const auto until = std::max(Duration(0), next_report - now());
+      if (!wait || until < tsyn)
+        ts = {static_cast<time_t>(until.count() / 1'000'000),
+              static_cast<long>(until.count() % 1'000'000) * 1000};
+      wait = true;
+    }
+    const int r = ppoll(&pfd, 1, wait ? &ts : nullptr, nullptr);
     if (r < 0) {
       if (errno == EINTR) continue;
       std::cerr << "candp2 sniff: poll: " << std::strerror(errno) << "\n";
@@ -332,8 +470,10 @@ int sniff_port(const SniffArgs& a, capture::PcapngTap* capture) {
     const Time t = now();
     event_time = t;
     if (r == 0) {
-      parser.gap();
+      // Idle for TSYN (a timeout for a report may come sooner).
+      if (!st || (parser.buffered() && t - last_rx >= tsyn)) parser.gap();
     } else {
+      last_rx = t;
       rx.clear();
       if (port->read(rx, t, &error) < 0) {
         std::cerr << "candp2 sniff: " << error << "\n";
@@ -345,13 +485,15 @@ int sniff_port(const SniffArgs& a, capture::PcapngTap* capture) {
           rx, [&](std::span<const std::uint8_t> run) { parser.feed(run); },
           [&](std::uint8_t bad) { parser.feed_bad_char(bad); });
     }
-    char stamp[40];
-    std::snprintf(stamp, sizeof stamp, "(%.6f)",
-                  std::chrono::duration<double>(t - first.value_or(t)).count());
-    const std::string s(stamp);
+    const std::string s = seconds_stamp(t - first.value_or(t));
     if (!sniffer.print_events(parser, &s)) break;
+    if (st && t >= next_report) {
+      st->print(&s);
+      while (next_report <= t) next_report += seconds(1);
+    }
   }
   if (a.errors) print_stats(parser.stats());
+  if (st) st->print();
   return rc;
 }
 
@@ -362,20 +504,36 @@ bool looks_like_port(const std::string& source) {
   return !ec && std::filesystem::is_character_file(st);
 }
 
+// The file's bytes when it is a pcapng capture (its first block a Section Header).
+std::optional<std::vector<std::uint8_t>> read_pcapng(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char magic[4] = {};
+  if (!in.read(magic, 4) ||
+      !capture::pcapng::is_pcapng(std::span(reinterpret_cast<const std::uint8_t*>(magic), 4)))
+    return std::nullopt;
+  in.seekg(0);
+  return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(in),
+                                   std::istreambuf_iterator<char>());
+}
+
 int run_sniff(const SniffArgs& a) {
   const bool port = looks_like_port(a.source);
+  const auto pcapng = port ? std::nullopt : read_pcapng(a.source);
   if (!a.pcapng.empty()) {
     if (const auto why = config::directory_not_writable(a.pcapng); !why.empty()) {
       std::cerr << "candp2 sniff: --pcapng " << a.pcapng << ": " << why << "\n";
       return 2;
     }
   }
-  // Capture time stamps: a port's from the wall clock at start, a file's from its modification
-  // time (docs/sniff.md).
+  // Capture time stamps: a port's from the wall clock at start, a raw file's from its
+  // modification time, a pcapng capture's its own (docs/sniff.md).
   auto capture = open_capture(a, port ? std::chrono::duration_cast<Duration>(
                                             std::chrono::system_clock::now().time_since_epoch())
-                                      : file_mtime(a.source));
-  int rc = port ? sniff_port(a, capture.get()) : sniff_file(a, capture.get());
+                                 : pcapng ? Duration(0)
+                                          : file_mtime(a.source));
+  int rc = port     ? sniff_port(a, capture.get())
+           : pcapng ? sniff_pcapng(a, capture.get(), *pcapng)
+                    : sniff_file(a, capture.get());
   if (capture) {
     capture->sync();
     if (capture->stats().stopped) rc = 2;  // the message is on stderr already
@@ -389,10 +547,12 @@ void add_sniff(CLI::App& app, int& exit_code) {
   auto args = std::make_shared<SniffArgs>();
   auto* cmd = app.add_subcommand(
       "sniff",
-      "Decode PROFIBUS FDL/DP telegrams from a serial line or a raw capture file, one line per "
-      "telegram (docs/sniff.md); exit 0 at end of file, 2 when the source cannot be opened");
-  cmd->add_option("SOURCE", args->source,
-                  "a serial device (/dev/ttyUSB0), pty:PATH, or a raw capture file")
+      "Decode PROFIBUS FDL/DP telegrams from a serial line, a raw capture file or a pcapng "
+      "capture, one line per telegram, or their line statistics (docs/sniff.md); exit 0 at end "
+      "of file, 2 when the source cannot be opened");
+  cmd->add_option(
+         "SOURCE", args->source,
+         "a serial device (/dev/ttyUSB0), pty:PATH, a raw capture file or a pcapng capture")
       ->required();
   cmd->add_option("--baud", args->baud, "bit rate of a serial line (default 19200)")
       ->check([](const std::string& v) -> std::string {
@@ -413,6 +573,12 @@ void add_sniff(CLI::App& app, int& exit_code) {
   cmd->add_flag("--profibus-dl", args->profibus_dl,
                 "write the capture with LINKTYPE_PROFIBUS_DL (257) instead of exported PDUs for "
                 "the candp2 dissector (252; Wireshark 4.0 opens only these)");
+  auto* stats = cmd->add_flag(
+      "--stats", args->stats,
+      "print the line statistics per station instead of the telegrams: every second from a port, "
+      "at the end (docs/sniff.md)");
+  cmd->add_flag("--json", args->json, "--stats as one JSON document (a port: one a second)")
+      ->needs(stats);
   cmd->callback([args, &exit_code] { exit_code = run_sniff(*args); });
 }
 
