@@ -57,24 +57,24 @@ struct Line {
   }
 };
 
-StationStats counters(std::uint64_t lost, std::uint64_t syncs, std::uint64_t repeats,
-                      std::uint64_t repeats_max, std::uint64_t illegals,
-                      std::uint64_t diagnostics) {
+StationCounters counters(std::uint64_t lost, std::uint64_t syncs, std::uint64_t repeats,
+                         std::uint64_t repeats_max, std::uint64_t illegals,
+                         std::uint64_t diagnostics) {
   return {lost, syncs, repeats, repeats_max, illegals, diagnostics};
 }
 
 TEST(LineStatistics, TheTableNamesEveryCounterOnce) {
   std::set<std::string_view> names;
-  StationStats s;
+  StationCounters s;
   std::uint64_t v = 1;
-  for (const auto& f : kStationStats) {
+  for (const auto& f : kStationCounters) {
     EXPECT_TRUE(names.insert(f.name).second) << f.name;
-    EXPECT_EQ(station_stat(f.name), &f);
+    EXPECT_EQ(station_counter(f.name), &f);
     s.*f.member = v++;
   }
-  EXPECT_EQ(kStationStatCount, 6u);
+  EXPECT_EQ(kStationCounterCount, 6u);
   EXPECT_EQ(s, counters(1, 2, 3, 4, 5, 6)) << "table order = struct order";
-  EXPECT_EQ(station_stat("nonsense"), nullptr);
+  EXPECT_EQ(station_counter("nonsense"), nullptr);
 }
 
 TEST(LineStatistics, AParameterizationAndDataExchangeCountSyncsAndDiagnostics) {
@@ -245,6 +245,36 @@ TEST(LineStatistics, RepeatsMaxIsTheMostRepeatsInOneTokenRotation) {
   EXPECT_EQ(l.stats.station(3), counters(0, 0, 3, 2, 0, 0));
   cycle(3);  // three in the last
   EXPECT_EQ(l.stats.station(3), counters(0, 0, 6, 3, 0, 0));
+}
+
+TEST(LineStatistics, WithoutTokensRepeatsMaxIsPerRequestAndTheMasterTellsANewRequest) {
+  // A master that passes no token (candp2d in role master, docs/profibus.md "Line statistics in
+  // role master"): no rotation ends a run of repeats, a new request to the station does.
+  Line l;
+  FcbSequence seq;
+  auto exchange = [&](int repeats) {
+    const Bytes r = request(dp::Service::DataExchange, 3, seq, {0x01});
+    for (int i = 0; i <= repeats; ++i) l.put(r);
+    l.put(encode(data_exchange_answer(decode(r).telegram.value(), Bytes{0x02}, false)));
+    seq.advance();
+  };
+  exchange(1);
+  exchange(2);
+  exchange(1);
+  EXPECT_EQ(l.stats.station(3), counters(0, 0, 4, 2, 0, 0));
+  // The station stops answering: FDL_Status asked, repeated, given up, asked again later with
+  // the same bytes. Told by the master, the second one is a new request, not a third repeat.
+  const Bytes status = encode(Telegram::no_data(3, kMaster, request_fc(kFcFdlStatus)));
+  l.stats.new_request();
+  l.put(status);
+  l.put(status);  // its repeat
+  l.stats.new_request();
+  l.put(status);
+  l.put(status);
+  EXPECT_EQ(l.stats.station(3).repeats, 6u);
+  EXPECT_EQ(l.stats.station(3).repeats_max, 2u);
+  EXPECT_EQ(l.stats.station(3).lost, 1u);  // it dropped out of data exchange once
+  EXPECT_EQ(l.stats.live(3), Live::Missing);
 }
 
 TEST(LineStatistics, LiveListLearntFromTheMastersDpServices) {
