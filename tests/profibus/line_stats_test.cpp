@@ -55,7 +55,16 @@ struct Line {
     put(req);
     put(ans);
   }
+  // A Data_Exchange with the station, repeated `repeats` times before its answer; FCB toggled.
+  void data_exchange(std::uint8_t station, FcbSequence& seq, int repeats);
 };
+
+void Line::data_exchange(std::uint8_t station, FcbSequence& seq, int repeats) {
+  const Bytes r = request(dp::Service::DataExchange, station, seq, {0x01});
+  for (int i = 0; i <= repeats; ++i) put(r);
+  put(encode(data_exchange_answer(decode(r).telegram.value(), Bytes{0x02}, false)));
+  seq.advance();
+}
 
 StationCounters counters(std::uint64_t lost, std::uint64_t syncs, std::uint64_t repeats,
                          std::uint64_t repeats_max, std::uint64_t illegals,
@@ -229,12 +238,7 @@ TEST(LineStatistics, RepeatsMaxIsTheMostRepeatsInOneTokenRotation) {
   Line l;
   FcbSequence seq;
   l.put(token());
-  auto cycle = [&](int repeats) {
-    const Bytes r = request(dp::Service::DataExchange, 3, seq, {0x01});
-    for (int i = 0; i <= repeats; ++i) l.put(r);
-    l.put(encode(data_exchange_answer(decode(r).telegram.value(), Bytes{0x02}, false)));
-    seq.advance();
-  };
+  auto cycle = [&](int repeats) { l.data_exchange(3, seq, repeats); };
   cycle(1);
   cycle(1);  // two repeats in the first rotation
   l.put(token());
@@ -252,12 +256,7 @@ TEST(LineStatistics, WithoutTokensRepeatsMaxIsPerRequestAndTheMasterTellsANewReq
   // role master"): no rotation ends a run of repeats, a new request to the station does.
   Line l;
   FcbSequence seq;
-  auto exchange = [&](int repeats) {
-    const Bytes r = request(dp::Service::DataExchange, 3, seq, {0x01});
-    for (int i = 0; i <= repeats; ++i) l.put(r);
-    l.put(encode(data_exchange_answer(decode(r).telegram.value(), Bytes{0x02}, false)));
-    seq.advance();
-  };
+  auto exchange = [&](int repeats) { l.data_exchange(3, seq, repeats); };
   exchange(1);
   exchange(2);
   exchange(1);
