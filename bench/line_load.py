@@ -14,13 +14,23 @@ its 24 frames. For each master cycle time (--cycles, default 1,2,10 ms) and each
   cpu_pct                   candp2d's CPU time over the run (utime + stime, /proc/PID/stat)
   rss_kb, hwm_kb            resident memory at the end and its high-water mark (/proc/PID/status)
   frames                    CAN frames the gateways sent over the run (sum over the buses)
+  bus_cycle_us              on a line in time (--lines with a baud rate): the measured bus cycle
+                            (mean, max) from GET /api/v1/status line
+  events_bytes              with --observer: bytes the open panel's event stream received
 
-Prints one JSON line per run and a summary (medians per binary and cycle time).
+--lines ideal,12000000 runs each binary on the ideal line and on a line in time at that baud
+rate (docs/profibus.md "The line in time"), A/B in one run; --observer keeps a panel open over
+the run (GET /api/v1/events read continuously, GET /api/v1/status twice a second, as the
+panel's line view does).
+
+Prints one JSON line per run and a summary (medians per binary, line and cycle time).
 
 Usage: bench/line_load.py --a build/bin/candp2d [--b OTHER/candp2d] [--seconds 10] [--rounds 2]
+       [--cycles 1,2,10] [--lines ideal,12000000] [--observer]
 """
 
 import argparse
+import http.client
 import json
 import os
 import re
@@ -39,18 +49,53 @@ sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "e2e"))
 from http_common import line_config  # noqa: E402
 
 
-def config(cycle_ms):
-    """122 x 48 six-byte slots (tests/e2e/http_common.line_config), quieter log."""
+def config(cycle_ms, baud=None):
+    """122 x 48 six-byte slots (tests/e2e/http_common.line_config), quieter log; with `baud` a
+    line in time."""
     cfg = line_config(cycle_ms)
     cfg["log"] = {"level": "warn"}
+    if baud:
+        cfg["master"]["baud"] = baud
     return cfg
 
 
+class Observer:
+    """An open panel: its event stream read continuously, the status document twice a second."""
+
+    def __init__(self, http_port):
+        self.port, self.bytes, self.stop = http_port, 0, threading.Event()
+        self.threads = [threading.Thread(target=self.events, daemon=True),
+                        threading.Thread(target=self.poll, daemon=True)]
+        for t in self.threads:
+            t.start()
+
+    def events(self):
+        try:
+            with urllib.request.urlopen("http://127.0.0.1:%d/api/v1/events" % self.port,
+                                        timeout=30) as r:
+                while not self.stop.is_set():
+                    chunk = r.read1(65536)
+                    if not chunk:
+                        break
+                    self.bytes += len(chunk)
+        except (OSError, http.client.HTTPException):
+            pass  # the daemon stopped at the end of the run
+
+    def poll(self):
+        while not self.stop.wait(0.5):
+            with urllib.request.urlopen("http://127.0.0.1:%d/api/v1/status" % self.port,
+                                        timeout=30) as r:
+                r.read()
+
+    def close(self):
+        self.stop.set()
+
+
 class Run:
-    def __init__(self, binary, cycle_ms, workdir):
+    def __init__(self, binary, cycle_ms, workdir, baud=None):
         self.path = os.path.join(workdir, "line.json")
         with open(self.path, "w") as f:
-            json.dump(config(cycle_ms), f)
+            json.dump(config(cycle_ms, baud), f)
         self.log_path = os.path.join(workdir, "candp2d.log")
         self.log = open(self.log_path, "w")
         self.proc = subprocess.Popen([binary, "--config", self.path, "--log-level", "info"],
@@ -100,9 +145,10 @@ def frames_sent(status):
     return sum(g.get("counters", {}).get("tx_frames", 0) for g in status["gateways"])
 
 
-def measure(binary, cycle_ms, seconds):
+def measure(binary, cycle_ms, seconds, baud=None, observe=False):
     with tempfile.TemporaryDirectory(prefix="candp2-line-") as d:
-        r = Run(binary, cycle_ms, d)
+        r = Run(binary, cycle_ms, d, baud)
+        observer = None
         try:
             end = time.monotonic() + 60
             while not all(g["dp_state"] == "Data_Exch" for g in r.status()["gateways"]):
@@ -125,6 +171,8 @@ def measure(binary, cycle_ms, seconds):
 
             t = threading.Thread(target=writer, daemon=True)
             t.start()
+            if observe:
+                observer = Observer(r.http)
             time.sleep(1.0)
             s0, c0, t0 = r.status(), r.cpu_ticks(), time.monotonic()
             time.sleep(seconds)
@@ -135,12 +183,18 @@ def measure(binary, cycle_ms, seconds):
             due = (t1 - t0) * 1000.0 / cycle_ms
             lat = s1["cycle"]["lateness_us"]
             hz = os.sysconf("SC_CLK_TCK")
-            return {"cycle_ms": cycle_ms,
+            line = s1.get("line", {}).get("bus_cycle_us", {})
+            return {"line": str(baud or "ideal"), "cycle_ms": cycle_ms,
+                    "bus_cycle_mean_us": line.get("mean", 0),
+                    "bus_cycle_max_us": line.get("max", 0),
+                    "events_bytes": observer.bytes if observer else 0,
                     "cycles_done": s1["cycle"]["cycles"] - s0["cycle"]["cycles"],
                     "cycles_due": round(due), "p99_us": lat["p99"], "max_us": lat["max"],
                     "cpu_pct": round(100.0 * (c1 - c0) / hz / (t1 - t0), 1),
                     "rss_kb": rss, "hwm_kb": hwm, "frames": frames_sent(s1) - frames_sent(s0)}
         finally:
+            if observer:
+                observer.close()
             r.stop()
 
 
@@ -151,22 +205,32 @@ def main():
     ap.add_argument("--cycles", default="1,2,10")
     ap.add_argument("--seconds", type=float, default=10)
     ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--lines", default="ideal",
+                    help="comma-separated: ideal and/or baud rates (a line in time)")
+    ap.add_argument("--observer", action="store_true", help="keep a panel open over each run")
     args = ap.parse_args()
+    lines = [None if x == "ideal" else int(x) for x in args.lines.split(",")]
     binaries = [("A", args.a)] + ([("B", args.b)] if args.b else [])
     rows = []
     for cycle in [int(c) for c in args.cycles.split(",")]:
         for _ in range(args.rounds):
-            for name, binary in binaries:
-                row = {"binary": name, **measure(binary, cycle, args.seconds)}
-                rows.append(row)
-                print(json.dumps(row), flush=True)
+            for baud in lines:
+                for name, binary in binaries:
+                    row = {"binary": name,
+                           **measure(binary, cycle, args.seconds, baud, args.observer)}
+                    rows.append(row)
+                    print(json.dumps(row), flush=True)
     print("summary (medians):")
+    keys = ("cycles_done", "cycles_due", "p99_us", "cpu_pct", "rss_kb", "hwm_kb",
+            "bus_cycle_mean_us", "bus_cycle_max_us")
     for cycle in sorted({r["cycle_ms"] for r in rows}):
-        for name, _ in binaries:
-            sel = [r for r in rows if r["cycle_ms"] == cycle and r["binary"] == name]
-            med = {k: statistics.median(r[k] for r in sel)
-                   for k in ("cycles_done", "cycles_due", "p99_us", "cpu_pct", "rss_kb", "hwm_kb")}
-            print(json.dumps({"binary": name, "cycle_ms": cycle, **med}))
+        for baud in lines:
+            for name, _ in binaries:
+                sel = [r for r in rows if r["cycle_ms"] == cycle and r["binary"] == name
+                       and r["line"] == str(baud or "ideal")]
+                med = {k: statistics.median(r[k] for r in sel) for k in keys}
+                print(json.dumps({"binary": name, "line": str(baud or "ideal"),
+                                  "cycle_ms": cycle, **med}))
 
 
 if __name__ == "__main__":

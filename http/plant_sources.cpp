@@ -16,7 +16,10 @@ StatusSources make_sources(plant::Plant& plant, const modbus::PlantFaces& faces,
   src.cycle = &plant.cycle_stats();
   src.line = plant.timed_line();
   src.line_stats = plant.line_statistics();
-  if (src.line) src.line_baud = src.line->baud();
+  if (src.line)
+    src.line_baud = src.line->baud();
+  else if (plant.master_line())
+    src.line_baud = plant.config().profibus->baud;  // role master: the real line's rate
   src.modbus = modbus;
   for (const auto& g : plant.gateways())
     src.gateways.push_back({&g->config(), g.get(), faces.gateways.at(g->index()).get()});

@@ -183,7 +183,15 @@ json line_json(const config::DaemonConfig& config) {
     c = static_cast<std::uint16_t>(c + 2);
   }
   json kinds = json::array();
-  for (const auto k : fdl::kStationFaultNames) kinds.push_back(k);
+  for (std::size_t k = 0; k < fdl::kStationFaultNames.size(); ++k)
+    kinds.push_back({{"name", fdl::kStationFaultNames[k]}, {"value", k}});
+  json registers = json::array();
+  for (const auto& [name, offset] : {std::pair{"kind", line::kFaultKind},
+                                     {"count", line::kFaultCount},
+                                     {"every", line::kFaultEvery},
+                                     {"for_ms", line::kFaultForMs},
+                                     {"noise_for_ms", line::kNoiseForMs}})
+    registers.push_back({{"name", name}, {"register", kLineBase + offset}});
   return {{"table", table_name(Table::InputRegisters)},
           {"unit", "the station's DP address"},
           {"first", kLineBase},
@@ -193,11 +201,7 @@ json line_json(const config::DaemonConfig& config) {
           {"bus_cycle", std::move(cycle)},
           {"faults",
            {{"table", table_name(Table::HoldingRegisters)},
-            {"kind", kLineBase + line::kFaultKind},
-            {"count", kLineBase + line::kFaultCount},
-            {"every", kLineBase + line::kFaultEvery},
-            {"for_ms", kLineBase + line::kFaultForMs},
-            {"noise_for_ms", kLineBase + line::kNoiseForMs},
+            {"registers", std::move(registers)},
             {"kinds", std::move(kinds)}}}};
 }
 

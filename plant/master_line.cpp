@@ -23,8 +23,17 @@ MasterLine::MasterLine(const config::ProfibusConfig& config, std::uint8_t master
                                     .retries = config.retries},
           [this](std::span<const std::uint8_t> bytes, Time now) { transmit(bytes, now); }, log) {
   fdl_.set_observer([this](std::span<const std::uint8_t> raw, Time now) {
+    statistics_.observe(raw, received_start(raw.size(), now));
     if (tap_) tap_(raw, false, now);
   });
+  fdl_.set_drop_observer([this](std::span<const std::uint8_t> raw, Time now) {
+    statistics_.observe_illegal(received_start(raw.size(), now));
+  });
+}
+
+void MasterLine::add_remote(std::uint8_t address, std::string name) {
+  names_[address] = std::move(name);
+  statistics_.configure(address);
 }
 
 void MasterLine::set_port(WriteFn write, bool paced, Duration latency_allowance) {
@@ -34,17 +43,25 @@ void MasterLine::set_port(WriteFn write, bool paced, Duration latency_allowance)
 }
 
 void MasterLine::transmit(std::span<const std::uint8_t> bytes, Time now) {
+  // docs/profibus.md: DA is byte 1 of SD1/SD3, byte 4 of SD2 (bit 7 = a DSAP follows).
+  std::optional<std::uint8_t> to;
+  if (bytes.size() >= 6 && (bytes[0] == fdl::kSD1 || bytes[0] == fdl::kSD3))
+    to = static_cast<std::uint8_t>(bytes[1] & fdl::kAddrMask);
+  else if (bytes.size() >= 9 && bytes[0] == fdl::kSD2)
+    to = static_cast<std::uint8_t>(bytes[4] & fdl::kAddrMask);
+  const fdl::MasterStationStats* st = to ? fdl_.stats(*to) : nullptr;
+  // The FDL master raised the station's retries before sending a repeat; anything else is a new
+  // request (docs/profibus.md "Line statistics in role master"). Counted even without a port: the
+  // master sent it and waits in vain, so the live list agrees with its Station_Non_Existent.
+  if (!st || to != sent_to_ || st->retries == retries_before_) statistics_.new_request();
+  statistics_.observe(bytes, now);
+  sent_to_ = to;
+  retries_before_ = st ? st->retries : 0;
+  answers_before_ = st ? st->responses : 0;
   if (tap_) tap_(bytes, true, now);
   if (!write_) return;  // no port: the telegram is lost on the wire; the slot time expires
   write_(bytes);
-  // docs/profibus.md: DA is byte 1 of SD1/SD3, byte 4 of SD2 (bit 7 = a DSAP follows).
-  sent_to_.reset();
-  if (bytes.size() >= 6 && (bytes[0] == fdl::kSD1 || bytes[0] == fdl::kSD3))
-    sent_to_ = static_cast<std::uint8_t>(bytes[1] & fdl::kAddrMask);
-  else if (bytes.size() >= 9 && bytes[0] == fdl::kSD2)
-    sent_to_ = static_cast<std::uint8_t>(bytes[4] & fdl::kAddrMask);
   request_end_ = now + (paced_ ? fdl_.wire_time(bytes.size()) : Duration(0));
-  if (sent_to_) answers_before_ = fdl_.stats(*sent_to_) ? fdl_.stats(*sent_to_)->responses : 0;
   if (log_.enabled(LogLevel::Trace)) log_.log(LogLevel::Trace, "> " + hex_bytes(bytes));
 }
 

@@ -21,6 +21,7 @@
 #include "config/config.hpp"
 #include "plant/slave_line.hpp"
 #include "profibus_sim/fdl/fdl_master.hpp"
+#include "profibus_sim/fdl/line_stats.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::plant {
@@ -45,7 +46,8 @@ class MasterLine {
 
   // The remote station at `address` as a DP link (for DpMaster::add_slave).
   dp::SlaveLink& station(std::uint8_t address) { return fdl_.station(address); }
-  void add_remote(std::uint8_t address, std::string name) { names_[address] = std::move(name); }
+  // A remote station the master drives: named in logs, configured in the line statistics.
+  void add_remote(std::uint8_t address, std::string name);
 
   // The PHY's input, and the timers the driver arms: idle ≥ TSYN after the last character
   // (on_gap after bit_times(kTsynBits)) and the FDL master's slot time (advance at
@@ -61,9 +63,17 @@ class MasterLine {
   void check_presence(const dp::DpMaster& master);
   LineStatus status(std::uint8_t address, const dp::DpMaster& master) const;
   const fdl::FdlMaster& fdl() const { return fdl_; }
+  // What an analyser on this line counts (docs/profibus.md "Line statistics in role master"):
+  // every telegram the master sends and every one it receives, the dropped ones as illegal.
+  const fdl::LineStatistics& statistics() const { return statistics_; }
 
  private:
   void transmit(std::span<const std::uint8_t> bytes, Time now);
+  // When a received telegram's first character started: a serial port paces the bytes, so it
+  // began a wire time before the read; a pty hands them over at once.
+  Time received_start(std::size_t bytes, Time now) const {
+    return now - (paced_ ? fdl_.wire_time(bytes) : Duration(0));
+  }
 
   Logger log_;
   fdl::FdlMaster fdl_;
@@ -71,6 +81,7 @@ class MasterLine {
   bool paced_ = false;
   std::function<void(std::span<const std::uint8_t>, bool, Time)> tap_;
   std::map<std::uint8_t, std::string> names_;
+  fdl::LineStatistics statistics_;
   std::map<std::uint8_t, bool> present_;  // stations the master has seen answer (logs)
   // Response times: the request's last character → the answer (a pty does not pace bytes at the
   // bit rate, so the request's last character leaves at write time there).
@@ -79,6 +90,7 @@ class MasterLine {
   };
   std::map<std::uint8_t, Times> times_;
   std::optional<std::uint8_t> sent_to_;  // station of the telegram on the line
+  std::uint64_t retries_before_ = 0;     // its retries when it was sent (a retry raises them)
   Time request_end_{0};
   std::uint64_t answers_before_ = 0;  // the station's valid answers before this telegram
 };

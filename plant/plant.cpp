@@ -393,7 +393,8 @@ std::map<std::uint8_t, StoredValues> Plant::stored() const {
 }
 
 const fdl::LineStatistics* Plant::line_statistics() const {
-  return timed_line_ ? &timed_line_->statistics() : nullptr;
+  if (timed_line_) return &timed_line_->statistics();
+  return master_line_ ? &master_line_->statistics() : nullptr;
 }
 
 }  // namespace candp2::plant

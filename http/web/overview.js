@@ -3,7 +3,8 @@
 // overview and one gateway's panel (#gw=17, panel.js) or one slave's (#slave=8, slave.js) and the
 // stream (/api/v1/events). The stream sends everything on connect and then only what changed
 // (docs/daemon.md "Server-Sent Events"): this file keeps the merged state.
-// A configuration with one gateway and no generic slaves (the demo) opens on its panel.
+// A configuration with one gateway and no generic slaves (the demo) opens on its panel. Below, the
+// PROFIBUS line's live list and bus cycle, when there is a line.
 'use strict';
 
 // ---- state merged from the stream ----------------------------------------------------------------
@@ -132,9 +133,11 @@ function renderHeader(s) {
   let text = c.period_ms + ' ms';
   if (c.missed !== undefined) text += ' · missed ' + c.missed;
   if (lat) text += ' · late p50 ' + lat.p50 + ' µs, p99 ' + lat.p99 + ' µs';
-  // The line in time (docs/profibus.md): the measured bus cycle, last and longest.
-  if (s.line) text += ' · bus cycle ' + s.line.bus_cycle_us.last + ' µs (max ' +
-    s.line.bus_cycle_us.max + ' µs at ' + s.line.baud / 1000 + ' kbit/s)';
+  // The line in time (docs/profibus.md): the measured bus cycle, last and longest (a line in
+  // profibus.role "master" has none).
+  const bc = s.line && s.line.bus_cycle_us;
+  if (bc) text += ' · bus cycle ' + bc.last + ' µs (max ' + bc.max + ' µs at ' +
+    s.line.baud / 1000 + ' kbit/s)';
   const cyc = document.getElementById('cycle');
   setText(cyc, text);
   setClass(cyc, c.missed ? 'warn' : '');
@@ -153,6 +156,7 @@ function renderHeader(s) {
 
 function render(s) {
   renderHeader(s);
+  if (s.line) watchLine();
   renderTiles(s.gateways || [], makeTile, updateTile);
   renderTiles(s.slaves || [], makeSlaveTile, updateSlaveTile);
   if (s.full && wanted() === null && s.gateway_count === 1 && s.gateways.length === 1 &&
@@ -195,5 +199,107 @@ function animateLeds() {
 }
 setInterval(animateLeds, 40);
 
+// ---- the PROFIBUS line (docs/profibus.md "Line statistics"): live list and bus cycle ------------
+// Shown only when GET /api/v1/status has "line" (a line in time, profibus.role "master"): polled
+// once a second while it has, once at load otherwise (and again when the stream's header shows a
+// line). One tile per station: its address, its live state as a colour, its counters under the
+// document's names (the daemon's one table; none is listed here); the bus cycle's last, min,
+// mean and max over the last two minutes.
+const LINE_POLL_MS = 1000, LINE_POINTS = 120;
+const LINE_SERIES = [['last', '#5fb3ff'], ['min', '#35e06b'], ['mean', '#d8dee6'], ['max', '#ffb62e']];
+const line = { timer: 0, polling: false, view: null, tiles: new Map(), cycle: {} };
+for (const [k] of LINE_SERIES) line.cycle[k] = [];
+
+function lineView() {
+  if (line.view) return line.view;
+  const v = {};
+  v.info = el('span', { class: 'hw' });
+  v.tiles = el('div', { class: 'tiles ltiles' });
+  v.canvas = el('canvas');
+  // (The unit in the legend: the headings' capitals would make µs "ΜS".)
+  v.plot = el('div', { class: 'card lplot' }, el('h3', { text: 'Bus cycle, last two minutes' }),
+    v.canvas, el('div', { class: 'legend' },
+      ...LINE_SERIES.map(([k, color]) => el('span', { style: 'color:' + color, text: '— ' + k + ' ' })),
+      'µs, a point a second'));
+  v.root = document.getElementById('line');
+  v.root.append(el('div', { class: 'card' }, el('div', { class: 'lhead' },
+    el('h2', { text: 'PROFIBUS line' }), v.info), v.tiles), v.plot);
+  line.view = v;
+  return v;
+}
+
+function lineTile(v, addr) {
+  let x = line.tiles.get(addr);
+  if (x) return x;
+  x = { addr: el('span', { class: 'taddr' }), live: el('span', { class: 'tname' }),
+        counters: el('dl', { class: 'kv lcounters' }), fault: el('div', { class: 'tfault' }) };
+  x.root = el('div', { class: 'tile ltile', id: 'line-' + addr },
+    el('div', { class: 'thead' }, x.addr, x.live), x.counters, x.fault);
+  const after = [...line.tiles.keys()].filter(a => a > addr).sort((a, b) => a - b)[0];
+  v.tiles.insertBefore(x.root, after === undefined ? null : line.tiles.get(after).root);
+  line.tiles.set(addr, x);
+  return x;
+}
+
+function renderLine(l) {
+  const v = lineView();
+  v.root.hidden = false;
+  const live = l.live_list || {};
+  const n = k => (live[k] || []).length;
+  setText(v.info, l.baud / 1000 + ' kbit/s · ok ' + n('ok') + ' · missing ' + n('missing') +
+    ' · phantom ' + n('phantom') + (l.illegals_unattributed ? ' · illegals unattributed ' +
+    l.illegals_unattributed : '') + (l.noise_remaining_ms ? ' · noise ' + l.noise_remaining_ms + ' ms' : ''));
+  // The stations (or, without them, the live list's addresses).
+  const stations = l.stations || Object.entries(live).flatMap(
+    ([state, addrs]) => addrs.map(address => ({ address, live: state })));
+  const seen = new Set();
+  for (const st of stations) {
+    const x = lineTile(v, st.address);
+    seen.add(st.address);
+    setText(x.addr, String(st.address).padStart(3, '0'));
+    setText(x.live, st.live);
+    setClass(x.root, 'tile ltile live-' + st.live);
+    kvSet(x.counters, Object.entries(st).filter(([k, val]) => k !== 'address' && typeof val === 'number'));
+    const f = st.fault;
+    setText(x.fault, f ? f.kind + (f.remaining_ms ? ' ' + f.remaining_ms + ' ms' : ' ×' + f.remaining) +
+      (f.every > 1 ? ', every ' + f.every : '') : '');
+  }
+  for (const [a, x] of line.tiles) if (!seen.has(a)) { x.root.remove(); line.tiles.delete(a); }
+  v.tiles.dataset.count = String(line.tiles.size);
+  // The bus cycle (a line in time only).
+  const c = l.bus_cycle_us;
+  v.plot.hidden = !c;
+  if (!c) return;
+  for (const [k] of LINE_SERIES) {
+    line.cycle[k].push(c[k]);
+    if (line.cycle[k].length > LINE_POINTS) line.cycle[k].shift();
+  }
+  v.canvas.dataset.points = String(line.cycle.last.length);
+  plot(v.canvas, LINE_SERIES.map(([k, color]) => ({ data: line.cycle[k], color })),
+    { points: LINE_POINTS, label: '120 s' });
+}
+
+function pollLine() {
+  line.timer = 0;
+  fetch('/api/v1/status', { cache: 'no-store' })
+    .then(r => r.ok ? r.json() : Promise.reject(new Error('HTTP ' + r.status)))
+    .then(s => {
+      if (!s.line) {  // no line (or none any more): stop until the stream shows one
+        line.polling = false;
+        document.getElementById('line').hidden = true;
+        return;
+      }
+      renderLine(s.line);
+      schedulePoll(LINE_POLL_MS);
+    })
+    .catch(() => schedulePoll(2 * LINE_POLL_MS));  // the daemon away: the stream says so
+}
+function schedulePoll(ms) {
+  line.polling = true;
+  if (!line.timer) line.timer = setTimeout(pollLine, ms);
+}
+function watchLine() { if (!line.polling) schedulePoll(0); }
+
 window.addEventListener('hashchange', show);
 show();
+schedulePoll(0);

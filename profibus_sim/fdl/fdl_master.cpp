@@ -144,6 +144,7 @@ void FdlMaster::drain(Time now) {
       // A bad FCS, framing or parity error: no answer; the slot timer runs on and the request is
       // repeated (docs/profibus.md). The parser counts it (line_stats()).
       log_.debug("line: " + std::string(to_string(ev->error)) + ": " + hex_bytes(ev->raw));
+      if (drop_observe_) drop_observe_(ev->raw, now);
       continue;
     }
     if (observe_) observe_(ev->raw, now);

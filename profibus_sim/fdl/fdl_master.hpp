@@ -131,6 +131,9 @@ class FdlMaster {
   // Sees every valid telegram received on the line, as its raw bytes (a capture's tap).
   using ObserveFn = std::function<void(std::span<const std::uint8_t> raw, Time now)>;
   void set_observer(ObserveFn observe) { observe_ = std::move(observe); }
+  // Sees every telegram received and dropped (bad FCS, framing, parity, cut by a gap), as the
+  // bytes the parser abandoned (a line statistics' illegal telegram).
+  void set_drop_observer(ObserveFn observe) { drop_observe_ = std::move(observe); }
   bool idle() const { return !current_ && queue_.empty(); }
 
  private:
@@ -160,6 +163,7 @@ class FdlMaster {
   std::optional<dp::Response> match(const Telegram& t) const;
   std::vector<std::uint8_t> build(Outstanding& o);
   ObserveFn observe_;
+  ObserveFn drop_observe_;
   void drain(Time now);
 
   MasterStationOptions options_;

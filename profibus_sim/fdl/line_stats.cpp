@@ -59,6 +59,11 @@ void LineStatistics::observe_illegal(Time start) {
   illegal(start);
 }
 
+void LineStatistics::new_request() {
+  if (outstanding_ && !outstanding_->answered) close_unanswered(*outstanding_);
+  outstanding_.reset();
+}
+
 void LineStatistics::drop_out(std::uint8_t da) {
   // docs/profibus.md "Line statistics": lost counts a station leaving data exchange.
   if (exchanging_[da]) {
@@ -87,6 +92,13 @@ void LineStatistics::on_request(std::span<const std::uint8_t> bytes, std::uint8_
     close_unanswered(*outstanding_);
   }
   outstanding_.reset();
+  if (!master_ && cycle_repeats_[da]) {
+    // No token on this line (a lone master that passes none, candp2d in role master): a new
+    // request to the station ends its run of repeats (docs/profibus.md "Line statistics in role
+    // master").
+    cycle_repeats_[da] = 0;
+    std::erase(repeated_, da);
+  }
   if (k.dp_service && !told_) configured_[da] = true;
   if (k.set_prm) {
     ++stats_[da].syncs;

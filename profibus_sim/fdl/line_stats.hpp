@@ -22,7 +22,7 @@ struct StationCounters {
   std::uint64_t lost = 0;         // dropped out of data exchange (ProfiTrace "Lost")
   std::uint64_t syncs = 0;        // parameterizations started: Set_Prm requests (not repeats)
   std::uint64_t repeats = 0;      // requests repeated because no valid answer came
-  std::uint64_t repeats_max = 0;  // the most repeats in one token rotation
+  std::uint64_t repeats_max = 0;  // the most repeats in one token rotation (no token: one request)
   std::uint64_t illegals = 0;     // telegrams that were not a valid answer to the master
   std::uint64_t diagnostics = 0;  // Slave_Diag requests answered
 
@@ -84,6 +84,11 @@ class LineStatistics {
   void observe(std::span<const std::uint8_t> bytes, Time start);
   // A telegram the receiver dropped before its bytes were whole (a parity error, a gap).
   void observe_illegal(Time start);
+  // A master that passes no token and knows its retries (candp2d in role master) tells that the
+  // telegram it sends next is a new request, not a repeat, even with the same bytes (FDL_Status
+  // asked again): a request still unanswered was given up. On a line with tokens the token
+  // between them says so; a sniffer of a tokenless master cannot know.
+  void new_request();
 
   const StationCounters& station(std::uint8_t address) const {
     return stats_.at(address % kStations);

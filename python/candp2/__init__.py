@@ -21,7 +21,7 @@ from .drive import Drive, DriveState
 from .errors import (Candp2Error, ConfigError, DaemonError, FrameNotSeen, ModbusError,
                      UnexpectedFrame, WaitTimeout)
 from .gateway import CfgFault, Counters, Diagnosis, Gateway, Led, Leds, PrmFault, Slot
-from .line import BusCycle, Line
+from .line import BusCycle, Line, LineFault, LineStation, LiveList
 from .registers import RegisterMap
 from .replay import ReplayResult, ReplayStep, replay
 from .slave import DiagBlock, FieldImage, Slave, SlaveDiagnosis, SlaveFaults
@@ -32,8 +32,9 @@ __version__ = "0.1.0"
 __all__ = [
     "Bus", "BusCycle", "Candp2Error", "CfgFault", "ConfigError", "Connection", "Counters", "Daemon",
     "DaemonError", "DiagBlock", "Diagnosis", "Drive", "DriveState", "FieldImage", "FrameNotSeen",
-    "Gateway", "Image", "Led", "Leds", "Line", "ModbusError", "PrmFault", "Recorder", "RegisterMap",
-    "ReplayResult", "ReplayStep", "Slave", "SlaveDiagnosis", "SlaveFaults", "Slot", "Station",
-    "UnexpectedFrame", "WaitTimeout", "candump_line", "connect", "example", "find_binary",
-    "find_example", "find_tool", "frame_text", "replay", "running_daemons",
+    "Gateway", "Image", "Led", "Leds", "Line", "LineFault", "LineStation", "LiveList",
+    "ModbusError", "PrmFault", "Recorder", "RegisterMap", "ReplayResult", "ReplayStep", "Slave",
+    "SlaveDiagnosis", "SlaveFaults", "Slot", "Station", "UnexpectedFrame", "WaitTimeout",
+    "candump_line", "connect", "example", "find_binary", "find_example", "find_tool", "frame_text",
+    "replay", "running_daemons",
 ]

@@ -82,10 +82,12 @@ class Connection:
 
     @property
     def line(self) -> Line | None:
-        """The built-in master's line in time (`master.baud`, docs/profibus.md): its baud rate
-        and measured bus cycle, from the HTTP face; None on an ideal line (no `master.baud`)."""
+        """The built-in master's line (docs/profibus.md "Line statistics"): on a line in time
+        (`master.baud`) or in profibus.role "master", its baud rate, bus cycle, live list and
+        station counters from the HTTP face, with inject() and noise(); None on an ideal
+        line."""
         line = self.http_status().get("line")
-        return None if line is None else Line.from_status(line)
+        return None if line is None else Line.from_status(line, self)
 
     # ---- the objects a test works with ---------------------------------------------------
 

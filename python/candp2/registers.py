@@ -19,6 +19,22 @@ from .errors import Candp2Error, ConfigError
 FORMAT = "candp2-modbus-map"
 VERSION = 1
 
+#: A station's line fault registers, in their order from the first (docs/modbus.md "Line
+#: statistics"): written in one request, the fault takes effect with its kind.
+LINE_FAULT_FIELDS = ("kind", "count", "every", "for_ms")
+
+#: The line block's fault registers (docs/modbus.md "Line block") where the daemon's map has no
+#: `line` (a line without statistics, where a line fault is refused anyway): holding registers of
+#: a station's line fault and of the line's noise, and the fault kinds by their code. The map's
+#: `line.faults` object replaces it (the same shape).
+_LINE_FAULTS_FALLBACK: Mapping[str, Any] = {
+    "table": "holding_registers",
+    "registers": [{"name": name, "register": 8400 + i}
+                  for i, name in enumerate(LINE_FAULT_FIELDS + ("noise_for_ms",))],
+    "kinds": [{"name": name, "value": i}
+              for i, name in enumerate(("none", "corrupt", "silent", "late", "double_address"))],
+}
+
 #: A status value: a number, or for the diagnosis the 11 register values.
 StatusValue = int | tuple[int, ...]
 
@@ -155,8 +171,9 @@ class RegisterMap:
     of the whole Slave_Diag answer, `slave_faults` (a generic slave's fault registers by name:
     "on_bus", "prm_fault", "cfg_fault", "alarm_length", "alarm_bytes"), `slave_fault_table`,
     `alarm_bytes` (Range of the alarm's byte registers), `field_inputs` and `field_outputs` (the
-    tables of a slave's field side), `gateways`, `slaves`, `drives`, and `document` (the parsed
-    JSON).
+    tables of a slave's field side), `line_fault_table`, `line_fault_registers` (by name: "kind",
+    "count", "every", "for_ms", "noise_for_ms") and `line_fault_kinds` (names by code),
+    `gateways`, `slaves`, `drives`, and `document` (the parsed JSON).
     """
 
     def __init__(self, document: Mapping[str, Any]) -> None:
@@ -213,9 +230,25 @@ class RegisterMap:
         self.field_outputs = str(document["field"]["outputs"]["table"])
         self.gateways = tuple(self._gateway(g) for g in document["gateways"])
         self.slaves = tuple(self._slave(s) for s in document["slaves"])
+        line = document.get("line") or {}
+        self._line_faults(line.get("faults", _LINE_FAULTS_FALLBACK))
         self.drives = tuple(DriveMap(d["name"], d["bus"], int(d["rx_id"]), int(d["tx_id"]),
                                      None if d["unit"] is None else int(d["unit"]))
                             for d in document["drives"])
+
+    def _line_faults(self, j: Mapping[str, Any]) -> None:
+        self.line_fault_table = str(j["table"])
+        self.line_fault_registers: dict[str, int] = {
+            r["name"]: int(r["register"]) for r in j["registers"]}
+        kinds = sorted((int(k["value"]), str(k["name"])) for k in j["kinds"])
+        if [v for v, _ in kinds] != list(range(len(kinds))):
+            raise Candp2Error("line fault kinds %r are not numbered 0.." % kinds)
+        self.line_fault_kinds = tuple(name for _, name in kinds)
+        first = self.line_fault_registers["kind"]
+        if [self.line_fault_registers[n] for n in LINE_FAULT_FIELDS] != \
+                list(range(first, first + len(LINE_FAULT_FIELDS))):
+            raise Candp2Error("line fault registers %r do not follow each other in the order %s"
+                              % (self.line_fault_registers, ", ".join(LINE_FAULT_FIELDS)))
 
     @staticmethod
     def _range(j: Mapping[str, Any]) -> Range:

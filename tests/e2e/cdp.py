@@ -97,6 +97,16 @@ class Browser:
         with open(path, "wb") as f:
             f.write(base64.b64decode(r["data"]))
 
+    def screenshot_page(self, path, width=1400):
+        """The whole page in one viewport (parts painted beyond the viewport lose their
+        styling), at most 8000 pixels high; the viewport is restored after."""
+        height = int(self.evaluate("document.documentElement.scrollHeight"))
+        self.call("Emulation.setDeviceMetricsOverride", width=width, height=min(height, 8000),
+                  deviceScaleFactor=1, mobile=False)
+        self.evaluate("new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
+        self.screenshot(path)
+        self.call("Emulation.clearDeviceMetricsOverride")
+
     def close(self):
         try:
             self.ws.close()

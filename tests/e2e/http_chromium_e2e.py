@@ -73,6 +73,8 @@ def test_front_panel(candp2_binary, tmp_path):
         browser.wait_for("the overview's two tiles, gw5 faulty",
                          "document.querySelectorAll('#tiles .tile').length === 2 && "
                          "document.getElementById('tile-5').classList.contains('faulty')")
+        # An ideal line: no line view (it polled the status once and found no "line").
+        assert browser.evaluate("document.getElementById('line').hidden") is True
         browser.evaluate("document.getElementById('tile-3').click()")
         browser.wait_for("gateway 3's panel", "!!document.getElementById('gw-3')")
         assert browser.evaluate("location.hash") == "#gw=3"
@@ -113,15 +115,9 @@ def test_front_panel(candp2_binary, tmp_path):
         browser.wait_for("a frames/s plot", "(() => { const p = document.querySelector("
                          "'#gw-3 canvas'); return p && +p.dataset.points >= 3; })()", timeout=15)
         path = os.path.join(output_dir, "front-panel.png")
-        # The whole page in one viewport (parts painted beyond the viewport lose their styling).
-        height = int(browser.evaluate("document.documentElement.scrollHeight"))
-        browser.call("Emulation.setDeviceMetricsOverride", width=1400, height=min(height, 8000),
-                     deviceScaleFactor=1, mobile=False)
-        browser.evaluate("new Promise(r => requestAnimationFrame(() => requestAnimationFrame(r)))")
-        browser.screenshot(path)
+        browser.screenshot_page(path)
         assert os.path.getsize(path) > 10000, os.path.getsize(path)
         print("screenshot: " + path)
-        browser.call("Emulation.clearDeviceMetricsOverride")
         # The deep link to gw5: its panel replaces gateway 3's.
         browser.evaluate("location.hash = '#gw=5'")
         browser.wait_for("gw5's panel alone", "!!document.getElementById('gw-5') && "

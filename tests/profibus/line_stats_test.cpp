@@ -55,11 +55,20 @@ struct Line {
     put(req);
     put(ans);
   }
+  // A Data_Exchange with the station, repeated `repeats` times before its answer; FCB toggled.
+  void data_exchange(std::uint8_t station, FcbSequence& seq, int repeats);
 };
 
+void Line::data_exchange(std::uint8_t station, FcbSequence& seq, int repeats) {
+  const Bytes r = request(dp::Service::DataExchange, station, seq, {0x01});
+  for (int i = 0; i <= repeats; ++i) put(r);
+  put(encode(data_exchange_answer(decode(r).telegram.value(), Bytes{0x02}, false)));
+  seq.advance();
+}
+
 StationCounters counters(std::uint64_t lost, std::uint64_t syncs, std::uint64_t repeats,
-                      std::uint64_t repeats_max, std::uint64_t illegals,
-                      std::uint64_t diagnostics) {
+                         std::uint64_t repeats_max, std::uint64_t illegals,
+                         std::uint64_t diagnostics) {
   return {lost, syncs, repeats, repeats_max, illegals, diagnostics};
 }
 
@@ -252,12 +261,7 @@ TEST(LineStatistics, RepeatsMaxIsTheMostRepeatsInOneTokenRotation) {
   Line l;
   FcbSequence seq;
   l.put(token());
-  auto cycle = [&](int repeats) {
-    const Bytes r = request(dp::Service::DataExchange, 3, seq, {0x01});
-    for (int i = 0; i <= repeats; ++i) l.put(r);
-    l.put(encode(data_exchange_answer(decode(r).telegram.value(), Bytes{0x02}, false)));
-    seq.advance();
-  };
+  auto cycle = [&](int repeats) { l.data_exchange(3, seq, repeats); };
   cycle(1);
   cycle(1);  // two repeats in the first rotation
   l.put(token());
@@ -268,6 +272,31 @@ TEST(LineStatistics, RepeatsMaxIsTheMostRepeatsInOneTokenRotation) {
   EXPECT_EQ(l.stats.station(3), counters(0, 0, 3, 2, 0, 0));
   cycle(3);  // three in the last
   EXPECT_EQ(l.stats.station(3), counters(0, 0, 6, 3, 0, 0));
+}
+
+TEST(LineStatistics, WithoutTokensRepeatsMaxIsPerRequestAndTheMasterTellsANewRequest) {
+  // A master that passes no token (candp2d in role master, docs/profibus.md "Line statistics in
+  // role master"): no rotation ends a run of repeats, a new request to the station does.
+  Line l;
+  FcbSequence seq;
+  auto exchange = [&](int repeats) { l.data_exchange(3, seq, repeats); };
+  exchange(1);
+  exchange(2);
+  exchange(1);
+  EXPECT_EQ(l.stats.station(3), counters(0, 0, 4, 2, 0, 0));
+  // The station stops answering: FDL_Status asked, repeated, given up, asked again later with
+  // the same bytes. Told by the master, the second one is a new request, not a third repeat.
+  const Bytes status = encode(Telegram::no_data(3, kMaster, request_fc(kFcFdlStatus)));
+  l.stats.new_request();
+  l.put(status);
+  l.put(status);  // its repeat
+  l.stats.new_request();
+  l.put(status);
+  l.put(status);
+  EXPECT_EQ(l.stats.station(3).repeats, 6u);
+  EXPECT_EQ(l.stats.station(3).repeats_max, 2u);
+  EXPECT_EQ(l.stats.station(3).lost, 1u);  // it dropped out of data exchange once
+  EXPECT_EQ(l.stats.live(3), Live::Missing);
 }
 
 TEST(LineStatistics, LiveListLearntFromTheMastersDpServices) {

@@ -14,6 +14,8 @@
 #include "modbus/plant_faces.hpp"
 #include "plant/plant.hpp"
 #include "profibus_sim/dp/dp_telegram.hpp"
+#include "profibus_sim/fdl/fdl.hpp"
+#include "profibus_sim/fdl/line_stats.hpp"
 
 namespace candp2::profibus_line {
 namespace {
@@ -94,6 +96,65 @@ struct MasterLineFixture : ::testing::Test {
     return v && v->last_diag && ((*v->last_diag)[0] & dp::kDiag1StationNonExistent);
   }
   plant::LineStatus status() { return plant->master_line()->status(3, plant->master()); }
+  const fdl::StationCounters& stats3() const {
+    return plant->master_line()->statistics().station(3);
+  }
+  // The next telegram the master puts on the line (nullopt after 2 s without one).
+  std::optional<fdl::Telegram> next_request() {
+    std::optional<fdl::Telegram> got;
+    loop.run_until(
+        [&] {
+          std::uint8_t buf[256];
+          const ssize_t r = ::read(peer, buf, sizeof buf);
+          if (r > 0) peer_rx.feed(std::span<const std::uint8_t>(buf, static_cast<std::size_t>(r)));
+          while (!got)
+            if (auto ev = peer_rx.next(); !ev)
+              break;
+            else if (ev->error == fdl::Error::None)
+              got = ev->telegram;
+          return got.has_value();
+        },
+        milliseconds(2000));
+    return got;
+  }
+  void answer(const fdl::Telegram& t) {
+    const auto bytes = fdl::encode(t);
+    ASSERT_EQ(::write(peer, bytes.data(), bytes.size()), static_cast<ssize_t>(bytes.size()));
+  }
+  // Plays station 3 as a DP slave: FDL_Status, Slave_Diag (Prm_Req), Set_Prm, Chk_Cfg, Slave_Diag
+  // (ready), then answers `exchanges` Data_Exchange requests (6 input bytes); the next one is
+  // read and stays unanswered.
+  void parameterize(int exchanges = 0) {
+    bool prm_done = false;
+    for (int i = 0; i < 10 + exchanges; ++i) {
+      const auto t = next_request();
+      ASSERT_TRUE(t);
+      ASSERT_EQ(t->da, 3);
+      if (t->function() == fdl::kFcFdlStatus) {
+        answer(fdl::Telegram::no_data(2, 3, fdl::response_fc(fdl::kFcOk)));
+      } else if (t->dsap == fdl::kSapSlaveDiag) {
+        // The standard diagnosis (docs/dp-slave.md "Diagnosis"): Prm_Req, no master before Set_Prm.
+        const std::vector<std::uint8_t> diag = {
+            0,
+            static_cast<std::uint8_t>(dp::kDiag2AlwaysOne | (prm_done ? 0 : dp::kDiag2PrmReq)),
+            0,
+            prm_done ? std::uint8_t{2} : dp::kNoMaster,
+            0x04,
+            0xA4};
+        answer(fdl::Telegram::with_data(2, 3, fdl::response_fc(fdl::kFcDl), fdl::kSapChkCfg,
+                                        fdl::kSapSlaveDiag, diag));
+      } else if (t->dsap == fdl::kSapSetPrm || t->dsap == fdl::kSapChkCfg) {
+        prm_done = prm_done || t->dsap == fdl::kSapChkCfg;
+        answer(fdl::Telegram::sc());
+      } else {
+        ASSERT_FALSE(t->dsap) << "unexpected DP service";  // Data_Exchange: default SAP
+        if (exchanges-- == 0) return;
+        answer(fdl::Telegram::with_data(2, 3, fdl::response_fc(fdl::kFcDl), std::nullopt,
+                                        std::nullopt, std::vector<std::uint8_t>(6, 0)));
+      }
+    }
+    FAIL() << "no unanswered Data_Exchange after " << 10 + exchanges << " telegrams";
+  }
 
   EventLoop loop;
   std::string dir;
@@ -104,6 +165,7 @@ struct MasterLineFixture : ::testing::Test {
   EventLoop::DeferredId deferred = 0;
   std::optional<Time> armed;
   int peer = -1;
+  fdl::StreamParser peer_rx;  // the remote station's receiver
 };
 
 TEST(MasterLatencyAllowance, PtyAndSlowAdaptersGetMoreThanALowLatencyPort) {
@@ -135,6 +197,12 @@ TEST_F(MasterLineFixture, SilentStationIsAskedTwiceThenShowsStationNonExistent) 
   EXPECT_GE(st.retries, 1u);
   EXPECT_FALSE(st.present);
   EXPECT_EQ(st.response_us, 0u);
+  // The line statistics (docs/profibus.md "Line statistics in role master"): station 3 is
+  // configured but never answered, so it is missing, never lost; its requests were repeated.
+  EXPECT_EQ(plant->master_line()->statistics().live(3), fdl::Live::Missing);
+  EXPECT_EQ(stats3().lost, 0u);
+  EXPECT_GE(stats3().repeats, 1u);
+  EXPECT_EQ(stats3().syncs, 0u);
   // The Modbus face shows the master's Station_Non_Existent (diag byte 0 bit 0), DP state 0.
   modbus::RemoteStationFace face(*plant, 3, "gw3");
   const auto block = face.status(loop.now());
@@ -175,6 +243,43 @@ TEST_F(MasterLineFixture, CorruptedAnswerIsNoAnswerAndIsRepeated) {
   EXPECT_EQ(read_peer(6), fdl_status);
   EXPECT_GE(status().fcs_errors, 1u);
   EXPECT_EQ(status().response_max_us, 0u);
+  // The dropped answer is the station's illegal telegram, the second FDL_Status its repeat.
+  EXPECT_EQ(stats3().illegals, 1u);
+  EXPECT_EQ(stats3().repeats, 1u);
+  EXPECT_EQ(plant->master_line()->statistics().illegals_unattributed(), 0u);
+}
+
+TEST_F(MasterLineFixture, ParameterizationCountsOneSyncAndTwoDiagnostics) {
+  parameterize();
+  const auto& line = plant->master_line()->statistics();
+  EXPECT_EQ(line.live(3), fdl::Live::Ok);
+  EXPECT_EQ(stats3().syncs, 1u);        // one Set_Prm
+  EXPECT_EQ(stats3().diagnostics, 2u);  // before Set_Prm and after Chk_Cfg
+  EXPECT_EQ(stats3().repeats, 0u);
+  EXPECT_EQ(stats3().illegals, 0u);
+  EXPECT_EQ(stats3().lost, 0u);
+  // Only the configured station is listed: the master itself is no station of the live list.
+  EXPECT_EQ(line.stations(), std::vector<std::uint8_t>{3});
+}
+
+TEST_F(MasterLineFixture, StationThatStopsAnsweringIsRepeatedPerRetryLimitThenLost) {
+  parameterize(2);  // in data exchange; then a Data_Exchange goes unanswered, and its repeat
+  const auto& line = plant->master_line()->statistics();
+  EXPECT_EQ(stats3().lost, 0u);
+  // Lost (it dropped out of data exchange) is counted when the master gives up: its next
+  // telegram to the station is another one.
+  ASSERT_TRUE(loop.run_until([&] { return stats3().lost > 0; }, milliseconds(2000)));
+  EXPECT_EQ(stats3().lost, 1u);
+  EXPECT_EQ(stats3().repeats, cfg.profibus->retries);
+  EXPECT_EQ(stats3().repeats_max, cfg.profibus->retries);
+  EXPECT_EQ(line.live(3), fdl::Live::Missing);
+  EXPECT_EQ(stats3().illegals, 0u);
+  // While it stays missing its FDL_Status is repeated too: repeats grow, it is not lost again,
+  // and without a token on the line repeats_max is the most repeats of one request.
+  const std::uint64_t later = cfg.profibus->retries + 2;
+  ASSERT_TRUE(loop.run_until([&] { return stats3().repeats >= later; }, milliseconds(3000)));
+  EXPECT_EQ(stats3().lost, 1u);
+  EXPECT_EQ(stats3().repeats_max, cfg.profibus->retries);
 }
 
 }  // namespace
