@@ -32,6 +32,7 @@ void Plant::power_cycle(GatewayUnit& g, Time now, std::string_view origin) {
   // delay, as a real master would.
   log_.info(g.name() + ": power cycle requested " + std::string(origin));
   tap_note("gateway " + g.name() + ": power cycle", now_);
+  g.touched();
   g.gateway_->power_cycle(now_);
   restarted(g.gateway_->address());
   deliver(now_);

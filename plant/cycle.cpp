@@ -3,6 +3,7 @@
 // of frames between in-process endpoints. Part of plant::Plant (plant/plant.hpp); the assembly is
 // in plant.cpp, the control surface in control.cpp.
 #include <algorithm>
+#include <cstdlib>
 
 #include "plant/master_line.hpp"
 #include "plant/plant.hpp"
@@ -18,7 +19,12 @@ std::optional<Time> Plant::next_deadline() const {
   auto earliest = [&](std::optional<Time> d) {
     if (d && (!next || *d < *next)) next = d;
   };
-  for (const auto& g : gateways_) earliest(g->gateway_->next_deadline());
+  for (const auto& g : gateways_) {
+    earliest(g->deadline());
+#ifndef NDEBUG  // the cache holds what the engine says (Debug builds, the sanitizer run)
+    if (g->deadline() != g->gateway_->next_deadline()) std::abort();
+#endif
+  }
   for (const auto& d : drives_) earliest(d->drive_->next_deadline());
   for (const auto& sl : slaves_) earliest(sl->slave_->next_deadline());
   if (master_line_) earliest(master_line_->next_deadline());
@@ -35,7 +41,10 @@ void Plant::set_now(Time now) {
 
 void Plant::run_timers(Time now) {
   for (auto& g : gateways_)
-    if (const auto d = g->gateway_->next_deadline(); d && *d <= now) g->gateway_->advance(now);
+    if (const auto d = g->deadline(); d && *d <= now) {
+      g->touched();
+      g->gateway_->advance(now);
+    }
   for (auto& d : drives_)
     if (const auto t = d->drive_->next_deadline(); t && *t <= now)
       d->drive_->advance(now, *d->endpoint_);
@@ -76,6 +85,7 @@ void Plant::run_cycle(Time now) {
     next_cycle_ += period_ * static_cast<std::int64_t>(missed);
   }
   next_cycle_ += period_;
+  touch_gateways();  // the master's requests reach them (on an ideal line at once)
   if (master_cycles_) {
     cycle_stats_.record(due, now, missed);
     log_misses(due, now, missed);
@@ -138,6 +148,7 @@ bool Plant::deliver(Time now) {
 void Plant::receive(std::size_t index, Time now) {
   set_now(now);
   GatewayUnit& g = *gateways_.at(index);
+  g.touched();
   while (auto f = g.channel_->receive()) {
     if (g.logs_bus_) tap_can(*g.bus_, *f, "bus", now_);
     g.receive(*f, now_);

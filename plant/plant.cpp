@@ -35,12 +35,30 @@ void GatewayUnit::send(const can::Frame& frame) {
 }
 
 void GatewayUnit::receive(const can::Frame& frame, Time now) {
+  touched();
   if (faults_.pass_rx()) gateway_->on_can_frame(frame, now);
 }
 
 void GatewayUnit::update_controller() {
-  gateway_->set_controller_status(faults_.state(channel_->bus_state()),
-                                  faults_.rx_lost(channel_->rx_lost()));
+  // Given again only when it changed (or the engine was reached since): the same state twice
+  // changes nothing in the engine.
+  const std::pair state{faults_.state(channel_->bus_state()), faults_.rx_lost(channel_->rx_lost())};
+  if (applied_ == state) return;
+  gateway_->set_controller_status(state.first, state.second);
+  applied_ = state;
+  dirty_ = true;
+}
+
+std::optional<Time> GatewayUnit::deadline() const {
+  if (dirty_) {
+    deadline_ = gateway_->next_deadline();
+    dirty_ = false;
+  }
+  return deadline_;
+}
+
+void Plant::touch_gateways() {
+  for (auto& g : gateways_) g->touched();
 }
 
 // ---------------------------------------------------------------------------------- assembly
@@ -173,7 +191,8 @@ bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
   if (slave_line_)
     slave_line_->add(g->gateway_->dp(), config::slave_parameters(cfg), cfg.name);
   else
-    add_in_process(g->gateway_->dp(), config::slave_parameters(cfg), g->gateway_->address());
+    add_in_process(g->gateway_->dp(), config::slave_parameters(cfg), g->gateway_->address(),
+                   std::nullopt, g.get());
   log_.info("gateway " + cfg.name + ": DP address " + std::to_string(g->gateway_->address()) +
             ", " + std::to_string(cfg.slots.size()) + " slots, bus " + b.name + " (" +
             std::string(config::to_string(b.type)) + ")");
@@ -234,9 +253,26 @@ bool Plant::add_slave(const config::SlaveConfig& cfg, std::string* error) {
   return true;
 }
 
+namespace {
+// The link to a gateway on the line in time: it marks the gateway touched before each request.
+class TouchingLink final : public dp::SlaveLink {
+ public:
+  TouchingLink(dp::SlaveLink& inner, GatewayUnit& unit) : inner_(inner), unit_(unit) {}
+  std::uint8_t address() const override { return inner_.address(); }
+  void request(dp::Request req, Time now, dp::Completion done) override {
+    unit_.gateway();  // touched
+    inner_.request(std::move(req), now, std::move(done));
+  }
+
+ private:
+  dp::SlaveLink& inner_;
+  GatewayUnit& unit_;
+};
+}  // namespace
+
 void Plant::add_in_process(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t address,
-                           std::optional<std::uint32_t> max_tsdr) {
-  if (timed_line_) return add_timed(slave, std::move(params), address, max_tsdr);
+                           std::optional<std::uint32_t> max_tsdr, GatewayUnit* unit) {
+  if (timed_line_) return add_timed(slave, std::move(params), address, max_tsdr, unit);
   if (!options_.wire_image) {
     master_->add_slave(slave, std::move(params));
     return;
@@ -253,12 +289,17 @@ void Plant::add_in_process(dp::DpSlave& slave, dp::SlaveParameters params, std::
 }
 
 void Plant::add_timed(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t /*address*/,
-                      std::optional<std::uint32_t> max_tsdr) {
+                      std::optional<std::uint32_t> max_tsdr, GatewayUnit* unit) {
   // A master writes the line's min_TSDR into every Set_Prm (byte 3, IEC 61158-6-3); the station
   // answers no earlier (docs/profibus.md "The line in time").
   if (params.prm.size() > 3)
     params.prm[3] = static_cast<std::uint8_t>(std::min(config_.line->params.min_tsdr_bits, 255u));
-  auto inner = std::make_unique<dp::InProcessLink>(slave);
+  std::unique_ptr<dp::SlaveLink> inner = std::make_unique<dp::InProcessLink>(slave);
+  // A request reaching a gateway changes what it waits for (GatewayUnit::deadline()).
+  if (unit) {
+    links_.push_back(std::move(inner));
+    inner = std::make_unique<TouchingLink>(*links_.back(), *unit);
+  }
   master_->add_slave(timed_line_->add_station(*inner, slave, max_tsdr), std::move(params));
   links_.push_back(std::move(inner));
 }

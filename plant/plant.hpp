@@ -112,7 +112,11 @@ class GatewayUnit final : private can::FrameSink {
   const config::GatewayConfig& config() const { return *cfg_; }
   const std::string& name() const { return cfg_->name; }
   std::size_t index() const { return index_; }
-  gw::Gateway& gateway() { return *gateway_; }
+  // Whoever holds the engine may change what it waits for: its deadline is asked again.
+  gw::Gateway& gateway() {
+    touched();
+    return *gateway_;
+  }
   const gw::Gateway& gateway() const { return *gateway_; }
   const faults::CanFaultLayer& faults() const { return faults_; }
   can::Channel& channel() { return *channel_; }
@@ -127,6 +131,14 @@ class GatewayUnit final : private can::FrameSink {
   void send(const can::Frame& frame) override;  // the gateway transmits
   void receive(const can::Frame& frame, Time now);
   void update_controller();
+  // The gateway's next deadline, asked of the engine again only after something reached it
+  // (docs/architecture.md "The plant"): a line in time wakes the plant for every telegram, and a
+  // scan of every gateway's slots each time would cost more than the line itself.
+  std::optional<Time> deadline() const;
+  void touched() {
+    dirty_ = true;
+    applied_.reset();
+  }
 
   Plant* plant_ = nullptr;
   const config::GatewayConfig* cfg_ = nullptr;
@@ -138,6 +150,10 @@ class GatewayUnit final : private can::FrameSink {
   std::string sender_;  // "gw:NAME": the endpoint name on a virtual bus, the tap's sender
   faults::CanFaultLayer faults_;
   std::unique_ptr<gw::Gateway> gateway_;
+  mutable bool dirty_ = true;
+  mutable std::optional<Time> deadline_;
+  // The controller state and IRQ_LOST total last given to the engine (update_controller).
+  std::optional<std::pair<can::BusState, std::uint32_t>> applied_;
 };
 
 // One simulated drive on a virtual bus, behind its fault layer.
@@ -247,7 +263,10 @@ class Plant {
   // False in profibus role slaves: an external master drives the gateways.
   bool master_runs() const { return master_cycles_; }
   std::vector<std::unique_ptr<BusUnit>>& buses() { return buses_; }
-  std::vector<std::unique_ptr<GatewayUnit>>& gateways() { return gateways_; }
+  std::vector<std::unique_ptr<GatewayUnit>>& gateways() {
+    touch_gateways();
+    return gateways_;
+  }
   const std::vector<std::unique_ptr<GatewayUnit>>& gateways() const { return gateways_; }
   std::vector<std::unique_ptr<DriveUnit>>& drives() { return drives_; }
   std::vector<std::unique_ptr<SlaveUnit>>& slaves() { return slaves_; }
@@ -265,7 +284,10 @@ class Plant {
   Duration cycle_period() const { return period_; }
   Time next_cycle() const { return next_cycle_; }
   // profibus role slaves / role master: the line's stations; nullptr otherwise.
-  SlaveLine* slave_line() { return slave_line_.get(); }
+  SlaveLine* slave_line() {
+    touch_gateways();  // an external master's telegrams reach the gateways through it
+    return slave_line_.get();
+  }
   MasterLine* master_line() { return master_line_.get(); }
   // With $.master.baud: the in-process line in time (plant/timed_line.hpp), whose bus_cycle() is
   // the measured bus cycle; nullptr on the ideal line.
@@ -287,11 +309,14 @@ class Plant {
   // The built-in master reaches an emulated station in-process (through its wire image when
   // Options::wire_image); `power cycled` stations start again with FDL_Status there.
   // On a timed line `max_tsdr` is the station's MaxTsdr at the line's rate (its GSD).
+  // `unit`: the gateway whose engine the station is (its deadline cache is touched by requests).
   void add_in_process(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t address,
-                      std::optional<std::uint32_t> max_tsdr = std::nullopt);
+                      std::optional<std::uint32_t> max_tsdr = std::nullopt,
+                      GatewayUnit* unit = nullptr);
   void add_timed(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8_t address,
-                 std::optional<std::uint32_t> max_tsdr);
+                 std::optional<std::uint32_t> max_tsdr, GatewayUnit* unit);
   void restarted(std::uint8_t address);
+  void touch_gateways();
   bool add_remote_stations(std::string* error);
   void run_timers(Time now);
   void run_cycle(Time now);

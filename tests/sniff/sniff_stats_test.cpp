@@ -74,6 +74,8 @@ std::vector<Timed> scenario() {
   s3.advance();
   const Bytes fs7 = status_request(7);
   const Bytes dx3 = request(dp::Service::DataExchange, 3, s3, {0x11});
+  s3.advance();
+  const Bytes dx3b = request(dp::Service::DataExchange, 3, s3, {0x12});
   const Bytes diag4 = request(dp::Service::SlaveDiag, 4);
   return {
       {0, token()},  // rotation 1 starts
@@ -102,14 +104,16 @@ std::vector<Timed> scenario() {
       {2300, fdl::garble(token(), 9)},  // no answer due: unattributed 1
       {2400, token()},                  // rotation 3 (1300 µs)
       {2500, dx3},
-      {2700, dx3},      // repeats 3: 4
-      {2800, token()},  // rotation 4 (400 µs): 3 lost
+      {2550, kSc},      // 3 in data exchange
+      {2600, dx3b},
+      {2700, dx3b},     // repeats 3: 4
+      {2800, token()},  // rotation 4 (400 µs): 3 dropped out of data exchange: lost
       {2900, diag4},
       {2950, answer(diag4, dp::Service::SlaveDiag, kDiag)},  // diagnostics 4: 1
       {3000, token()},                                       // rotation 5 (200 µs)
   };
 }
-constexpr std::uint64_t kValidTelegrams = 31 - 4;  // all but the 4 damaged
+constexpr std::uint64_t kValidTelegrams = 33 - 4;  // all but the 4 damaged
 
 nlohmann::json station(int address, const char* live, fdl::StationCounters s) {
   nlohmann::json j = {{"address", address}, {"live", live}};
@@ -212,7 +216,7 @@ TEST(SniffStats, APcapngCaptureWithProfibusDlAndASecondLine) {
   write_file(path, pcapng_of(scenario(), pc::kLinktypeProfibusDl, true));
   const Result r = sniff("--stats --json " + path);
   ASSERT_EQ(r.rc, 0) << r.err;
-  EXPECT_NE(r.err.find("31 packets of other PROFIBUS interfaces left out (only pty:/tmp/pb"),
+  EXPECT_NE(r.err.find("33 packets of other PROFIBUS interfaces left out (only pty:/tmp/pb"),
             std::string::npos)
       << r.err;
   expect_scenario(nlohmann::json::parse(r.out));
