@@ -38,9 +38,9 @@ class VirtualEndpoint final : public Channel {
 
   std::size_t pending() const { return queue_.size(); }
   // Fault injection: pretend the controller lost n frames (an RX overrun).
-  void inject_rx_lost(std::uint32_t n) { rx_lost_ += n; }
+  void inject_rx_lost(std::uint32_t n);
   // Fault injection for this endpoint's controller only; nullopt follows the bus state.
-  void set_bus_state_override(std::optional<BusState> s) { state_override_ = s; }
+  void set_bus_state_override(std::optional<BusState> s);
 
  private:
   friend class VirtualBus;
@@ -79,8 +79,14 @@ class VirtualBus {
   void add_tap(Tap tap) { taps_.push_back(std::move(tap)); }
 
   // Fault injection: the state every controller on the bus sees. In BusOff, nothing is sent.
-  void set_bus_state(BusState s) { state_ = s; }
+  void set_bus_state(BusState s) {
+    state_ = s;
+    ++changes_;
+  }
   BusState bus_state() const { return state_; }
+  // Grows with every frame sent and every change of a bus or endpoint state: while it stands
+  // still, no endpoint's queue, bus state or lost count changed (the plant skips quiet buses).
+  std::uint64_t changes() const { return changes_; }
 
   std::uint64_t frames_sent() const { return frames_sent_; }
 
@@ -93,6 +99,7 @@ class VirtualBus {
   std::vector<VirtualEndpoint*> endpoints_;
   std::vector<Tap> taps_;
   BusState state_ = BusState::Ok;
+  std::uint64_t changes_ = 0;
   Time now_{0};
   std::uint64_t frames_sent_ = 0;
 };

@@ -19,17 +19,29 @@ std::optional<Time> Plant::next_deadline() const {
   auto earliest = [&](std::optional<Time> d) {
     if (d && (!next || *d < *next)) next = d;
   };
-  for (const auto& g : gateways_) {
-    earliest(g->deadline());
-#ifndef NDEBUG  // the cache holds what the engine says (Debug builds, the sanitizer run)
-    if (g->deadline() != g->gateway_->next_deadline()) std::abort();
-#endif
-  }
+  earliest(gateways_deadline());
   for (const auto& d : drives_) earliest(d->drive_->next_deadline());
   for (const auto& sl : slaves_) earliest(sl->slave_->next_deadline());
   if (master_line_) earliest(master_line_->next_deadline());
   if (timed_line_) earliest(timed_line_->next_deadline());
   return next;
+}
+
+std::optional<Time> Plant::gateways_deadline() const {
+  if (gateways_dirty_) {
+    gateways_deadline_.reset();
+    for (const auto& g : gateways_)
+      if (const auto d = g->deadline(); d && (!gateways_deadline_ || *d < *gateways_deadline_))
+        gateways_deadline_ = d;
+    gateways_dirty_ = false;
+  }
+#ifndef NDEBUG  // the caches hold what the engines say (Debug builds, the sanitizer run)
+  std::optional<Time> fresh;
+  for (const auto& g : gateways_)
+    if (const auto d = g->gateway_->next_deadline(); d && (!fresh || *d < *fresh)) fresh = d;
+  if (fresh != gateways_deadline_) std::abort();
+#endif
+  return gateways_deadline_;
 }
 
 void Plant::set_now(Time now) {
@@ -40,11 +52,12 @@ void Plant::set_now(Time now) {
 }
 
 void Plant::run_timers(Time now) {
-  for (auto& g : gateways_)
-    if (const auto d = g->deadline(); d && *d <= now) {
-      g->touched();
-      g->gateway_->advance(now);
-    }
+  if (const auto first = gateways_deadline(); first && *first <= now)
+    for (auto& g : gateways_)
+      if (const auto d = g->deadline(); d && *d <= now) {
+        g->touched();
+        g->gateway_->advance(now);
+      }
   for (auto& d : drives_)
     if (const auto t = d->drive_->next_deadline(); t && *t <= now)
       d->drive_->advance(now, *d->endpoint_);
@@ -129,11 +142,15 @@ bool Plant::deliver(Time now) {
     work = false;
     for (auto& g : gateways_) {
       if (!g->endpoint_) continue;
+      // A quiet virtual bus (no frame, no state change since) has nothing for the gateway.
+      const std::uint64_t changes = g->bus_->vbus_->changes();
+      if (g->bus_seen_ == changes) continue;
       while (auto f = g->endpoint_->receive()) {
         g->receive(*f, now_);
         work = true;
       }
       g->update_controller();
+      g->bus_seen_ = changes;
     }
     for (auto& d : drives_)
       while (auto f = d->endpoint_->receive()) {

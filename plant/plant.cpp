@@ -47,6 +47,14 @@ void GatewayUnit::update_controller() {
   gateway_->set_controller_status(state.first, state.second);
   applied_ = state;
   dirty_ = true;
+  if (plant_) plant_->gateways_dirty_ = true;
+}
+
+void GatewayUnit::touched() {
+  dirty_ = true;
+  applied_.reset();
+  bus_seen_.reset();
+  if (plant_) plant_->gateways_dirty_ = true;
 }
 
 std::optional<Time> GatewayUnit::deadline() const {

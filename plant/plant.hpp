@@ -135,10 +135,7 @@ class GatewayUnit final : private can::FrameSink {
   // (docs/architecture.md "The plant"): a line in time wakes the plant for every telegram, and a
   // scan of every gateway's slots each time would cost more than the line itself.
   std::optional<Time> deadline() const;
-  void touched() {
-    dirty_ = true;
-    applied_.reset();
-  }
+  void touched();
 
   Plant* plant_ = nullptr;
   const config::GatewayConfig* cfg_ = nullptr;
@@ -152,6 +149,7 @@ class GatewayUnit final : private can::FrameSink {
   std::unique_ptr<gw::Gateway> gateway_;
   mutable bool dirty_ = true;
   mutable std::optional<Time> deadline_;
+  std::optional<std::uint64_t> bus_seen_;  // the virtual bus's changes() when last delivered
   // The controller state and IRQ_LOST total last given to the engine (update_controller).
   std::optional<std::pair<can::BusState, std::uint32_t>> applied_;
 };
@@ -342,6 +340,10 @@ class Plant {
   std::unique_ptr<SlaveLine> slave_line_;
   std::unique_ptr<MasterLine> master_line_;
   std::unique_ptr<TimedLine> timed_line_;
+  // The earliest of the gateways' deadlines, recomputed when one of them was touched.
+  mutable bool gateways_dirty_ = true;
+  mutable std::optional<Time> gateways_deadline_;
+  std::optional<Time> gateways_deadline() const;
   std::vector<std::unique_ptr<dp::SlaveLink>> links_;  // the master's in-process links
   std::map<std::uint8_t, dp::SlaveLink*> wire_links_;  // fdl::WireImageLink by DP address
   std::vector<Tap*> taps_;
