@@ -217,6 +217,9 @@ void TimedLine::put_request(OnLine o, std::uint64_t at_bit) {
   event_bit_ = start;
   current_ = std::move(o);
   phase_ = Phase::Sync;
+  // docs/profibus.md "The line in time": an idle shorter than the event loop's timer slack is
+  // not waited for on its own: the telegram goes to the tap now, stamped with its first bit.
+  if (fdl::bits_to_time(baud_, start - std::min(start, at_bit)) < kMergeBelow) on_request_start();
 }
 
 void TimedLine::on_request_start() {
@@ -366,6 +369,7 @@ void TimedLine::on_request_end() {
   }
   event_bit_ = response_start_;
   phase_ = Phase::Tsdr;
+  if (fdl::bits_to_time(baud_, response_start_ - end) < kMergeBelow) on_response_start();
 }
 
 void TimedLine::on_response_start() {

@@ -48,6 +48,10 @@ class TimedLine {
     std::vector<std::uint8_t> bytes;
   };
 
+  // An idle before a telegram shorter than this is not an event of its own (the event loop's
+  // timer slack is 50 µs): the telegram is given to the tap when it is put on the line.
+  static constexpr Duration kMergeBelow{50};
+
   TimedLine(std::uint32_t baud, fdl::BusParameters params, std::uint8_t master, Time origin,
             LogSink* log = nullptr);
   ~TimedLine();

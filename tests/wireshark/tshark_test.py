@@ -373,11 +373,60 @@ def case_daemon_slaves(tmp):
         fail(f"Chk_Cfg request and answer: {both}")
 
 
+def case_daemon_line_faults(tmp):
+    """docs/faults.md "Line faults": candp2d on config/line-1500k.json, faults on cue through the
+    candp2 package (5 corrupt answers of station 3, station 4 silent for 2 requests), captured.
+    tshark with the dissector flags exactly the 5 corrupt answers (wrong FCS) and nothing else is
+    malformed; `candp2 sniff --stats --json` on the capture counts what candp2d counted."""
+    cap = os.path.join(tmp, "line.pcapng")
+    with open(os.path.join(ARGS.source_dir, "config", "line-1500k.json")) as f:
+        config = json.load(f)
+    for s in config["slaves"]:  # the configuration is written elsewhere: its GSD by full path
+        s["gsd"] = os.path.join(ARGS.source_dir, "config", s["gsd"])
+    config["capture"] = {"pcapng": cap}
+    with daemon(config, tmp) as d:
+        def station(a):
+            return d.line.station(a)
+        gw, io = d.gateway(3), d.slave(4)
+        gw.wait_until(lambda g: g.master_state == "Data_Exch", timeout=10)
+        io.wait_until(lambda s: s.master_state == "Data_Exch", timeout=10)
+        start3, start4 = station(3), station(4)
+        d.line.inject(3, "corrupt", count=5, every=2)
+        gw.wait_until(lambda _: station(3).illegals == start3.illegals + 5, timeout=10)
+        d.line.inject(4, "silent", count=2)
+        io.wait_until(lambda _: station(4).syncs == start4.syncs + 1
+                      and station(4).live == "ok", timeout=10)
+        io.wait_until(lambda s: s.master_state == "Data_Exch", timeout=10)
+        time.sleep(0.2)  # a few quiet cycles: the counters stand still from here
+        ours = {a: station(a) for a in (3, 4)}
+        if ours[3].repeats != start3.repeats + 5 or ours[4].lost != start4.lost + 1:
+            fail(f"candp2d's counters: {ours}")
+    bad = count(cap, "fdl.fcs.bad")
+    if bad != 5:
+        fail(f"{bad} telegrams with a wrong FCS flagged, want the 5 corrupt answers")
+    rows = fields(cap, ["frame.number", "_ws.malformed", "_ws.expert.severity", "fdl.fcs.bad"],
+                  "_ws.malformed || _ws.expert.severity >= error")
+    other = [r["frame.number"] for r in rows if not r["fdl.fcs.bad"]]
+    if other:
+        fail(f"frames marked malformed or in error besides the corrupt answers: {other[:10]}")
+    sniff = json.loads(run([ARGS.candp2, "sniff", "--stats", "--json", cap]).splitlines()[-1])
+    theirs = {s["address"]: s for s in sniff["stations"]}
+    for a, mine in ours.items():
+        for name, value in mine.counters.items():
+            if theirs[a][name] != value:
+                fail(f"station {a} {name}: candp2d {value}, sniff --stats {theirs[a][name]}")
+        if theirs[a]["live"] != mine.live:
+            fail(f"station {a} live: candp2d {mine.live}, sniff --stats {theirs[a]['live']}")
+    print(f"daemon-line-faults: 5 corrupt answers flagged, nothing else; sniff --stats agrees "
+          f"with candp2d on stations 3 and 4 ({ {a: dict(m.counters) for a, m in ours.items()} })")
+
+
 def main():
     global ARGS
     ap = argparse.ArgumentParser()
     ap.add_argument("case", choices=["demo", "malformed", "sniff-file", "sniff-pty",
-                                     "daemon-demo", "daemon-slaves", "timed-line"])
+                                     "daemon-demo", "daemon-slaves", "timed-line",
+                                     "daemon-line-faults"])
     ap.add_argument("--candp2d")
     ap.add_argument("--tshark", default="tshark")
     ap.add_argument("--lua", required=True)
@@ -388,7 +437,8 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         {"demo": case_demo, "malformed": case_malformed, "sniff-file": case_sniff_file,
          "sniff-pty": case_sniff_pty, "daemon-demo": case_daemon_demo,
-         "daemon-slaves": case_daemon_slaves, "timed-line": case_timed_line}[ARGS.case](tmp)
+         "daemon-slaves": case_daemon_slaves, "timed-line": case_timed_line,
+         "daemon-line-faults": case_daemon_line_faults}[ARGS.case](tmp)
     print(ARGS.case + ": ok")
     return 0
 
