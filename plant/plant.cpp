@@ -106,6 +106,7 @@ bool Plant::build_parts(std::string* error) {
   if (timed) {
     timed_line_ = std::make_unique<TimedLine>(config_.line->baud, config_.line->params,
                                               config_.master_address, now_, log_sink_);
+    timed_line_->set_step(options_.line_step);
     if (options_.wire_image)
       timed_line_->set_tap([this](std::span<const std::uint8_t> t, bool /*from_master*/, Time at) {
         tap_in_process(t, at, config_.line->baud);

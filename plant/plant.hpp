@@ -86,6 +86,10 @@ struct Options {
   // tap's on_dp() (docs/capture.md). Off unless a capture wants them: it costs an encoding per
   // service.
   bool wire_image = false;
+  // The line in time: its events come due no closer than this after the plant's last advance
+  // (docs/profibus.md "The line in time": candp2d handles the line in steps of 1 ms; replay and
+  // the tests, 0, at every telegram's own bit).
+  Duration line_step{0};
 };
 
 // One CAN bus of the configuration.

@@ -233,11 +233,12 @@ void TimedLine::on_request_start() {
 
 std::optional<Time> TimedLine::next_deadline() const {
   if (phase_ == Phase::Idle) return std::nullopt;
-  return time_of(event_bit_);
+  return std::max(time_of(event_bit_), handled_ + step_);
 }
 
 void TimedLine::advance(Time now) {
   now_ = std::max(now_, now);
+  if (phase_ != Phase::Idle && time_of(event_bit_) <= now) handled_ = now;
   while (phase_ != Phase::Idle && time_of(event_bit_) <= now) {
     holding_ = true;
     switch (phase_) {

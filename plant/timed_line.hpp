@@ -76,6 +76,10 @@ class TimedLine {
   void end_issue(Time now);
   bool rotating() const { return rotating_; }
 
+  // With a step: the next event comes due no sooner than `step` after the last advance (a real
+  // time driver's batching; the line's bits and stamps stay exact, its effects come late by less
+  // than the step). 0: at every event's own bit.
+  void set_step(Duration step) { step_ = step; }
   std::optional<Time> next_deadline() const;
   void advance(Time now);
 
@@ -209,6 +213,8 @@ class TimedLine {
   std::optional<Late> late_;
   Time noise_from_{0}, noise_until_{0};
   Time now_{0};  // of the last advance()
+  Duration step_{0};
+  Time handled_{0};  // when advance() last handled an event (the step counts from there)
 };
 
 }  // namespace candp2::plant
