@@ -56,18 +56,18 @@ std::unique_ptr<VirtualEndpoint> VirtualBus::endpoint(std::string name, bool rec
 
 void VirtualEndpoint::inject_rx_lost(std::uint32_t n) {
   rx_lost_ += n;
-  if (bus_) ++bus_->changes_;
+  if (bus_) bus_->changed();
 }
 
 void VirtualEndpoint::set_bus_state_override(std::optional<BusState> s) {
   state_override_ = s;
-  if (bus_) ++bus_->changes_;
+  if (bus_) bus_->changed();
 }
 
 void VirtualBus::transmit(VirtualEndpoint* from, const Frame& frame) {
   ++frames_sent_;
-  ++changes_;
-  for (const auto& tap : taps_) tap(frame, now_, from->name());
+  changed();
+  for (const auto& tap : taps_) tap(frame, now(), from->name());
   // Iterate by index: a receiver never adds endpoints during delivery, but keep it robust.
   for (std::size_t i = 0; i < endpoints_.size(); ++i) {
     VirtualEndpoint* ep = endpoints_[i];

@@ -74,19 +74,23 @@ class VirtualBus {
 
   // Time stamps passed to taps; the owner of the clock advances it.
   void set_now(Time now) { now_ = now; }
-  Time now() const { return now_; }
+  // Or reads the owner's clock itself (the plant's time; null: set_now()).
+  void use_clock(const Time* clock) { clock_ = clock; }
+  Time now() const { return clock_ ? *clock_ : now_; }
 
   void add_tap(Tap tap) { taps_.push_back(std::move(tap)); }
 
   // Fault injection: the state every controller on the bus sees. In BusOff, nothing is sent.
   void set_bus_state(BusState s) {
     state_ = s;
-    ++changes_;
+    changed();
   }
   BusState bus_state() const { return state_; }
   // Grows with every frame sent and every change of a bus or endpoint state: while it stands
   // still, no endpoint's queue, bus state or lost count changed (the plant skips quiet buses).
   std::uint64_t changes() const { return changes_; }
+  // Also counts them in `*shared` (the plant's count over all its buses); null: not.
+  void count_changes_in(std::uint64_t* shared) { shared_changes_ = shared; }
 
   std::uint64_t frames_sent() const { return frames_sent_; }
 
@@ -100,7 +104,13 @@ class VirtualBus {
   std::vector<Tap> taps_;
   BusState state_ = BusState::Ok;
   std::uint64_t changes_ = 0;
+  std::uint64_t* shared_changes_ = nullptr;
+  void changed() {
+    ++changes_;
+    if (shared_changes_) ++*shared_changes_;
+  }
   Time now_{0};
+  const Time* clock_ = nullptr;
   std::uint64_t frames_sent_ = 0;
 };
 

@@ -46,9 +46,7 @@ std::optional<Time> Plant::gateways_deadline() const {
 
 void Plant::set_now(Time now) {
   if (now < now_) return;
-  now_ = now;
-  for (auto& b : buses_)
-    if (b->vbus_) b->vbus_->set_now(now);
+  now_ = now;  // the virtual buses read it (VirtualBus::use_clock)
 }
 
 void Plant::run_timers(Time now) {
@@ -137,6 +135,16 @@ void Plant::log_misses(Time due, Time now, std::uint64_t missed) {
 
 bool Plant::deliver(Time now) {
   set_now(now);
+  // Nothing sent and no state changed since the last look: no frame waits anywhere, and only the
+  // gateways reached since need their controller state again.
+  if (bus_changes_ == delivered_changes_) {
+    for (GatewayUnit* g : touched_) {
+      g->listed_ = false;
+      if (g->endpoint_) g->update_controller();
+    }
+    touched_.clear();
+    if (bus_changes_ == delivered_changes_) return false;
+  }
   bool any = false;
   for (bool work = true; work;) {
     work = false;
@@ -159,6 +167,9 @@ bool Plant::deliver(Time now) {
       }
     any = any || work;
   }
+  delivered_changes_ = bus_changes_;
+  for (GatewayUnit* g : touched_) g->listed_ = false;
+  touched_.clear();
   return any;
 }
 

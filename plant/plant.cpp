@@ -54,7 +54,12 @@ void GatewayUnit::touched() {
   dirty_ = true;
   applied_.reset();
   bus_seen_.reset();
-  if (plant_) plant_->gateways_dirty_ = true;
+  if (!plant_) return;
+  plant_->gateways_dirty_ = true;
+  if (!listed_) {
+    listed_ = true;
+    plant_->touched_.push_back(this);
+  }
 }
 
 std::optional<Time> GatewayUnit::deadline() const {
@@ -144,6 +149,8 @@ bool Plant::add_bus(const config::BusConfig& cfg, std::string* /*error*/) {
   b->index_ = static_cast<std::uint16_t>(buses_.size());
   if (cfg.type == BusType::Virtual) {
     b->vbus_ = std::make_unique<can::VirtualBus>();
+    b->vbus_->count_changes_in(&bus_changes_);
+    b->vbus_->use_clock(&now_);  // the plant's time, without a walk over the buses each step
     b->vbus_->set_now(now_);
     BusUnit* bus = b.get();
     b->vbus_->add_tap([this, bus](const can::Frame& f, Time t, std::string_view sender) {

@@ -154,6 +154,7 @@ class GatewayUnit final : private can::FrameSink {
   mutable bool dirty_ = true;
   mutable std::optional<Time> deadline_;
   std::optional<std::uint64_t> bus_seen_;  // the virtual bus's changes() when last delivered
+  bool listed_ = false;                    // in the plant's touched list
   // The controller state and IRQ_LOST total last given to the engine (update_controller).
   std::optional<std::pair<can::BusState, std::uint32_t>> applied_;
 };
@@ -299,6 +300,8 @@ class Plant {
   // line's, or in role master the FDL master's; nullptr on an ideal line and in role slaves.
   const fdl::LineStatistics* line_statistics() const;
   LogSink* log_sink() const { return log_sink_; }
+  // Frames sent and state changes on all virtual buses so far (a driver skips quiet buses).
+  std::uint64_t bus_changes() const { return bus_changes_; }
 
  private:
   friend class GatewayUnit;
@@ -346,6 +349,10 @@ class Plant {
   std::unique_ptr<TimedLine> timed_line_;
   // The earliest of the gateways' deadlines, recomputed when one of them was touched.
   mutable bool gateways_dirty_ = true;
+  // Frames and state changes on all virtual buses, and that count when deliver() last looked:
+  // while it stands still and no gateway was touched, there is nothing to deliver.
+  std::uint64_t bus_changes_ = 0, delivered_changes_ = ~std::uint64_t{0};
+  std::vector<GatewayUnit*> touched_;  // gateways reached since deliver() last looked
   mutable std::optional<Time> gateways_deadline_;
   std::optional<Time> gateways_deadline() const;
   std::vector<std::unique_ptr<dp::SlaveLink>> links_;  // the master's in-process links

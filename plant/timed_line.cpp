@@ -233,13 +233,22 @@ void TimedLine::on_request_start() {
 
 std::optional<Time> TimedLine::next_deadline() const {
   if (phase_ == Phase::Idle) return std::nullopt;
-  return std::max(time_of(event_bit_), handled_ + step_);
+  if (event_bit_ != deadline_bit_) {  // asked once an event, often: one division then
+    deadline_bit_ = event_bit_;
+    deadline_time_ = time_of(event_bit_);
+  }
+  return std::max(deadline_time_, handled_ + step_);
 }
 
 void TimedLine::advance(Time now) {
   now_ = std::max(now_, now);
-  if (phase_ != Phase::Idle && time_of(event_bit_) <= now) handled_ = now;
-  while (phase_ != Phase::Idle && time_of(event_bit_) <= now) {
+  // An event is due when its stamp, the first µs at or after its bit, is not after `now`: when its
+  // bit is at most the last whole bit by `now` (one division, not one per event).
+  const auto us = static_cast<std::uint64_t>(std::max<std::int64_t>((now - origin_).count(), 0));
+  const std::uint64_t due = us / 1'000'000ull * baud_ + us % 1'000'000ull * baud_ / 1'000'000ull;
+  auto is_due = [&] { return phase_ != Phase::Idle && event_bit_ <= due; };
+  if (is_due()) handled_ = now;
+  while (is_due()) {
     holding_ = true;
     switch (phase_) {
       case Phase::Sync:

@@ -215,6 +215,8 @@ class TimedLine {
   Time now_{0};  // of the last advance()
   Duration step_{0};
   Time handled_{0};  // when advance() last handled an event (the step counts from there)
+  mutable std::uint64_t deadline_bit_ = ~std::uint64_t{0};
+  mutable Time deadline_time_{0};
 };
 
 }  // namespace candp2::plant

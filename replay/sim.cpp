@@ -58,6 +58,8 @@ void Sim::on_can(const plant::CanRecord& r) {
 
 // The tester's nodes only send: what they receive is discarded.
 void Sim::drain_testers() {
+  if (plant_->bus_changes() == drained_) return;  // nothing sent since
+  drained_ = plant_->bus_changes();
   for (auto& t : testers_)
     while (t->receive()) {
     }

@@ -102,6 +102,7 @@ class Sim final : private plant::Tap {
   // Per gateway: indices into res_.traffic of its frames, and the first one not yet matched.
   std::vector<std::vector<std::size_t>> gw_frames_;
   std::vector<std::size_t> cursor_;
+  std::uint64_t drained_ = ~std::uint64_t{0};  // the plant's bus_changes() at the last drain
 };
 
 }  // namespace candp2::replay

@@ -59,9 +59,15 @@ void LineStatistics::observe_illegal(Time start) {
   illegal(start);
 }
 
+void LineStatistics::clear_outstanding() {
+  if (!outstanding_) return;
+  spare_ = std::move(outstanding_->bytes);
+  outstanding_.reset();
+}
+
 void LineStatistics::new_request() {
   if (outstanding_ && !outstanding_->answered) close_unanswered(*outstanding_);
-  outstanding_.reset();
+  clear_outstanding();
 }
 
 void LineStatistics::drop_out(std::uint8_t da) {
@@ -91,7 +97,7 @@ void LineStatistics::on_request(std::span<const std::uint8_t> bytes, std::uint8_
     }
     close_unanswered(*outstanding_);
   }
-  outstanding_.reset();
+  clear_outstanding();
   if (!master_ && cycle_repeats_[da]) {
     // No token on this line (a lone master that passes none, candp2d in role master): a new
     // request to the station ends its run of repeats (docs/profibus.md "Line statistics in role
@@ -105,13 +111,16 @@ void LineStatistics::on_request(std::span<const std::uint8_t> bytes, std::uint8_
     drop_out(da);  // parameterized again while in data exchange: it had dropped out
   }
   if (!k.answer_expected) return;
-  outstanding_ = Outstanding{da, std::vector<std::uint8_t>(bytes.begin(), bytes.end()), k.diag,
-                             k.data_exchange};
+  // The bytes kept for the repeat check reuse the buffer of the request before (no allocation
+  // a telegram on a long line).
+  Outstanding o{da, std::move(spare_), k.diag, k.data_exchange};
+  o.bytes.assign(bytes.begin(), bytes.end());
+  outstanding_ = std::move(o);
 }
 
 void LineStatistics::on_token(std::uint8_t sa, Time start) {
   if (outstanding_ && !outstanding_->answered) close_unanswered(*outstanding_);
-  outstanding_.reset();
+  clear_outstanding();
   if (!master_) master_ = sa;
   if (sa != *master_) return;
   // A rotation ends: repeats_max counts per rotation.

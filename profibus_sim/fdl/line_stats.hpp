@@ -119,6 +119,7 @@ class LineStatistics {
   };
   void on_request(std::span<const std::uint8_t> bytes, std::uint8_t da, RequestKind k);
   void drop_out(std::uint8_t da);
+  void clear_outstanding();
   void on_token(std::uint8_t sa, Time start);
 
   std::array<StationCounters, kStations> stats_{};
@@ -129,6 +130,7 @@ class LineStatistics {
   std::array<bool, kStations> heard_{};
   bool told_ = false;  // configure() was called: no learning
   std::optional<Outstanding> outstanding_;
+  std::vector<std::uint8_t> spare_;     // the last request's buffer, reused
   std::vector<std::uint8_t> repeated_;  // stations with cycle_repeats_ > 0
   std::uint64_t unattributed_ = 0, telegrams_ = 0;
   std::optional<std::uint8_t> master_;  // the first token's sender
