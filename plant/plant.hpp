@@ -37,6 +37,7 @@
 #include "faults/drive_fault.hpp"
 #include "gateway/gateway.hpp"
 #include "gsd_slave/gsd_slave.hpp"
+#include "plant/control.hpp"
 #include "plant/cycle_stats.hpp"
 #include "plant/tap.hpp"
 #include "plant/timed_line.hpp"
@@ -192,7 +193,7 @@ class SlaveUnit {
   std::unique_ptr<gsd_slave::GsdSlave> slave_;
 };
 
-class Plant {
+class Plant final : public ControlSurface {
  public:
   // Assembles the configuration at time `now` (the gateways' power-on). nullptr and *error
   // ("gateway \"g1\" on bus \"hw\" ($.buses.hw): cannot open ...") when a part cannot be built.
@@ -228,36 +229,26 @@ class Plant {
   // After every cycle period, whether the built-in master runs (not in profibus role slaves).
   void on_cycle(std::function<void(Time now)> hook) { cycle_hooks_.push_back(std::move(hook)); }
 
-  // ---- control surface (docs/faults.md); `origin` ends the log line ("over Modbus") ----------
-  // Holding register 8193 semantics: 0 real state, 1 warning, 2 error-passive, 3 bus-off; false
-  // (nothing changes) for other values.
-  bool force_can_state(GatewayUnit& g, std::uint16_t code, Time now, std::string_view origin);
-  void drop_rx(GatewayUnit& g, std::uint32_t n, Time now, std::string_view origin);
-  void power_cycle(GatewayUnit& g, Time now, std::string_view origin);
-  // The built-in master parameterizes the station at `address` again (a gateway, or a remote
-  // station in role master). False when no built-in master drives it (role slaves: an external
-  // master parameterizes; the reason is logged).
-  bool reparameterize(std::uint8_t address, Time now, std::string_view origin);
-  // The master stops addressing the station (false) or addresses it again (true).
-  void set_addressed(std::uint8_t address, bool addressed, Time now, std::string_view origin);
-  // A drive's fault register (faults::kDriveMute .. kDriveRestart).
+  // ---- control surface: plant/control.hpp (docs/faults.md) ----------------------------------
+  bool force_can_state(GatewayUnit& g, std::uint16_t code, Time now,
+                       std::string_view origin) override;
+  void drop_rx(GatewayUnit& g, std::uint32_t n, Time now, std::string_view origin) override;
+  void power_cycle(GatewayUnit& g, Time now, std::string_view origin) override;
+  bool reparameterize(std::uint8_t address, Time now, std::string_view origin) override;
+  void set_addressed(std::uint8_t address, bool addressed, Time now,
+                     std::string_view origin) override;
   void set_drive_fault(DriveUnit& d, std::uint16_t index, std::uint16_t value, Time now,
-                       std::string_view origin);
-  // A generic slave's faults (docs/slaves.md "Faults"): it leaves the bus (no answer at all) or
-  // comes back; a diagnosis alarm (a device-related Ext_Diag block; empty: cleared); a Prm or Cfg
-  // fault forced (every Set_Prm / Chk_Cfg refused while on); a power cycle (back to Wait_Prm).
-  void set_slave_online(SlaveUnit& s, bool online, Time now, std::string_view origin);
+                       std::string_view origin) override;
+  void set_slave_online(SlaveUnit& s, bool online, Time now, std::string_view origin) override;
   bool set_slave_alarm(SlaveUnit& s, std::vector<std::uint8_t> bytes, Time now,
-                       std::string_view origin);
-  void force_slave_fault(SlaveUnit& s, bool prm, bool on, Time now, std::string_view origin);
-  void power_cycle(SlaveUnit& s, Time now, std::string_view origin);
-  // A note on the tap without any action (replay's "note" steps, the daemon's start and stop).
-  void note(std::string_view text, Time now);
-  // Faults on cue on the line in time (docs/faults.md "Line faults"): a station's answers, or
-  // noise on the whole line. False (the reason logged) without a timed line or such a station.
+                       std::string_view origin) override;
+  void force_slave_fault(SlaveUnit& s, bool prm, bool on, Time now,
+                         std::string_view origin) override;
+  void power_cycle(SlaveUnit& s, Time now, std::string_view origin) override;
+  void note(std::string_view text, Time now) override;
   bool line_fault(std::uint8_t address, const TimedLine::Fault& fault, Time now,
-                  std::string_view origin);
-  bool line_noise(Duration duration, Time now, std::string_view origin);
+                  std::string_view origin) override;
+  bool line_noise(Duration duration, Time now, std::string_view origin) override;
 
   // ---- inspection ---------------------------------------------------------------------------
   const config::DaemonConfig& config() const { return config_; }
