@@ -203,9 +203,11 @@ void TimedLine::put_request(OnLine o, std::uint64_t at_bit) {
   request_start_ = start;
   request_end_ = start + kBitsPerChar * o.request.size();
   // docs/faults.md "Line faults": noise garbles it; a late answer starting with it collides.
+  o.request_intact = true;
   if (noisy(start)) {
     o.request = fdl::garble(o.request, start);
     o.deaf = true;
+    o.request_intact = false;
   }
   if (late_) {
     const fdl::Superposed both = fdl::superpose(o.request, late_->bytes, 0);
@@ -213,6 +215,7 @@ void TimedLine::put_request(OnLine o, std::uint64_t at_bit) {
     o.request = both.bytes;
     request_end_ = start + both.bits;
     o.deaf = true;
+    o.request_intact = false;
   }
   event_bit_ = start;
   current_ = std::move(o);
@@ -224,7 +227,8 @@ void TimedLine::put_request(OnLine o, std::uint64_t at_bit) {
 
 void TimedLine::on_request_start() {
   // Its first character: the tap sees it now, stamped with this bit (docs/capture.md).
-  emit(current_->request, true, request_start_, request_end_);
+  emit(current_->request, true, request_start_, request_end_,
+       current_->request_intact ? &current_->telegram : nullptr);
   phase_ = Phase::Request;
   event_bit_ = request_end_;
 }
@@ -288,11 +292,11 @@ void TimedLine::flush_late() {
 }
 
 void TimedLine::emit(std::span<const std::uint8_t> bytes, bool from_master, std::uint64_t start,
-                     std::uint64_t end) {
+                     std::uint64_t end, const fdl::Telegram* decoded) {
   if (record_)
     recorded_.push_back(
         {start, end, from_master, std::vector<std::uint8_t>(bytes.begin(), bytes.end())});
-  stats_.observe(bytes, time_of(start));
+  stats_.observe(bytes, time_of(start), decoded);
   if (tap_) tap_(bytes, from_master, time_of(start));
 }
 
@@ -377,6 +381,10 @@ void TimedLine::on_request_end() {
     o.response = fdl::garble(o.response, response_start_);
     o.illegal = true;
   }
+  if (o.illegal)
+    o.answer_telegram.reset();
+  else
+    o.answer_telegram = std::move(answer);
   event_bit_ = response_start_;
   phase_ = Phase::Tsdr;
   if (fdl::bits_to_time(baud_, response_start_ - end) < kMergeBelow) on_response_start();
@@ -385,7 +393,8 @@ void TimedLine::on_request_end() {
 void TimedLine::on_response_start() {
   phase_ = Phase::Response;
   event_bit_ = response_start_ + current_->response_bits;
-  emit(current_->response, false, response_start_, event_bit_);
+  emit(current_->response, false, response_start_, event_bit_,
+       current_->answer_telegram ? &*current_->answer_telegram : nullptr);
 }
 
 void TimedLine::on_response_end() {

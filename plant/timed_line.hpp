@@ -157,7 +157,9 @@ class TimedLine {
     std::uint64_t response_bits = 0;
     bool deaf = false;     // the request was garbled on the wire: the station did not get it
     bool illegal = false;  // the answer was garbled: the master cannot use it
-    std::vector<std::uint8_t> late;  // an answer that comes after the slot time
+    std::vector<std::uint8_t> late;                // an answer that comes after the slot time
+    bool request_intact = true;                    // `request` is `telegram` as built (not garbled)
+    std::optional<fdl::Telegram> answer_telegram;  // what `response` is, when not garbled
   };
   // A late answer: it starts on the line when the slot time has expired.
   struct Late {
@@ -180,7 +182,7 @@ class TimedLine {
   void answer(OnLine& o, std::optional<fdl::Telegram> answer, std::uint64_t end);
   void finish(dp::Response r);
   void emit(std::span<const std::uint8_t> bytes, bool from_master, std::uint64_t start,
-            std::uint64_t end);
+            std::uint64_t end, const fdl::Telegram* decoded = nullptr);
   std::optional<std::uint8_t> next_gap_address();
 
   std::uint32_t baud_;

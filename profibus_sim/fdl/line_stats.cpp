@@ -137,11 +137,16 @@ void LineStatistics::on_token(std::uint8_t sa, Time start) {
   last_token_ = start;
 }
 
-void LineStatistics::observe(std::span<const std::uint8_t> bytes, Time start) {
-  const DecodeResult r = decode(bytes);
-  if (!r.telegram) return illegal(start);
+void LineStatistics::observe(std::span<const std::uint8_t> bytes, Time start,
+                             const Telegram* decoded) {
+  DecodeResult r;
+  if (!decoded) {
+    r = decode(bytes);
+    if (!r.telegram) return illegal(start);
+    decoded = &*r.telegram;
+  }
   ++telegrams_;
-  const Telegram& t = *r.telegram;
+  const Telegram& t = *decoded;
   if (t.kind == Kind::SD4) return on_token(t.sa, start);
   if (t.kind == Kind::SC) {
     // A short acknowledgement answers the request that is due, if any.

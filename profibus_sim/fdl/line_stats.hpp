@@ -17,6 +17,8 @@
 
 namespace candp2::fdl {
 
+struct Telegram;
+
 // One station's counters. They start at 0 and only grow (a fault never resets them).
 struct StationCounters {
   std::uint64_t lost = 0;         // dropped out of data exchange (ProfiTrace "Lost")
@@ -81,7 +83,8 @@ class LineStatistics {
   void configure(std::uint8_t address);
   // One telegram as it is on the wire, stamped with the time its first character starts. Bytes
   // that do not decode are an illegal telegram.
-  void observe(std::span<const std::uint8_t> bytes, Time start);
+  // `decoded`: the telegram the bytes are, when the caller built them (no decoding again).
+  void observe(std::span<const std::uint8_t> bytes, Time start, const Telegram* decoded = nullptr);
   // A telegram the receiver dropped before its bytes were whole (a parity error, a gap).
   void observe_illegal(Time start);
   // A master that passes no token and knows its retries (candp2d in role master) tells that the
