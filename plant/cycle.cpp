@@ -29,10 +29,21 @@ std::optional<Time> Plant::next_deadline() const {
 
 std::optional<Time> Plant::gateways_deadline() const {
   if (gateways_dirty_) {
-    gateways_deadline_.reset();
-    for (const auto& g : gateways_)
-      if (const auto d = g->deadline(); d && (!gateways_deadline_ || *d < *gateways_deadline_))
+    auto consider = [this](const GatewayUnit& g) {
+      if (const auto d = g.deadline(); d && (!gateways_deadline_ || *d < *gateways_deadline_)) {
         gateways_deadline_ = d;
+        deadline_holder_ = &g;
+      }
+    };
+    if (deadline_rescan_) {
+      gateways_deadline_.reset();
+      deadline_holder_ = nullptr;
+      for (const auto& g : gateways_) consider(*g);
+    } else {
+      for (const GatewayUnit* g : deadline_touched_) consider(*g);
+    }
+    deadline_touched_.clear();
+    deadline_rescan_ = false;
     gateways_dirty_ = false;
   }
 #ifndef NDEBUG  // the caches hold what the engines say (Debug builds, the sanitizer run)

@@ -47,7 +47,7 @@ void GatewayUnit::update_controller() {
   gateway_->set_controller_status(state.first, state.second);
   applied_ = state;
   dirty_ = true;
-  if (plant_) plant_->gateways_dirty_ = true;
+  if (plant_) plant_->gateways_dirty_ = plant_->deadline_rescan_ = true;
 }
 
 void GatewayUnit::touched() {
@@ -56,6 +56,12 @@ void GatewayUnit::touched() {
   bus_seen_.reset();
   if (!plant_) return;
   plant_->gateways_dirty_ = true;
+  if (!plant_->deadline_rescan_) {
+    if (this == plant_->deadline_holder_ || plant_->deadline_touched_.size() > 8)
+      plant_->deadline_rescan_ = true;
+    else
+      plant_->deadline_touched_.push_back(this);
+  }
   if (!listed_) {
     listed_ = true;
     plant_->touched_.push_back(this);

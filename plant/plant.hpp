@@ -340,6 +340,11 @@ class Plant final : public ControlSurface {
   std::unique_ptr<TimedLine> timed_line_;
   // The earliest of the gateways' deadlines, recomputed when one of them was touched.
   mutable bool gateways_dirty_ = true;
+  // Whose deadline gateways_deadline() found, and the gateways touched since: while that one was
+  // not touched, the others' new deadlines only need comparing with it (no walk over them all).
+  mutable const GatewayUnit* deadline_holder_ = nullptr;
+  mutable std::vector<const GatewayUnit*> deadline_touched_;
+  mutable bool deadline_rescan_ = true;
   // Frames and state changes on all virtual buses, and that count when deliver() last looked:
   // while it stands still and no gateway was touched, there is nothing to deliver.
   std::uint64_t bus_changes_ = 0, delivered_changes_ = ~std::uint64_t{0};

@@ -134,9 +134,12 @@ void TimedLine::begin_rotation(Time /*now*/) {
 void TimedLine::end_issue(Time now) {
   holding_ = false;
   // docs/profibus.md "The line in time": the master polls its stations in address order.
-  std::stable_sort(
-      queue_.begin() + static_cast<std::ptrdiff_t>(sorted_from_), queue_.end(),
-      [](const Job& a, const Job& b) { return a.station->address() < b.station->address(); });
+  const auto by_address = [](const Job& a, const Job& b) {
+    return a.station->address() < b.station->address();
+  };
+  const auto first = queue_.begin() + static_cast<std::ptrdiff_t>(sorted_from_);
+  if (!std::is_sorted(first, queue_.end(), by_address))  // the master issues them in order
+    std::stable_sort(first, queue_.end(), by_address);
   if (phase_ == Phase::Idle) start_next(start_bit(now));
   advance(now);  // a request that starts now shows on the tap now
 }
@@ -196,7 +199,9 @@ void TimedLine::put_request(OnLine o, std::uint64_t at_bit) {
     o.telegram = o.fdl_status ? fdl::fdl_status_request(s.address(), master_)
                               : fdl::dp_request(o.job->request, s.address(), master_, s.seq_);
   }
-  o.request = fdl::encode(o.telegram);
+  if (o.request.capacity() == 0) o.request = std::move(spare_request_);  // no allocation a telegram
+  o.request.clear();
+  fdl::encode_to(o.telegram, o.request);
   if (late_ && std::max(at_bit, free_bit_) != late_->bit) flush_late();
   const std::uint64_t start = std::max(at_bit, free_bit_);
   if (rotating_ && !rotation_start_) rotation_start_ = start;
@@ -352,7 +357,9 @@ void TimedLine::on_request_end() {
     event_bit_ = end + params_.slot_time_bits;
     return;
   }
-  o.response = fdl::encode(*answer);
+  if (o.response.capacity() == 0) o.response = std::move(spare_response_);
+  o.response.clear();
+  fdl::encode_to(*answer, o.response);
   o.response_bits = kBitsPerChar * o.response.size();
   o.illegal = false;
   switch (fault) {
@@ -413,7 +420,13 @@ void TimedLine::on_response_end() {
     return put_request(std::move(o), free_bit_);
   }
   s.seq_.advance();
+  recycle(o);
   o.job->done(*o.answer, time_of(event_bit_));
+}
+
+void TimedLine::recycle(OnLine& o) {
+  if (o.request.capacity() > spare_request_.capacity()) spare_request_ = std::move(o.request);
+  if (o.response.capacity() > spare_response_.capacity()) spare_response_ = std::move(o.response);
 }
 
 void TimedLine::on_slot_expired() {
@@ -424,6 +437,7 @@ void TimedLine::on_slot_expired() {
   if (!o.late.empty()) late_ = Late{event_bit_, std::move(o.late)};
   if (!o.job) {  // the GAP: nobody answered; the token follows
     free_bit_ = event_bit_;
+    recycle(o);
     return;
   }
   unanswered(std::move(o), event_bit_);  // the line has been idle for the slot time (> TSYN)
@@ -439,6 +453,7 @@ void TimedLine::unanswered(OnLine o, std::uint64_t free_bit) {
   }
   // Retries exhausted: the station is lost; FDL_Status again before its next request.
   o.job->station->known_ = false;
+  recycle(o);
   if (log_.enabled(LogLevel::Debug))
     log_.debug("station " + std::to_string(o.job->station->address()) + ": no valid answer after " +
                std::to_string(params_.retry_limit) + " retries");
@@ -450,6 +465,7 @@ void TimedLine::on_unanswered_end() {
   current_.reset();
   phase_ = Phase::Idle;
   free_bit_ = event_bit_;
+  recycle(o);
   if (o.job) {  // Global_Control: done when the idle after it has passed
     o.job->done(*o.answer, time_of(event_bit_));
     return;

@@ -177,6 +177,8 @@ class TimedLine {
   void on_slot_expired();
   void on_unanswered_end();
   void unanswered(OnLine o, std::uint64_t free_bit);
+  // The telegram buffers of a finished exchange, kept for the next (no allocation a telegram).
+  void recycle(OnLine& o);
   void flush_late();
   bool noisy(std::uint64_t bit) const;
   void answer(OnLine& o, std::optional<fdl::Telegram> answer, std::uint64_t end);
@@ -217,6 +219,7 @@ class TimedLine {
   Time now_{0};  // of the last advance()
   Duration step_{0};
   Time handled_{0};  // when advance() last handled an event (the step counts from there)
+  std::vector<std::uint8_t> spare_request_, spare_response_;
   mutable std::uint64_t deadline_bit_ = ~std::uint64_t{0};
   mutable Time deadline_time_{0};
 };
