@@ -240,22 +240,23 @@ void TimedLine::on_request_start() {
 
 // ------------------------------------------------------------------------------------ events
 
-std::optional<Time> TimedLine::next_deadline() const {
-  if (phase_ == Phase::Idle) return std::nullopt;
-  if (event_bit_ != deadline_bit_) {  // asked once an event, often: one division then
+Time TimedLine::event_time() const {
+  if (event_bit_ != deadline_bit_) {  // asked often an event: one division then
     deadline_bit_ = event_bit_;
     deadline_time_ = time_of(event_bit_);
   }
-  return std::max(deadline_time_, handled_ + step_);
+  return deadline_time_;
+}
+
+std::optional<Time> TimedLine::next_deadline() const {
+  if (phase_ == Phase::Idle) return std::nullopt;
+  return std::max(event_time(), handled_ + step_);
 }
 
 void TimedLine::advance(Time now) {
   now_ = std::max(now_, now);
-  // An event is due when its stamp, the first µs at or after its bit, is not after `now`: when its
-  // bit is at most the last whole bit by `now` (one division, not one per event).
-  const auto us = static_cast<std::uint64_t>(std::max<std::int64_t>((now - origin_).count(), 0));
-  const std::uint64_t due = us / 1'000'000ull * baud_ + us % 1'000'000ull * baud_ / 1'000'000ull;
-  auto is_due = [&] { return phase_ != Phase::Idle && event_bit_ <= due; };
+  // An event is due when its stamp, the first µs at or after its bit, is not after `now`.
+  auto is_due = [&] { return phase_ != Phase::Idle && event_time() <= now; };
   if (is_due()) handled_ = now;
   while (is_due()) {
     holding_ = true;

@@ -179,6 +179,8 @@ class TimedLine {
   void unanswered(OnLine o, std::uint64_t free_bit);
   // The telegram buffers of a finished exchange, kept for the next (no allocation a telegram).
   void recycle(OnLine& o);
+  // time_of(event_bit_), computed once an event.
+  Time event_time() const;
   void flush_late();
   bool noisy(std::uint64_t bit) const;
   void answer(OnLine& o, std::optional<fdl::Telegram> answer, std::uint64_t end);
