@@ -19,8 +19,8 @@ from .errors import Candp2Error, ConfigError
 FORMAT = "candp2-modbus-map"
 VERSION = 1
 
-#: A station's line fault registers, in their order from the first (docs/modbus.md "Line
-#: statistics"): written in one request, the fault takes effect with its kind.
+#: A station's line fault registers, in their order from the first: written in one request, the
+#: fault takes effect with its kind (docs/modbus.md "Line block").
 LINE_FAULT_FIELDS = ("kind", "count", "every", "for_ms")
 
 #: The line block's fault registers (docs/modbus.md "Line block") where the daemon's map has no
