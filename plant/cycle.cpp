@@ -1,4 +1,5 @@
-// The plant in time (docs/architecture.md "The plant"): when it next needs attention, advancing to
+// The plant in time (docs/architecture.md "The plant"): what each gateway waits for, kept until
+// something reaches it; when the plant next needs attention, advancing to
 // a time, the DP master's cycle on its grid with the missed grid points counted, and the delivery
 // of frames between in-process endpoints. Part of plant::Plant (plant/plant.hpp); the assembly is
 // in plant.cpp, the control surface in control.cpp.
@@ -11,6 +12,58 @@
 #include "plant/timed_line.hpp"
 
 namespace candp2::plant {
+
+// ------------------------------------------------- what a gateway waits for (GatewayUnit)
+
+void GatewayUnit::receive(const can::Frame& frame, Time now) {
+  touched();
+  if (faults_.pass_rx()) gateway_->on_can_frame(frame, now);
+}
+
+void GatewayUnit::update_controller() {
+  // Given again only when it changed (or the engine was reached since): the same state twice
+  // changes nothing in the engine.
+  const std::pair state{faults_.state(channel_->bus_state()), faults_.rx_lost(channel_->rx_lost())};
+  if (applied_ == state) return;
+  gateway_->set_controller_status(state.first, state.second);
+  applied_ = state;
+  dirty_ = true;
+  if (plant_) plant_->gateways_dirty_ = plant_->deadline_rescan_ = true;
+}
+
+void GatewayUnit::touched() {
+  dirty_ = true;
+  applied_.reset();
+  bus_seen_.reset();
+  if (!plant_) return;
+  plant_->gateways_dirty_ = true;
+  if (!plant_->deadline_rescan_) {
+    // The holder's own deadline may have moved later: then all are asked again; so they are
+    // when many were touched (a master cycle on the ideal line touches every gateway).
+    if (this == plant_->deadline_holder_ || plant_->deadline_touched_.size() > 8)
+      plant_->deadline_rescan_ = true;
+    else
+      plant_->deadline_touched_.push_back(this);
+  }
+  if (!listed_) {
+    listed_ = true;
+    plant_->touched_.push_back(this);
+  }
+}
+
+std::optional<Time> GatewayUnit::deadline() const {
+  if (dirty_) {
+    deadline_ = gateway_->next_deadline();
+    dirty_ = false;
+  }
+  return deadline_;
+}
+
+void Plant::touch_gateways() {
+  for (auto& g : gateways_) g->touched();
+}
+
+// ------------------------------------------------------------------------------ the plant
 
 std::optional<Time> Plant::next_deadline() const {
   // A rotation still on the timed line holds the next cycle back: the line says when it ends.

@@ -34,52 +34,6 @@ void GatewayUnit::send(const can::Frame& frame) {
   channel_->send(frame);
 }
 
-void GatewayUnit::receive(const can::Frame& frame, Time now) {
-  touched();
-  if (faults_.pass_rx()) gateway_->on_can_frame(frame, now);
-}
-
-void GatewayUnit::update_controller() {
-  // Given again only when it changed (or the engine was reached since): the same state twice
-  // changes nothing in the engine.
-  const std::pair state{faults_.state(channel_->bus_state()), faults_.rx_lost(channel_->rx_lost())};
-  if (applied_ == state) return;
-  gateway_->set_controller_status(state.first, state.second);
-  applied_ = state;
-  dirty_ = true;
-  if (plant_) plant_->gateways_dirty_ = plant_->deadline_rescan_ = true;
-}
-
-void GatewayUnit::touched() {
-  dirty_ = true;
-  applied_.reset();
-  bus_seen_.reset();
-  if (!plant_) return;
-  plant_->gateways_dirty_ = true;
-  if (!plant_->deadline_rescan_) {
-    if (this == plant_->deadline_holder_ || plant_->deadline_touched_.size() > 8)
-      plant_->deadline_rescan_ = true;
-    else
-      plant_->deadline_touched_.push_back(this);
-  }
-  if (!listed_) {
-    listed_ = true;
-    plant_->touched_.push_back(this);
-  }
-}
-
-std::optional<Time> GatewayUnit::deadline() const {
-  if (dirty_) {
-    deadline_ = gateway_->next_deadline();
-    dirty_ = false;
-  }
-  return deadline_;
-}
-
-void Plant::touch_gateways() {
-  for (auto& g : gateways_) g->touched();
-}
-
 // ---------------------------------------------------------------------------------- assembly
 
 Plant::Plant(const config::DaemonConfig& config, Options options, Time now)
@@ -346,68 +300,6 @@ bool Plant::add_remote_stations(std::string* /*error*/) {
     master_line_->add_remote(sc.address, sc.name);
   }
   return true;
-}
-
-// --------------------------------------------------------------------------------- observers
-
-void Plant::add_tap(Tap* tap) {
-  taps_.push_back(tap);
-}
-
-void Plant::remove_tap(Tap* tap) {
-  std::erase(taps_, tap);
-}
-
-void Plant::tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender,
-                    Time time) {
-  if (taps_.empty()) return;
-  const auto [kind, index] = sender_of(sender);
-  const CanRecord r{.time = time,
-                    .bus = bus.index(),
-                    .bus_name = bus.name(),
-                    .interface = bus.interface(),
-                    .frame = frame,
-                    .sender = sender,
-                    .sender_kind = kind,
-                    .sender_index = index,
-                    .from_emulation = kind != SenderKind::Outside};
-  for (Tap* t : taps_) t->on_can(r);
-}
-
-std::pair<SenderKind, std::size_t> Plant::sender_of(std::string_view sender) const {
-  for (const auto& g : gateways_)
-    if (g->sender_ == sender) return {SenderKind::Gateway, g->index()};
-  for (std::size_t i = 0; i < drives_.size(); ++i)
-    if (drives_[i]->endpoint_->name() == sender) return {SenderKind::Drive, i};
-  return {SenderKind::Outside, 0};
-}
-
-void Plant::tap_line(std::span<const std::uint8_t> telegram, bool from_emulation, Time time) {
-  if (taps_.empty()) return;
-  const DpRecord r{.time = time,
-                   .line = 1,
-                   .line_name = config_.profibus->port,
-                   .telegram = telegram,
-                   .from_emulation = from_emulation};
-  for (Tap* t : taps_) t->on_dp(r);
-}
-
-void Plant::tap_in_process(std::span<const std::uint8_t> telegram, Time time, std::uint32_t baud) {
-  if (taps_.empty()) return;
-  // docs/decisions.md "pcapng captures": in-process both ends are emulated.
-  const DpRecord r{.time = time,
-                   .line = 0,
-                   .line_name = "in-process",
-                   .telegram = telegram,
-                   .from_emulation = true,
-                   .baud = baud};
-  for (Tap* tap : taps_) tap->on_dp(r);
-}
-
-void Plant::tap_note(std::string text, Time now) {
-  if (taps_.empty()) return;
-  const NoteRecord r{.time = now, .text = text};
-  for (Tap* t : taps_) t->on_note(r);
 }
 
 // -------------------------------------------------------------------------------- inspection

@@ -307,8 +307,10 @@ void parse_line_fault(Step& s, const StepInput& in) {
 // {"max_le"}} (docs/replay-format.md).
 void parse_expect_line(Step& s, const StepInput& in) {
   need_timed_line(in);
+  std::vector<std::string> counters;
+  for (const auto& f : fdl::kStationCounters) counters.emplace_back(f.name);
   std::vector<std::string> keys = {"station", "live", "bus_cycle_us"};
-  for (const auto& f : fdl::kStationCounters) keys.emplace_back(f.name);
+  keys.insert(keys.end(), counters.begin(), counters.end());
   const Object w(in.value, in.path, keys);
   if (w.has("station")) s.station = line_station(w, in);
   for (const auto& f : fdl::kStationCounters) {
@@ -321,7 +323,9 @@ void parse_expect_line(Step& s, const StepInput& in) {
   if (w.has("live")) {
     if (!s.station) fail(w.path("live"), "the live state needs \"station\"");
     s.live = as_string(w.at("live"), w.path("live"), "ok, missing, phantom or none");
-    if (s.live != "ok" && s.live != "missing" && s.live != "phantom" && s.live != "none")
+    const fdl::Live states[] = {fdl::Live::Ok, fdl::Live::Missing, fdl::Live::Phantom,
+                                fdl::Live::None};
+    if (std::ranges::none_of(states, [&](fdl::Live l) { return fdl::to_string(l) == s.live; }))
       fail(w.path("live"), "expected ok, missing, phantom or none, got \"" + s.live + "\"");
   }
   if (w.has("bus_cycle_us")) {
@@ -329,13 +333,8 @@ void parse_expect_line(Step& s, const StepInput& in) {
     s.bus_cycle_max_le = as_uint(c.at("max_le"), c.path("max_le"), 0, 0xFFFFFFFFull, "µs");
   }
   if (s.counters.empty() && s.live.empty() && !s.bus_cycle_max_le)
-    fail(
-        in.path, "give a station's counters (" + [] {
-          std::string t;
-          for (const auto& f : fdl::kStationCounters)
-            t += (t.empty() ? "" : ", ") + std::string(f.name);
-          return t;
-        }() + "), \"live\" or \"bus_cycle_us\"");
+    fail(in.path,
+         "give a station's counters (" + join(counters) + "), \"live\" or \"bus_cycle_us\"");
 }
 
 namespace {
