@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <map>
+#include <utility>
 
 #include "bitrate/bitrate_supervisor.hpp"
 #include "can/socketcan.hpp"
@@ -444,10 +445,10 @@ void DaemonImpl::rearm_link(Watched& w) {
 
 void DaemonImpl::after_cycle(Time now) {
   // The SocketCAN interfaces' bit rates against the gateways' accepted Set_Prm byte 8.
-  for (auto& g : plant_->gateways()) {
+  for (const auto& g : std::as_const(*plant_).gateways()) {
     const auto& link = links_[g->index()];
     if (!link) continue;
-    const auto& prm = g->gateway().user_prm();
+    const auto& prm = std::as_const(*g).gateway().user_prm();
     link->supervisor->update(link->member, prm ? gw::bitrate_bps(prm->bitrate_index) : std::nullopt,
                              now);
   }

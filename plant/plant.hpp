@@ -257,10 +257,8 @@ class Plant final : public ControlSurface {
   // False in profibus role slaves: an external master drives the gateways.
   bool master_runs() const { return master_cycles_; }
   std::vector<std::unique_ptr<BusUnit>>& buses() { return buses_; }
-  std::vector<std::unique_ptr<GatewayUnit>>& gateways() {
-    touch_gateways();
-    return gateways_;
-  }
+  // (A unit's engine is reached through GatewayUnit::gateway(), which marks it touched.)
+  std::vector<std::unique_ptr<GatewayUnit>>& gateways() { return gateways_; }
   const std::vector<std::unique_ptr<GatewayUnit>>& gateways() const { return gateways_; }
   std::vector<std::unique_ptr<DriveUnit>>& drives() { return drives_; }
   std::vector<std::unique_ptr<SlaveUnit>>& slaves() { return slaves_; }
