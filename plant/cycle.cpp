@@ -21,14 +21,15 @@ void GatewayUnit::receive(const can::Frame& frame, Time now) {
 }
 
 void GatewayUnit::update_controller() {
-  // Given again only when it changed (or the engine was reached since): the same state twice
-  // changes nothing in the engine.
+  // Given again only when it changed (or the engine was reached since, and it differs from what
+  // the engine holds): the same state twice changes nothing in the engine, nor what it waits for.
   const std::pair state{faults_.state(channel_->bus_state()), faults_.rx_lost(channel_->rx_lost())};
   if (applied_ == state) return;
-  gateway_->set_controller_status(state.first, state.second);
   applied_ = state;
+  if (gateway_->controller_status() == state) return;
+  gateway_->set_controller_status(state.first, state.second);
   dirty_ = true;
-  if (plant_) plant_->gateways_dirty_ = plant_->deadline_rescan_ = true;
+  if (plant_) plant_->gateway_deadlines_.moved(index_);
 }
 
 void GatewayUnit::touched() {
@@ -36,15 +37,7 @@ void GatewayUnit::touched() {
   applied_.reset();
   bus_seen_.reset();
   if (!plant_) return;
-  plant_->gateways_dirty_ = true;
-  if (!plant_->deadline_rescan_) {
-    // The holder's own deadline may have moved later: then all are asked again; so they are
-    // when many were touched (a master cycle on the ideal line touches every gateway).
-    if (this == plant_->deadline_holder_ || plant_->deadline_touched_.size() > 8)
-      plant_->deadline_rescan_ = true;
-    else
-      plant_->deadline_touched_.push_back(this);
-  }
+  plant_->gateway_deadlines_.moved(index_);
   if (!listed_) {
     listed_ = true;
     plant_->touched_.push_back(this);
@@ -61,6 +54,7 @@ std::optional<Time> GatewayUnit::deadline() const {
 
 void Plant::touch_gateways() {
   for (auto& g : gateways_) g->touched();
+  gateway_deadlines_.all_moved();  // one walk, not one heap entry each
 }
 
 // ------------------------------------------------------------------------------ the plant
@@ -81,31 +75,15 @@ std::optional<Time> Plant::next_deadline() const {
 }
 
 std::optional<Time> Plant::gateways_deadline() const {
-  if (gateways_dirty_) {
-    auto consider = [this](const GatewayUnit& g) {
-      if (const auto d = g.deadline(); d && (!gateways_deadline_ || *d < *gateways_deadline_)) {
-        gateways_deadline_ = d;
-        deadline_holder_ = &g;
-      }
-    };
-    if (deadline_rescan_) {
-      gateways_deadline_.reset();
-      deadline_holder_ = nullptr;
-      for (const auto& g : gateways_) consider(*g);
-    } else {
-      for (const GatewayUnit* g : deadline_touched_) consider(*g);
-    }
-    deadline_touched_.clear();
-    deadline_rescan_ = false;
-    gateways_dirty_ = false;
-  }
+  const std::optional<Time> first =
+      gateway_deadlines_.earliest([this](std::size_t i) { return gateways_[i]->deadline(); });
 #ifndef NDEBUG  // the caches hold what the engines say (Debug builds, the sanitizer run)
   std::optional<Time> fresh;
   for (const auto& g : gateways_)
     if (const auto d = g->gateway_->next_deadline(); d && (!fresh || *d < *fresh)) fresh = d;
-  if (fresh != gateways_deadline_) std::abort();
+  if (fresh != first) std::abort();
 #endif
-  return gateways_deadline_;
+  return first;
 }
 
 void Plant::set_now(Time now) {

@@ -173,6 +173,7 @@ bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
             ", " + std::to_string(cfg.slots.size()) + " slots, bus " + b.name + " (" +
             std::string(config::to_string(b.type)) + ")");
   gateways_.push_back(std::move(g));
+  gateway_deadlines_.resize(gateways_.size());
   return true;
 }
 

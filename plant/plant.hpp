@@ -29,6 +29,7 @@
 
 #include "can/channel.hpp"
 #include "can/virtual_bus.hpp"
+#include "common/earliest.hpp"
 #include "common/log.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
@@ -336,18 +337,13 @@ class Plant final : public ControlSurface {
   std::unique_ptr<SlaveLine> slave_line_;
   std::unique_ptr<MasterLine> master_line_;
   std::unique_ptr<TimedLine> timed_line_;
-  // The earliest of the gateways' deadlines, recomputed when one of them was touched.
-  mutable bool gateways_dirty_ = true;
-  // Whose deadline gateways_deadline() found, and the gateways touched since: while that one was
-  // not touched, the others' new deadlines only need comparing with it (no walk over them all).
-  mutable const GatewayUnit* deadline_holder_ = nullptr;
-  mutable std::vector<const GatewayUnit*> deadline_touched_;
-  mutable bool deadline_rescan_ = true;
+  // The earliest of the gateways' deadlines: a touched gateway's is asked again, the others'
+  // are kept (common/earliest.hpp).
+  mutable EarliestDeadline gateway_deadlines_;
   // Frames and state changes on all virtual buses, and that count when deliver() last looked:
   // while it stands still and no gateway was touched, there is nothing to deliver.
   std::uint64_t bus_changes_ = 0, delivered_changes_ = ~std::uint64_t{0};
   std::vector<GatewayUnit*> touched_;  // gateways reached since deliver() last looked
-  mutable std::optional<Time> gateways_deadline_;
   std::optional<Time> gateways_deadline() const;
   std::vector<std::unique_ptr<dp::SlaveLink>> links_;  // the master's in-process links
   std::map<std::uint8_t, dp::SlaveLink*> wire_links_;  // fdl::WireImageLink by DP address

@@ -123,6 +123,20 @@ std::uint64_t TimedLine::start_bit(Time t) const {
 
 // ---------------------------------------------------------------------------------- rotation
 
+void TimedLine::OnLine::begin() {
+  job.reset();
+  fdl_status = false;
+  attempt = 0;
+  answer.status = dp::Response::Status::NoResponse;
+  answer.data.clear();
+  answer.diag_pending = false;
+  stored = false;
+  deaf = illegal = false;
+  late.clear();
+  request_intact = true;
+  answer_intact = false;
+}
+
 void TimedLine::begin_rotation(Time /*now*/) {
   rotating_ = true;
   token_sent_ = false;
@@ -137,7 +151,7 @@ void TimedLine::end_issue(Time now) {
   const auto by_address = [](const Job& a, const Job& b) {
     return a.station->address() < b.station->address();
   };
-  const auto first = queue_.begin() + static_cast<std::ptrdiff_t>(sorted_from_);
+  const auto first = queue_.begin() + static_cast<std::ptrdiff_t>(std::max(sorted_from_, head_));
   if (!std::is_sorted(first, queue_.end(), by_address))  // the master issues them in order
     std::stable_sort(first, queue_.end(), by_address);
   if (phase_ == Phase::Idle) start_next(start_bit(now));
@@ -168,38 +182,41 @@ std::optional<std::uint8_t> TimedLine::next_gap_address() {
 
 void TimedLine::start_next(std::uint64_t at_bit) {
   if (phase_ != Phase::Idle) return;
-  if (!queue_.empty()) {
-    OnLine o;
-    o.job = std::move(queue_.front());
-    queue_.pop_front();
-    if (sorted_from_ > 0) --sorted_from_;
-    o.fdl_status = !o.job->station->known_;
-    return put_request(std::move(o), at_bit);
+  OnLine& o = current_;
+  if (head_ < queue_.size()) {
+    o.begin();
+    o.job = std::move(queue_[head_++]);
+    if (head_ == queue_.size()) {  // all taken: the vector starts again (its storage stays)
+      queue_.clear();
+      head_ = sorted_from_ = 0;
+    }
+    Station& s = *o.job->station;
+    o.fdl_status = !s.known_;
+    if (o.fdl_status)
+      fdl::fdl_status_request_to(o.telegram, s.address(), master_);
+    else
+      fdl::dp_request_to(o.telegram, o.job->request, s.address(), master_, s.seq_);
+    return put_request(at_bit);
   }
   if (!rotating_ || token_sent_) return;
-  OnLine o;
+  o.begin();
   // Every gap_factor rotations one FDL_Status into the GAP (docs/profibus.md), then the token.
   const std::uint32_t g = std::max<std::uint32_t>(params_.gap_factor, 1);
   if (!gap_done_ && rotations_ % g == g - 1) {
     gap_done_ = true;
     if (const auto a = next_gap_address()) {
       ++gap_polls_;
-      o.telegram = fdl::fdl_status_request(*a, master_);
-      return put_request(std::move(o), at_bit);
+      fdl::fdl_status_request_to(o.telegram, *a, master_);
+      return put_request(at_bit);
     }
   }
   token_sent_ = true;
-  o.telegram = fdl::Telegram::token(master_, master_);
-  put_request(std::move(o), at_bit);
+  o.telegram.assign(fdl::Kind::SD4, master_, master_, 0);
+  put_request(at_bit);
 }
 
-void TimedLine::put_request(OnLine o, std::uint64_t at_bit) {
-  if (o.job) {
-    Station& s = *o.job->station;
-    o.telegram = o.fdl_status ? fdl::fdl_status_request(s.address(), master_)
-                              : fdl::dp_request(o.job->request, s.address(), master_, s.seq_);
-  }
-  if (o.request.capacity() == 0) o.request = std::move(spare_request_);  // no allocation a telegram
+void TimedLine::put_request(std::uint64_t at_bit) {
+  OnLine& o = current_;
   o.request.clear();
   fdl::encode_to(o.telegram, o.request);
   if (late_ && std::max(at_bit, free_bit_) != late_->bit) flush_late();
@@ -223,7 +240,6 @@ void TimedLine::put_request(OnLine o, std::uint64_t at_bit) {
     o.request_intact = false;
   }
   event_bit_ = start;
-  current_ = std::move(o);
   phase_ = Phase::Sync;
   // docs/profibus.md "The line in time": an idle shorter than the event loop's timer slack is
   // not waited for on its own: the telegram goes to the tap now, stamped with its first bit.
@@ -232,8 +248,8 @@ void TimedLine::put_request(OnLine o, std::uint64_t at_bit) {
 
 void TimedLine::on_request_start() {
   // Its first character: the tap sees it now, stamped with this bit (docs/capture.md).
-  emit(current_->request, true, request_start_, request_end_,
-       current_->request_intact ? &current_->telegram : nullptr);
+  emit(current_.request, true, request_start_, request_end_,
+       current_.request_intact ? &current_.telegram : nullptr);
   phase_ = Phase::Request;
   event_bit_ = request_end_;
 }
@@ -307,7 +323,7 @@ void TimedLine::emit(std::span<const std::uint8_t> bytes, bool from_master, std:
 }
 
 void TimedLine::on_request_end() {
-  OnLine& o = *current_;
+  OnLine& o = current_;
   const std::uint64_t end = event_bit_;
   if (!o.job) {
     if (o.telegram.kind == fdl::Kind::SD4) {  // the token: nobody answers; TID2
@@ -326,41 +342,46 @@ void TimedLine::on_request_end() {
   if (o.deaf || fault == fdl::StationFault::Silent) {
     phase_ = sdn ? Phase::Unanswered : Phase::SlotTime;
     event_bit_ = end + (sdn ? fdl::tid2_bits(params_) : params_.slot_time_bits);
-    if (sdn) o.answer = dp::Response{};
+    if (sdn) o.answer = dp::Response{};  // nobody got it
     return;
   }
-  std::optional<fdl::Telegram> answer;
+  bool answered = false;
   if (o.fdl_status) {
-    if (!s.slave_.offline()) answer = fdl::short_answer(o.telegram, fdl::kFcOk);
+    if (!s.slave_.offline()) {
+      o.answer_telegram = fdl::short_answer(o.telegram, fdl::kFcOk);
+      answered = true;
+    }
   } else {
     const dp::Service service = o.job->request.service;
     if (!o.stored) {
       if (service == dp::Service::SetPrm && o.job->request.data.size() > 3 &&
           o.job->request.data[3] != 0)
         s.min_tsdr_ = o.job->request.data[3];  // min_TSDR, Set_Prm byte 3 (IEC 61158-6-3)
-      // The station gets the request now: its last character has arrived.
-      std::optional<dp::Response> r;
-      s.inner_.request(o.job->request, time_of(end),
-                       [&r](const dp::Response& resp, Time /*at*/) { r = resp; });
-      o.answer = r.value_or(dp::Response{});
+      // The station gets the request now: its last character has arrived. Its answer goes
+      // into the exchange's own (no answer: NoResponse, as begin() left it).
+      dp::Response& a = o.answer;
+      s.inner_.request(o.job->request, time_of(end), [&a](const dp::Response& resp, Time /*at*/) {
+        a.status = resp.status;
+        a.data.assign(resp.data.begin(), resp.data.end());
+        a.diag_pending = resp.diag_pending;
+      });
     }
-    answer = fdl::dp_answer(o.telegram, service, *o.answer);
+    answered = fdl::dp_answer_to(o.answer_telegram, o.telegram, service, o.answer);
     if (sdn) {  // SDN: no answer; TID2
       phase_ = Phase::Unanswered;
       event_bit_ = end + fdl::tid2_bits(params_);
       return;
     }
     // It answered: a repeat of this request gets the same answer, as FCB repetition says.
-    o.stored = answer.has_value();
+    o.stored = answered;
   }
-  if (!answer) {
+  if (!answered) {
     phase_ = Phase::SlotTime;
     event_bit_ = end + params_.slot_time_bits;
     return;
   }
-  if (o.response.capacity() == 0) o.response = std::move(spare_response_);
   o.response.clear();
-  fdl::encode_to(*answer, o.response);
+  fdl::encode_to(o.answer_telegram, o.response);
   o.response_bits = kBitsPerChar * o.response.size();
   o.illegal = false;
   switch (fault) {
@@ -389,10 +410,7 @@ void TimedLine::on_request_end() {
     o.response = fdl::garble(o.response, response_start_);
     o.illegal = true;
   }
-  if (o.illegal)
-    o.answer_telegram.reset();
-  else
-    o.answer_telegram = std::move(answer);
+  o.answer_intact = !o.illegal;
   event_bit_ = response_start_;
   phase_ = Phase::Tsdr;
   if (fdl::bits_to_time(baud_, response_start_ - end) < kMergeBelow) on_response_start();
@@ -400,16 +418,15 @@ void TimedLine::on_request_end() {
 
 void TimedLine::on_response_start() {
   phase_ = Phase::Response;
-  event_bit_ = response_start_ + current_->response_bits;
-  emit(current_->response, false, response_start_, event_bit_,
-       current_->answer_telegram ? &*current_->answer_telegram : nullptr);
+  event_bit_ = response_start_ + current_.response_bits;
+  emit(current_.response, false, response_start_, event_bit_,
+       current_.answer_intact ? &current_.answer_telegram : nullptr);
 }
 
 void TimedLine::on_response_end() {
-  OnLine o = std::move(*current_);
-  current_.reset();
+  OnLine& o = current_;
   phase_ = Phase::Idle;
-  if (o.illegal) return unanswered(std::move(o), event_bit_ + fdl::tid1_bits(params_));
+  if (o.illegal) return unanswered(event_bit_ + fdl::tid1_bits(params_));
   free_bit_ = event_bit_ + fdl::tid1_bits(params_);
   Station& s = *o.job->station;
   if (o.fdl_status) {
@@ -418,43 +435,36 @@ void TimedLine::on_response_end() {
     s.seq_.restart();
     o.fdl_status = false;
     o.attempt = 0;
-    return put_request(std::move(o), free_bit_);
+    fdl::dp_request_to(o.telegram, o.job->request, s.address(), master_, s.seq_);
+    return put_request(free_bit_);
   }
   s.seq_.advance();
-  recycle(o);
-  o.job->done(*o.answer, time_of(event_bit_));
-}
-
-void TimedLine::recycle(OnLine& o) {
-  if (o.request.capacity() > spare_request_.capacity()) spare_request_ = std::move(o.request);
-  if (o.response.capacity() > spare_response_.capacity()) spare_response_ = std::move(o.response);
+  o.job->done(o.answer, time_of(event_bit_));  // the next exchange begins after it
 }
 
 void TimedLine::on_slot_expired() {
-  OnLine o = std::move(*current_);
-  current_.reset();
+  OnLine& o = current_;
   phase_ = Phase::Idle;
   // A late answer starts now, with whatever the master sends next (docs/faults.md).
   if (!o.late.empty()) late_ = Late{event_bit_, std::move(o.late)};
   if (!o.job) {  // the GAP: nobody answered; the token follows
     free_bit_ = event_bit_;
-    recycle(o);
     return;
   }
-  unanswered(std::move(o), event_bit_);  // the line has been idle for the slot time (> TSYN)
+  unanswered(event_bit_);  // the line has been idle for the slot time (> TSYN)
 }
 
-void TimedLine::unanswered(OnLine o, std::uint64_t free_bit) {
+void TimedLine::unanswered(std::uint64_t free_bit) {
+  OnLine& o = current_;
   free_bit_ = free_bit;
   if (o.attempt < params_.retry_limit) {
     ++o.attempt;
     ++retries_;
     o.deaf = o.illegal = false;
-    return put_request(std::move(o), free_bit_);
+    return put_request(free_bit_);
   }
   // Retries exhausted: the station is lost; FDL_Status again before its next request.
   o.job->station->known_ = false;
-  recycle(o);
   if (log_.enabled(LogLevel::Debug))
     log_.debug("station " + std::to_string(o.job->station->address()) + ": no valid answer after " +
                std::to_string(params_.retry_limit) + " retries");
@@ -462,13 +472,11 @@ void TimedLine::unanswered(OnLine o, std::uint64_t free_bit) {
 }
 
 void TimedLine::on_unanswered_end() {
-  OnLine o = std::move(*current_);
-  current_.reset();
+  OnLine& o = current_;
   phase_ = Phase::Idle;
   free_bit_ = event_bit_;
-  recycle(o);
   if (o.job) {  // Global_Control: done when the idle after it has passed
-    o.job->done(*o.answer, time_of(event_bit_));
+    o.job->done(o.answer, time_of(event_bit_));
     return;
   }
   // The token: the rotation ends with its TID2.

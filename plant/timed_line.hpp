@@ -18,7 +18,6 @@
 #pragma once
 
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <map>
 #include <memory>
@@ -145,21 +144,25 @@ class TimedLine {
   // characters; Tsdr: the station's delay; Response: the answer's characters; SlotTime: nobody
   // answered yet; Unanswered: TID2 after a telegram without an answer.
   enum class Phase : std::uint8_t { Idle, Sync, Request, Tsdr, Response, SlotTime, Unanswered };
+  // The exchange on the line: one, kept from telegram to telegram with its buffers (no allocation
+  // a telegram once they have held the longest).
   struct OnLine {
     std::optional<Job> job;   // none: FDL_Status to a GAP address or the token
     bool fdl_status = false;  // this telegram is the FDL_Status before the job
     std::vector<std::uint8_t> request;
     fdl::Telegram telegram;
     std::uint32_t attempt = 0;
-    std::optional<dp::Response> answer;
+    dp::Response answer;  // the station's (a repeat gets it again, an SDN's is empty)
     bool stored = false;  // the station answered it once: a repeat gets the same answer (FCB)
     std::vector<std::uint8_t> response;
     std::uint64_t response_bits = 0;
     bool deaf = false;     // the request was garbled on the wire: the station did not get it
     bool illegal = false;  // the answer was garbled: the master cannot use it
-    std::vector<std::uint8_t> late;                // an answer that comes after the slot time
-    bool request_intact = true;                    // `request` is `telegram` as built (not garbled)
-    std::optional<fdl::Telegram> answer_telegram;  // what `response` is, when not garbled
+    std::vector<std::uint8_t> late;  // an answer that comes after the slot time
+    bool request_intact = true;      // `request` is `telegram` as built (not garbled)
+    fdl::Telegram answer_telegram;   // what `response` is, when `answer_intact`
+    bool answer_intact = false;
+    void begin();  // a new exchange
   };
   // A late answer: it starts on the line when the slot time has expired.
   struct Late {
@@ -169,21 +172,19 @@ class TimedLine {
 
   void enqueue(Job job, Time now);
   void start_next(std::uint64_t at_bit);
-  void put_request(OnLine o, std::uint64_t at_bit);
+  // The current exchange's telegram on the line from `at_bit` (or when the line is free).
+  void put_request(std::uint64_t at_bit);
   void on_request_start();
   void on_request_end();
   void on_response_start();
   void on_response_end();
   void on_slot_expired();
   void on_unanswered_end();
-  void unanswered(OnLine o, std::uint64_t free_bit);
-  // The telegram buffers of a finished exchange, kept for the next (no allocation a telegram).
-  void recycle(OnLine& o);
+  void unanswered(std::uint64_t free_bit);
   // time_of(event_bit_), computed once an event.
   Time event_time() const;
   void flush_late();
   bool noisy(std::uint64_t bit) const;
-  void answer(OnLine& o, std::optional<fdl::Telegram> answer, std::uint64_t end);
   void finish(dp::Response r);
   void emit(std::span<const std::uint8_t> bytes, bool from_master, std::uint64_t start,
             std::uint64_t end, const fdl::Telegram* decoded = nullptr);
@@ -198,10 +199,12 @@ class TimedLine {
   bool record_ = false;
   std::vector<Telegram> recorded_;
   std::map<std::uint8_t, std::unique_ptr<Station>> stations_;
-  std::deque<Job> queue_;
+  // The requests waiting: queue_[head_..] (a vector that is emptied when all are taken).
+  std::vector<Job> queue_;
+  std::size_t head_ = 0;
   std::size_t sorted_from_ = 0;  // queue_ index where the requests of this cycle start
   Phase phase_ = Phase::Idle;
-  std::optional<OnLine> current_;
+  OnLine current_;               // valid while phase_ is not Idle
   std::uint64_t event_bit_ = 0;  // the bit the current phase ends at
   std::uint64_t free_bit_ = 0;   // the earliest bit the next request may start at
   bool rotating_ = false;
@@ -221,7 +224,6 @@ class TimedLine {
   Time now_{0};  // of the last advance()
   Duration step_{0};
   Time handled_{0};  // when advance() last handled an event (the step counts from there)
-  std::vector<std::uint8_t> spare_request_, spare_response_;
   mutable std::uint64_t deadline_bit_ = ~std::uint64_t{0};
   mutable Time deadline_time_{0};
 };

@@ -28,57 +28,99 @@ std::optional<std::uint8_t> dsap_of(dp::Service s) {
   return std::nullopt;
 }
 
+void fdl_status_request_to(Telegram& out, std::uint8_t station, std::uint8_t master) {
+  out.assign(Kind::SD1, station, master, request_fc(kFcFdlStatus));
+}
+
 Telegram fdl_status_request(std::uint8_t station, std::uint8_t master) {
-  return Telegram::no_data(station, master, request_fc(kFcFdlStatus));
+  Telegram t;
+  fdl_status_request_to(t, station, master);
+  return t;
+}
+
+void dp_request_to(Telegram& out, const dp::Request& req, std::uint8_t station, std::uint8_t master,
+                   const FcbSequence& seq) {
+  if (req.service == dp::Service::GlobalControl) {
+    // Global_Control is SDN (no answer) to DSAP 58; SDN carries no FCB/FCV.
+    return out.assign_with_data(station, master, request_fc(kFcSdnHigh), kSapGlobalControl,
+                                kMasterSap, req.data);
+  }
+  const std::uint8_t fc = request_fc(kFcSrdHigh, seq.fcb, seq.fcv);
+  const auto dsap = dsap_of(req.service);
+  if (!dsap && req.data.empty()) return out.assign(Kind::SD1, station, master, fc);
+  out.assign_with_data(station, master, fc, dsap, dsap ? std::optional(kMasterSap) : std::nullopt,
+                       req.data);
 }
 
 Telegram dp_request(const dp::Request& req, std::uint8_t station, std::uint8_t master,
                     const FcbSequence& seq) {
-  if (req.service == dp::Service::GlobalControl) {
-    // Global_Control is SDN (no answer) to DSAP 58; SDN carries no FCB/FCV.
-    return Telegram::with_data(station, master, request_fc(kFcSdnHigh), kSapGlobalControl,
-                               kMasterSap, req.data);
-  }
-  const std::uint8_t fc = request_fc(kFcSrdHigh, seq.fcb, seq.fcv);
-  const auto dsap = dsap_of(req.service);
-  if (!dsap && req.data.empty()) return Telegram::no_data(station, master, fc);
-  return Telegram::with_data(station, master, fc, dsap,
-                             dsap ? std::optional(kMasterSap) : std::nullopt, req.data);
+  Telegram t;
+  dp_request_to(t, req, station, master, seq);
+  return t;
 }
 
+namespace {
+
+void short_answer_to(Telegram& out, const Telegram& request, std::uint8_t function) {
+  out.assign(Kind::SD1, request.sa, request.da, response_fc(function));
+}
+
+void data_answer_to(Telegram& out, const Telegram& request, std::uint8_t function,
+                    std::span<const std::uint8_t> data) {
+  if (!request.dsap && !request.ssap && data.empty())
+    return short_answer_to(out, request, function);
+  out.assign_with_data(request.sa, request.da, response_fc(function), request.ssap, request.dsap,
+                       data);
+}
+
+void data_exchange_answer_to(Telegram& out, const Telegram& request,
+                             std::span<const std::uint8_t> inputs, bool diag_pending) {
+  const std::uint8_t fn = diag_pending ? kFcDh : kFcDl;
+  if (inputs.empty())
+    return diag_pending ? short_answer_to(out, request, fn) : out.assign(Kind::SC, 0, 0, 0);
+  out.assign_with_data(request.sa, request.da, response_fc(fn), std::nullopt, std::nullopt, inputs);
+}
+
+}  // namespace
+
 Telegram short_answer(const Telegram& request, std::uint8_t function) {
-  return Telegram::no_data(request.sa, request.da, response_fc(function));
+  Telegram t;
+  short_answer_to(t, request, function);
+  return t;
 }
 
 Telegram data_answer(const Telegram& request, std::uint8_t function,
                      std::span<const std::uint8_t> data) {
-  if (!request.dsap && !request.ssap && data.empty()) return short_answer(request, function);
-  return Telegram::with_data(request.sa, request.da, response_fc(function), request.ssap,
-                             request.dsap, std::vector<std::uint8_t>(data.begin(), data.end()));
+  Telegram t;
+  data_answer_to(t, request, function, data);
+  return t;
 }
 
 Telegram data_exchange_answer(const Telegram& request, std::span<const std::uint8_t> inputs,
                               bool diag_pending) {
-  const std::uint8_t fn = diag_pending ? kFcDh : kFcDl;
-  if (inputs.empty()) return diag_pending ? short_answer(request, fn) : Telegram::sc();
-  return Telegram::with_data(request.sa, request.da, response_fc(fn), std::nullopt, std::nullopt,
-                             std::vector<std::uint8_t>(inputs.begin(), inputs.end()));
+  Telegram t;
+  data_exchange_answer_to(t, request, inputs, diag_pending);
+  return t;
 }
 
-std::optional<Telegram> dp_answer(const Telegram& request, dp::Service service,
-                                  const dp::Response& response) {
+bool dp_answer_to(Telegram& out, const Telegram& request, dp::Service service,
+                  const dp::Response& response) {
   using Status = dp::Response::Status;
-  if (service == dp::Service::GlobalControl || response.status == Status::NoResponse)
-    return std::nullopt;
+  if (service == dp::Service::GlobalControl || response.status == Status::NoResponse) return false;
   // A refusal: the service's SAP is not active (docs/decisions.md "FDL on the wire").
-  if (response.status == Status::Refused) return short_answer(request, kFcRs);
+  if (response.status == Status::Refused) {
+    short_answer_to(out, request, kFcRs);
+    return true;
+  }
   switch (service) {
     case dp::Service::SetPrm:
     case dp::Service::ChkCfg:
     case dp::Service::SetSlaveAdd:
-      return Telegram::sc();
+      out.assign(Kind::SC, 0, 0, 0);
+      return true;
     case dp::Service::DataExchange:
-      return data_exchange_answer(request, response.data, response.diag_pending);
+      data_exchange_answer_to(out, request, response.data, response.diag_pending);
+      return true;
     case dp::Service::SlaveDiag:
     case dp::Service::GetCfg:
     case dp::Service::GlobalControl:
@@ -86,7 +128,15 @@ std::optional<Telegram> dp_answer(const Telegram& request, dp::Service service,
     case dp::Service::RdOutp:
       break;
   }
-  return data_answer(request, kFcDl, response.data);
+  data_answer_to(out, request, kFcDl, response.data);
+  return true;
+}
+
+std::optional<Telegram> dp_answer(const Telegram& request, dp::Service service,
+                                  const dp::Response& response) {
+  Telegram t;
+  if (!dp_answer_to(t, request, service, response)) return std::nullopt;
+  return t;
 }
 
 // ---------------------------------------------------------------- WireImageLink

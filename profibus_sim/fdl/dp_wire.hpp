@@ -41,11 +41,15 @@ struct FcbSequence {
 // ---- Requests (the master's side) ----------------------------------------------------------
 // Request FDL Status: SD1 FC 0x49 (no FCB/FCV), before the first DP request to a station.
 Telegram fdl_status_request(std::uint8_t station, std::uint8_t master);
+void fdl_status_request_to(Telegram& out, std::uint8_t station, std::uint8_t master);
 // The telegram of a DP request from `master` to `station`: SRD_high with the sequence's FCB/FCV,
 // DSAP = the service's SAP and SSAP 62 (none for Data_Exchange); Global_Control is SDN_high
 // without FCB/FCV (no answer). The sequence is only read.
 Telegram dp_request(const dp::Request& req, std::uint8_t station, std::uint8_t master,
                     const FcbSequence& seq);
+// The same into `out`, its storage kept (a line that builds one telegram after the other).
+void dp_request_to(Telegram& out, const dp::Request& req, std::uint8_t station, std::uint8_t master,
+                   const FcbSequence& seq);
 
 // ---- Answers (the slave's side) ------------------------------------------------------------
 // An SD1 with no data, addresses swapped: FDL_Status OK, RS ("no service activated"), DH.
@@ -63,6 +67,9 @@ Telegram data_exchange_answer(const Telegram& request, std::span<const std::uint
 // a refusal RS. nullopt when nothing travels: SDN (Global_Control) or no response.
 std::optional<Telegram> dp_answer(const Telegram& request, dp::Service service,
                                   const dp::Response& response);
+// The same into `out`, its storage kept; false when nothing travels.
+bool dp_answer_to(Telegram& out, const Telegram& request, dp::Service service,
+                  const dp::Response& response);
 
 // ---- The in-process link's wire image ------------------------------------------------------
 // A dp::SlaveLink in front of another (dp::InProcessLink) that reports every DP service as the

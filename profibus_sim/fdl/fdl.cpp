@@ -1,6 +1,8 @@
 // FDL telegram codec and stream parser (docs/profibus.md).
 #include "profibus_sim/fdl/fdl.hpp"
 
+#include <algorithm>
+
 namespace candp2::fdl {
 
 std::string_view to_string(Kind k) {
@@ -60,6 +62,27 @@ Telegram Telegram::with_data(std::uint8_t da, std::uint8_t sa, std::uint8_t fc,
   return t;
 }
 
+void Telegram::assign(Kind k, std::uint8_t d, std::uint8_t s, std::uint8_t f) {
+  kind = k;
+  da = d;
+  sa = s;
+  fc = f;
+  dsap.reset();
+  ssap.reset();
+  du.clear();
+}
+
+void Telegram::assign_with_data(std::uint8_t d, std::uint8_t s, std::uint8_t f,
+                                std::optional<std::uint8_t> dsap_,
+                                std::optional<std::uint8_t> ssap_,
+                                std::span<const std::uint8_t> data) {
+  assign(Kind::SD2, d, s, f);
+  dsap = dsap_;
+  ssap = ssap_;
+  du.assign(data.begin(), data.end());
+  if (du.size() + (dsap ? 1 : 0) + (ssap ? 1 : 0) == kSd3DataLen) kind = Kind::SD3;
+}
+
 std::uint8_t fcs(std::span<const std::uint8_t> bytes) {
   unsigned sum = 0;
   for (auto b : bytes) sum += b;
@@ -96,32 +119,46 @@ void encode_to(const Telegram& t, std::vector<std::uint8_t>& out) {
   }
   const auto da = static_cast<std::uint8_t>(t.da | (t.dsap ? kAddrExt : 0));
   const auto sa = static_cast<std::uint8_t>(t.sa | (t.ssap ? kAddrExt : 0));
+  const std::size_t at = out.size();
   if (t.kind == Kind::SD4) {
-    out.insert(out.end(), {kSD4, da, sa});
+    out.resize(at + 3);
+    std::uint8_t* p = out.data() + at;
+    p[0] = kSD4;
+    p[1] = da;
+    p[2] = sa;
     return;
   }
+  // One resize, then the bytes in place (a line encodes every telegram it carries).
   const std::size_t n = t.du.size() + (t.dsap ? 1 : 0) + (t.ssap ? 1 : 0);
+  const std::size_t header = t.kind == Kind::SD2 ? 4 : 1;
+  out.resize(at + header + 3 + n + 2);
+  std::uint8_t* p = out.data() + at;
   switch (t.kind) {
     case Kind::SD1:
-      out.push_back(kSD1);
+      *p++ = kSD1;
       break;
     case Kind::SD2: {
       const auto le = static_cast<std::uint8_t>(n + 3);
-      out.insert(out.end(), {kSD2, le, le, kSD2});
+      *p++ = kSD2;
+      *p++ = le;
+      *p++ = le;
+      *p++ = kSD2;
       break;
     }
     default:
-      out.push_back(kSD3);
+      *p++ = kSD3;
       break;
   }
-  const std::size_t body = out.size();
-  out.insert(out.end(), {da, sa, t.fc});
-  if (t.dsap) out.push_back(*t.dsap);
-  if (t.ssap) out.push_back(*t.ssap);
-  out.insert(out.end(), t.du.begin(), t.du.end());
-  const std::uint8_t sum = fcs(std::span(out).subspan(body));
-  out.push_back(sum);
-  out.push_back(kED);
+  const std::uint8_t* body = p;
+  *p++ = da;
+  *p++ = sa;
+  *p++ = t.fc;
+  if (t.dsap) *p++ = *t.dsap;
+  if (t.ssap) *p++ = *t.ssap;
+  if (!t.du.empty()) p = std::copy(t.du.begin(), t.du.end(), p);
+  const std::uint8_t sum = fcs(std::span(body, p));
+  *p++ = sum;
+  *p = kED;
 }
 
 std::vector<std::uint8_t> encode(const Telegram& t) {

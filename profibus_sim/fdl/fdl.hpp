@@ -142,6 +142,12 @@ struct Telegram {
   static Telegram with_data(std::uint8_t da, std::uint8_t sa, std::uint8_t fc,
                             std::optional<std::uint8_t> dsap, std::optional<std::uint8_t> ssap,
                             std::vector<std::uint8_t> du);
+  // The same shapes into this telegram, its data unit's storage kept (no allocation once it has
+  // held as many bytes): for a line that builds one telegram after the other.
+  void assign(Kind k, std::uint8_t d, std::uint8_t s, std::uint8_t f);  // SD1, SD4, SC: no data
+  void assign_with_data(std::uint8_t d, std::uint8_t s, std::uint8_t f,
+                        std::optional<std::uint8_t> dsap_, std::optional<std::uint8_t> ssap_,
+                        std::span<const std::uint8_t> data);
 
   friend bool operator==(const Telegram&, const Telegram&) = default;
 };
