@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "gateway/line_limits.hpp"
 #include "gsd/gsd.hpp"
 #include "plant/master_line.hpp"
 #include "plant/slave_line.hpp"
@@ -168,7 +169,7 @@ bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
     slave_line_->add(g->gateway_->dp(), config::slave_parameters(cfg), cfg.name);
   else
     add_in_process(g->gateway_->dp(), config::slave_parameters(cfg), g->gateway_->address(),
-                   std::nullopt, g.get());
+                   config_.line ? gw::max_tsdr_bits(config_.line->baud) : std::nullopt, g.get());
   log_.info("gateway " + cfg.name + ": DP address " + std::to_string(g->gateway_->address()) +
             ", " + std::to_string(cfg.slots.size()) + " slots, bus " + b.name + " (" +
             std::string(config::to_string(b.type)) + ")");

@@ -42,15 +42,15 @@ LineReport check_line(const LineInput& in) {
     r.problems.push_back({true, in.bus_parameters_path + "." + p.key, p.message});
   const auto rate = gsd::rate_name(in.baud);
   for (const auto& s : in.stations) {
-    if (!s.gsd) continue;
-    if (!gsd::supports_rate(*s.gsd, in.baud)) {
+    if (!s.gsd && !s.max_tsdr_bits) continue;
+    if (s.gsd && !gsd::supports_rate(*s.gsd, in.baud)) {
       r.problems.push_back({true, s.json_path,
                             "station " + s.name + ": " + s.gsd_name + " does not support " +
                                 std::to_string(in.baud) + " bit/s (no " + std::string(*rate) +
                                 "_supp = 1); set " + in.baud_path + " to a rate it supports"});
       continue;
     }
-    const auto max = gsd::max_tsdr(*s.gsd, in.baud);
+    const auto max = s.gsd ? gsd::max_tsdr(*s.gsd, in.baud) : s.max_tsdr_bits;
     if (max && *max > in.params.max_tsdr_bits)
       r.problems.push_back({false, in.bus_parameters_path + ".max_tsdr_bits",
                             "station " + s.name + " answers as late as " + std::to_string(*max) +

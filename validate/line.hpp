@@ -23,6 +23,9 @@ struct LineStation {
   std::uint32_t watchdog_ms = 0;        // 0: off
   const gsd::Model* gsd = nullptr;      // its GSD, when known
   std::string gsd_name;                 // for messages: "the GSD x.gsd"
+  // Without a GSD: the latest it answers at the line's rate, when known otherwise (a CAN-DP/2's
+  // own, gateway/line_limits.hpp).
+  std::optional<std::uint32_t> max_tsdr_bits;
 };
 
 struct LineProblem {

@@ -11,6 +11,7 @@
 #include <variant>
 
 #include "config/config.hpp"
+#include "gateway/line_limits.hpp"
 #include "plant/plant.hpp"
 #include "profibus_sim/fdl/dp_wire.hpp"
 #include "profibus_sim/fdl/line_timing.hpp"
@@ -127,6 +128,34 @@ TEST(TimedLine, KeepsTsynTsdrTidAndSlotTimeToTheBit) {
   EXPECT_GT(exchanges, 10u);
   // Every third rotation (gap_factor 3) asks one GAP address (2, 4, 5, ... not the gateway at 3).
   EXPECT_EQ(gaps, tokens / 3);
+}
+
+// A gateway answers no later than its GSD's MaxTsdr (gateway/line_limits.hpp): at 187.5 kbit/s
+// 60 bit times, even when the master's Set_Prm asks for a min_TSDR of 80.
+TEST(TimedLine, AGatewayAnswersNoLaterThanItsMaxTsdr) {
+  Rig rig(config_text(1, R"({ "cycle_ms": 5, "baud": 187500,
+                              "bus_parameters": { "min_tsdr_bits": 80, "max_tsdr_bits": 100,
+                                                  "slot_time_bits": 200 } })"));
+  ASSERT_TRUE(rig.plant);
+  TimedLine& line = rig.line();
+  line.set_record(true);
+  rig.run_until(Time{200'000});
+  ASSERT_EQ(rig.plant->master().slave(3)->state, dp::MasterSlaveState::DataExch);
+  const std::uint32_t max_tsdr = *gw::max_tsdr_bits(187500);
+  ASSERT_LT(max_tsdr, 80u);
+  EXPECT_EQ(line.tsdr_bits(3), max_tsdr);
+  const auto& tg = line.record();
+  bool prm_seen = false;
+  std::size_t capped = 0;
+  for (std::size_t i = 1; i < tg.size(); ++i) {
+    if (tg[i].from_master) {
+      if (decoded(tg[i]).dsap == fdl::kSapSetPrm) prm_seen = true;
+      continue;
+    }
+    EXPECT_EQ(tg[i].start_bit - tg[i - 1].end_bit, prm_seen ? max_tsdr : 11u) << i;
+    capped += prm_seen;
+  }
+  EXPECT_GT(capped, 10u);
 }
 
 TEST(TimedLine, RetryAndLostStationWhenTheSlotTimeSays) {

@@ -14,9 +14,11 @@
 #include "common/hex.hpp"
 #include "config/config.hpp"
 #include "gateway/gateway.hpp"
+#include "gateway/line_limits.hpp"
 #include "gateway/user_prm.hpp"
 #include "gsd/gsd.hpp"
 #include "gsd/prm.hpp"
+#include "profibus_sim/fdl/line_timing.hpp"
 #include "validate/params.hpp"
 
 namespace candp2::validate {
@@ -212,6 +214,16 @@ TEST(PrmRoundTrip, TheIdentNumberComesFromTheGsd) {
   EXPECT_EQ(hex_bytes(std::span(r.telegram).subspan(4, 2)), "04 A5");
   // docs/dp-slave.md "User parameters": the gateway names byte 5 with the correct value 0xA4.
   EXPECT_EQ(gateway_prm_fault(r.telegram), (dp::PrmFault{5, 0xA4}));
+}
+
+// docs/profibus.md "The line in time": the plant's CAN-DP/2 answers no later than the shipped
+// GSD's MaxTsdr at each of the ten rates, and it runs at every rate the GSD supports.
+TEST(LineLimits, TheBuiltInTableIsTheShippedGsd) {
+  for (const std::uint32_t baud : fdl::kLineRates) {
+    EXPECT_EQ(gw::max_tsdr_bits(baud), gsd::max_tsdr(shipped(), baud)) << baud;
+    EXPECT_TRUE(gsd::supports_rate(shipped(), baud)) << baud;
+  }
+  EXPECT_EQ(gw::kLineRateLimits.size(), fdl::kLineRates.size());
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 
 #include "common/hex.hpp"
 #include "config/config.hpp"
+#include "gateway/line_limits.hpp"
 #include "gsd/gsd.hpp"
 #include "tools/candp2/commands.hpp"
 #include "validate/params.hpp"
@@ -59,7 +60,7 @@ std::string device_name(const gsd::Model& m) {
 }
 
 // docs/validate.md "The line": the stations as the line sees them (a gateway's GSD is --gsd, when
-// given; a generic slave's its own).
+// given, else the CAN-DP/2's own values; a generic slave's its own).
 validate::LineInput line_input(const config::DaemonConfig& cfg, const gsd::Model* gateway_gsd,
                                const std::string& gateway_gsd_name) {
   validate::LineInput in;
@@ -72,12 +73,17 @@ validate::LineInput line_input(const config::DaemonConfig& cfg, const gsd::Model
                  const dp::SlaveParameters& params, std::uint32_t watchdog_ms,
                  const gsd::Model* model, const std::string& gsd_name) {
     const dp::ImageMap map = dp::map_image(params);
-    in.stations.push_back(
-        {name, path, address, map.out_len, map.in_len, watchdog_ms, model, "the GSD " + gsd_name});
+    in.stations.push_back({name, path, address, map.out_len, map.in_len, watchdog_ms, model,
+                           "the GSD " + gsd_name, std::nullopt});
   };
-  for (const auto& g : cfg.gateways)
+  for (const auto& g : cfg.gateways) {
     add(g.name, g.json_path, g.dp_address(), config::slave_parameters(g), g.watchdog_ms,
         gateway_gsd, gateway_gsd_name);
+    if (!gateway_gsd) {  // its own GSD's values, built in (as the plant answers)
+      in.stations.back().max_tsdr_bits = gw::max_tsdr_bits(in.baud);
+      in.stations.back().gsd_name = "the CAN-DP/2's GSD";
+    }
+  }
   for (const auto& s : cfg.slaves)
     add(s.name, s.json_path, s.address, config::slave_parameters(s), s.watchdog_ms, s.model.get(),
         s.gsd);
