@@ -130,7 +130,7 @@ void TimedLine::OnLine::begin() {
   answer.status = dp::Response::Status::NoResponse;
   answer.data.clear();
   answer.diag_pending = false;
-  stored = false;
+  stored = handed_over = false;
   deaf = illegal = false;
   late.clear();
   request_intact = true;
@@ -318,8 +318,9 @@ void TimedLine::emit(std::span<const std::uint8_t> bytes, bool from_master, std:
   if (record_)
     recorded_.push_back(
         {start, end, from_master, std::vector<std::uint8_t>(bytes.begin(), bytes.end())});
-  stats_.observe(bytes, time_of(start), decoded);
-  if (tap_) tap_(bytes, from_master, time_of(start));
+  const Time at = time_of(start);
+  stats_.observe(bytes, at, decoded);
+  if (tap_) tap_(bytes, from_master, at);
 }
 
 void TimedLine::on_request_end() {
@@ -354,13 +355,17 @@ void TimedLine::on_request_end() {
   } else {
     const dp::Service service = o.job->request.service;
     if (!o.stored) {
-      if (service == dp::Service::SetPrm && o.job->request.data.size() > 3 &&
-          o.job->request.data[3] != 0)
-        s.min_tsdr_ = o.job->request.data[3];  // min_TSDR, Set_Prm byte 3 (IEC 61158-6-3)
+      dp::Request& req = o.job->request;
+      // It went to the station before without an answer (offline): its bytes again, from the
+      // telegram they travel in (the request itself was handed over).
+      if (o.handed_over) req.data.assign(o.telegram.du.begin(), o.telegram.du.end());
+      if (service == dp::Service::SetPrm && req.data.size() > 3 && req.data[3] != 0)
+        s.min_tsdr_ = req.data[3];  // min_TSDR, Set_Prm byte 3 (IEC 61158-6-3)
       // The station gets the request now: its last character has arrived. Its answer goes
       // into the exchange's own (no answer: NoResponse, as begin() left it).
       dp::Response& a = o.answer;
-      s.inner_.request(o.job->request, time_of(end), [&a](const dp::Response& resp, Time /*at*/) {
+      o.handed_over = true;
+      s.inner_.request(std::move(req), time_of(end), [&a](const dp::Response& resp, Time /*at*/) {
         a.status = resp.status;
         a.data.assign(resp.data.begin(), resp.data.end());
         a.diag_pending = resp.diag_pending;

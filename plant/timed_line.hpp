@@ -152,8 +152,9 @@ class TimedLine {
     std::vector<std::uint8_t> request;
     fdl::Telegram telegram;
     std::uint32_t attempt = 0;
-    dp::Response answer;  // the station's (a repeat gets it again, an SDN's is empty)
-    bool stored = false;  // the station answered it once: a repeat gets the same answer (FCB)
+    dp::Response answer;       // the station's (a repeat gets it again, an SDN's is empty)
+    bool stored = false;       // the station answered it once: a repeat gets the same answer (FCB)
+    bool handed_over = false;  // job->request went to the station (moved: its data is gone)
     std::vector<std::uint8_t> response;
     std::uint64_t response_bits = 0;
     bool deaf = false;     // the request was garbled on the wire: the station did not get it
