@@ -17,6 +17,7 @@ its 24 frames. For each master cycle time (--cycles, default 1,2,10 ms) and each
   bus_cycle_us              on a line in time (--lines with a baud rate): the measured bus cycle
                             (mean, max) from GET /api/v1/status line
   events_bytes              with --observer: bytes the open panel's event stream received
+  poll_errors               with --observer: status polls that failed during the run (0)
 
 --lines ideal,12000000 runs each binary on the ideal line and on a line in time at that baud
 rate (docs/profibus.md "The line in time"), A/B in one run; --observer keeps a panel open over
@@ -64,6 +65,7 @@ class Observer:
 
     def __init__(self, http_port):
         self.port, self.bytes, self.stop = http_port, 0, threading.Event()
+        self.poll_errors = 0
         self.threads = [threading.Thread(target=self.events, daemon=True),
                         threading.Thread(target=self.poll, daemon=True)]
         for t in self.threads:
@@ -83,9 +85,13 @@ class Observer:
 
     def poll(self):
         while not self.stop.wait(0.5):
-            with urllib.request.urlopen("http://127.0.0.1:%d/api/v1/status" % self.port,
-                                        timeout=30) as r:
-                r.read()
+            try:
+                with urllib.request.urlopen("http://127.0.0.1:%d/api/v1/status" % self.port,
+                                            timeout=30) as r:
+                    r.read()
+            except (OSError, http.client.HTTPException):
+                if not self.stop.is_set():  # during the run: counted (poll_errors)
+                    self.poll_errors += 1
 
     def close(self):
         self.stop.set()
@@ -188,6 +194,7 @@ def measure(binary, cycle_ms, seconds, baud=None, observe=False):
                     "bus_cycle_mean_us": line.get("mean", 0),
                     "bus_cycle_max_us": line.get("max", 0),
                     "events_bytes": observer.bytes if observer else 0,
+                    "poll_errors": observer.poll_errors if observer else 0,
                     "cycles_done": s1["cycle"]["cycles"] - s0["cycle"]["cycles"],
                     "cycles_due": round(due), "p99_us": lat["p99"], "max_us": lat["max"],
                     "cpu_pct": round(100.0 * (c1 - c0) / hz / (t1 - t0), 1),
