@@ -1,6 +1,7 @@
 // The in-process line in time (docs/profibus.md "The line in time"), in virtual time: TSYN, TSDR,
 // TID1/TID2 and the slot time to the bit, retries and a lost station when the slot time says, a
-// watchdog that expires when the cycle outgrows it, and the bus cycle as the prediction has it.
+// watchdog that expires when the cycle outgrows it, a repeat with the same bytes, a gateway capped
+// at its MaxTsdr, and the bus cycle as the prediction has it.
 // Expected times come from the bus parameters and the telegrams' lengths, not from the output.
 #include "plant/timed_line.hpp"
 
@@ -156,6 +157,48 @@ TEST(TimedLine, AGatewayAnswersNoLaterThanItsMaxTsdr) {
     capped += prm_seen;
   }
   EXPECT_GT(capped, 10u);
+}
+
+// A station that got a request and did not answer (as an offline one) gets the same bytes on the
+// repeat: the line hands the request over, the repeat takes them from the telegram it travels in.
+TEST(TimedLine, ARepeatCarriesTheSameBytes) {
+  struct App final : dp::SlaveApplication {
+    std::optional<dp::PrmFault> on_set_prm(std::span<const std::uint8_t>, Time) override {
+      return std::nullopt;
+    }
+    std::optional<dp::CfgFault> on_chk_cfg(std::span<const std::uint8_t>, Time) override {
+      return std::nullopt;
+    }
+    void on_enter_data_exchange(Time) override {}
+    void on_leave_data_exchange(Time) override {}
+    void on_data_exchange(std::span<const std::uint8_t>, std::span<std::uint8_t>, Time) override {}
+    std::size_t output_length() const override { return 0; }
+    std::size_t input_length() const override { return 0; }
+  } app;
+  dp::DpSlave slave(dp::SlaveInfo{}, app);
+  struct Flaky final : dp::SlaveLink {
+    std::uint8_t address() const override { return 3; }
+    void request(dp::Request req, Time now, dp::Completion done) override {
+      seen.push_back(std::move(req.data));
+      dp::Response r;  // the first time no answer
+      if (seen.size() > 1) r.status = dp::Response::Status::Ok;
+      done(r, now);
+    }
+    std::vector<std::vector<std::uint8_t>> seen;
+  } flaky;
+  TimedLine line(187500, *fdl::default_bus_parameters(187500), 1, Time{0});
+  dp::SlaveLink& link = line.add_station(flaky, slave, std::nullopt);
+  const std::vector<std::uint8_t> prm{0x88, 0x01, 0x02, 0x0B, 0x04, 0xA4, 0x00};
+  std::optional<dp::Response> got;
+  link.request({dp::Service::SetPrm, 1, prm}, Time{0},
+               [&](const dp::Response& r, Time) { got = r; });
+  for (int i = 0; i < 20 && !got; ++i) line.advance(line.next_deadline().value_or(Time{0}));
+  ASSERT_TRUE(got);
+  EXPECT_EQ(got->status, dp::Response::Status::Ok);
+  ASSERT_EQ(flaky.seen.size(), 2u);
+  EXPECT_EQ(flaky.seen[0], prm);
+  EXPECT_EQ(flaky.seen[1], prm);
+  EXPECT_EQ(line.retries(), 1u);
 }
 
 TEST(TimedLine, RetryAndLostStationWhenTheSlotTimeSays) {
