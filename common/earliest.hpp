@@ -21,6 +21,7 @@ class EarliestDeadline {
   // n items, every deadline asked again.
   void resize(std::size_t n) {
     stamp_.assign(n, 0);
+    at_.assign(n, std::nullopt);
     pending_flag_.assign(n, false);
     pending_.clear();
     all_ = true;
@@ -38,6 +39,9 @@ class EarliestDeadline {
   // Nothing was marked since the last look: earliest() gives what it gave.
   bool settled() const { return !all_ && pending_.empty(); }
 
+  // Item i's deadline as it was last asked (the look before: earliest() asks the moved ones).
+  std::optional<Time> at(std::size_t i) const { return at_[i]; }
+
   // The earliest deadline; `deadline_of(i)` -> std::optional<Time>.
   template <class F>
   std::optional<Time> earliest(F&& deadline_of) {
@@ -52,7 +56,7 @@ class EarliestDeadline {
       heap_.clear();
       for (std::size_t i = 0; i < stamp_.size(); ++i) {
         ++stamp_[i];
-        if (const std::optional<Time> d = deadline_of(i))
+        if (const std::optional<Time> d = at_[i] = deadline_of(i))
           heap_.push_back({*d, static_cast<std::uint32_t>(i), stamp_[i]});
       }
       std::make_heap(heap_.begin(), heap_.end(), later);
@@ -63,7 +67,7 @@ class EarliestDeadline {
       for (const std::uint32_t i : pending_) {
         pending_flag_[i] = false;
         ++stamp_[i];
-        if (const std::optional<Time> d = deadline_of(i)) {
+        if (const std::optional<Time> d = at_[i] = deadline_of(i)) {
           heap_.push_back({*d, i, stamp_[i]});
           std::push_heap(heap_.begin(), heap_.end(), later);
         }
@@ -90,6 +94,7 @@ class EarliestDeadline {
 
   std::vector<Entry> heap_;
   std::vector<std::uint64_t> stamp_;  // an entry is live while its stamp is the item's
+  std::vector<std::optional<Time>> at_;
   std::vector<bool> pending_flag_;
   std::vector<std::uint32_t> pending_;
   bool all_ = true;

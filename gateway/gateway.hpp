@@ -9,7 +9,6 @@
 #include <cstdint>
 #include <optional>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "can/channel.hpp"
@@ -76,10 +75,6 @@ class Gateway final : private dp::SlaveApplication, private CwHost {
   void on_can_frame(const can::Frame& frame, Time now);
   // Controller state and the transport's cumulative lost-frame count (IRQ_LOST).
   void set_controller_status(can::BusState state, std::uint32_t rx_lost_total);
-  // What it was given last (the same again changes nothing).
-  std::pair<can::BusState, std::uint32_t> controller_status() const {
-    return {bus_state_, irq_lost_total_};
-  }
 
   void advance(Time now);
   std::optional<Time> next_deadline() const;

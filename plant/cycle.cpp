@@ -21,20 +21,16 @@ void GatewayUnit::receive(const can::Frame& frame, Time now) {
 }
 
 void GatewayUnit::update_controller() {
-  // Given again only when it changed (or the engine was reached since, and it differs from what
-  // the engine holds): the same state twice changes nothing in the engine, nor what it waits for.
+  // Given again only when it changed: the same state twice changes nothing in the engine, nor
+  // what it waits for.
   const std::pair state{faults_.state(channel_->bus_state()), faults_.rx_lost(channel_->rx_lost())};
   if (applied_ == state) return;
   applied_ = state;
-  if (gateway_->controller_status() == state) return;
   gateway_->set_controller_status(state.first, state.second);
-  dirty_ = true;
   if (plant_) plant_->gateway_deadlines_.moved(index_);
 }
 
 void GatewayUnit::touched() {
-  dirty_ = true;
-  applied_.reset();
   bus_seen_.reset();
   if (!plant_) return;
   plant_->gateway_deadlines_.moved(index_);
@@ -42,14 +38,6 @@ void GatewayUnit::touched() {
     listed_ = true;
     plant_->touched_.push_back(this);
   }
-}
-
-std::optional<Time> GatewayUnit::deadline() const {
-  if (dirty_) {
-    deadline_ = gateway_->next_deadline();
-    dirty_ = false;
-  }
-  return deadline_;
 }
 
 void Plant::touch_gateways() {
@@ -75,8 +63,8 @@ std::optional<Time> Plant::next_deadline() const {
 }
 
 std::optional<Time> Plant::gateways_deadline() const {
-  const std::optional<Time> first =
-      gateway_deadlines_.earliest([this](std::size_t i) { return gateways_[i]->deadline(); });
+  const std::optional<Time> first = gateway_deadlines_.earliest(
+      [this](std::size_t i) { return gateways_[i]->gateway_->next_deadline(); });
 #ifndef NDEBUG  // the caches hold what the engines say (Debug builds, the sanitizer run)
   std::optional<Time> fresh;
   for (const auto& g : gateways_)
@@ -93,10 +81,10 @@ void Plant::set_now(Time now) {
 
 void Plant::run_timers(Time now) {
   if (const auto first = gateways_deadline(); first && *first <= now)
-    for (auto& g : gateways_)
-      if (const auto d = g->deadline(); d && *d <= now) {
-        g->touched();
-        g->gateway_->advance(now);
+    for (std::size_t i = 0; i < gateways_.size(); ++i)
+      if (const auto d = gateway_deadlines_.at(i); d && *d <= now) {
+        gateways_[i]->touched();
+        gateways_[i]->gateway_->advance(now);
       }
   for (auto& d : drives_)
     if (const auto t = d->drive_->next_deadline(); t && *t <= now)

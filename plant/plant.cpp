@@ -273,7 +273,7 @@ void Plant::add_timed(dp::DpSlave& slave, dp::SlaveParameters params, std::uint8
   if (params.prm.size() > 3)
     params.prm[3] = static_cast<std::uint8_t>(std::min(config_.line->params.min_tsdr_bits, 255u));
   std::unique_ptr<dp::SlaveLink> inner = std::make_unique<dp::InProcessLink>(slave);
-  // A request reaching a gateway changes what it waits for (GatewayUnit::deadline()).
+  // A request reaching a gateway changes what it waits for (GatewayUnit::touched()).
   if (unit) {
     links_.push_back(std::move(inner));
     inner = std::make_unique<TouchingLink>(*links_.back(), *unit);

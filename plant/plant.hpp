@@ -137,10 +137,9 @@ class GatewayUnit final : private can::FrameSink {
   void send(const can::Frame& frame) override;  // the gateway transmits
   void receive(const can::Frame& frame, Time now);
   void update_controller();
-  // The gateway's next deadline, asked of the engine again only after something reached it
-  // (docs/architecture.md "The plant"): a line in time wakes the plant for every telegram, and a
-  // scan of every gateway's slots each time would cost more than the line itself.
-  std::optional<Time> deadline() const;
+  // Something reached the engine: its deadline is asked again (docs/architecture.md "The plant":
+  // a line in time wakes the plant for every telegram, and a scan of every gateway's slots each
+  // time would cost more than the line itself), its bus looked at.
   void touched();
 
   Plant* plant_ = nullptr;
@@ -153,8 +152,6 @@ class GatewayUnit final : private can::FrameSink {
   std::string sender_;  // "gw:NAME": the endpoint name on a virtual bus, the tap's sender
   faults::CanFaultLayer faults_;
   std::unique_ptr<gw::Gateway> gateway_;
-  mutable bool dirty_ = true;
-  mutable std::optional<Time> deadline_;
   std::optional<std::uint64_t> bus_seen_;  // the virtual bus's changes() when last delivered
   bool listed_ = false;                    // in the plant's touched list
   // The controller state and IRQ_LOST total last given to the engine (update_controller).

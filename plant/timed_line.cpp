@@ -133,8 +133,6 @@ void TimedLine::OnLine::begin() {
   stored = handed_over = false;
   deaf = illegal = false;
   late.clear();
-  request_intact = true;
-  answer_intact = false;
 }
 
 void TimedLine::begin_rotation(Time /*now*/) {
@@ -225,11 +223,9 @@ void TimedLine::put_request(std::uint64_t at_bit) {
   request_start_ = start;
   request_end_ = start + kBitsPerChar * o.request.size();
   // docs/faults.md "Line faults": noise garbles it; a late answer starting with it collides.
-  o.request_intact = true;
   if (noisy(start)) {
     o.request = fdl::garble(o.request, start);
     o.deaf = true;
-    o.request_intact = false;
   }
   if (late_) {
     const fdl::Superposed both = fdl::superpose(o.request, late_->bytes, 0);
@@ -237,19 +233,18 @@ void TimedLine::put_request(std::uint64_t at_bit) {
     o.request = both.bytes;
     request_end_ = start + both.bits;
     o.deaf = true;
-    o.request_intact = false;
   }
   event_bit_ = start;
   phase_ = Phase::Sync;
   // docs/profibus.md "The line in time": an idle shorter than the event loop's timer slack is
   // not waited for on its own: the telegram goes to the tap now, stamped with its first bit.
-  if (fdl::bits_to_time(baud_, start - std::min(start, at_bit)) < kMergeBelow) on_request_start();
+  if (merged(start - std::min(start, at_bit))) on_request_start();
 }
 
 void TimedLine::on_request_start() {
   // Its first character: the tap sees it now, stamped with this bit (docs/capture.md).
   emit(current_.request, true, request_start_, request_end_,
-       current_.request_intact ? &current_.telegram : nullptr);
+       current_.deaf ? nullptr : &current_.telegram);  // garbled: decoded from the bytes
   phase_ = Phase::Request;
   event_bit_ = request_end_;
 }
@@ -415,17 +410,16 @@ void TimedLine::on_request_end() {
     o.response = fdl::garble(o.response, response_start_);
     o.illegal = true;
   }
-  o.answer_intact = !o.illegal;
   event_bit_ = response_start_;
   phase_ = Phase::Tsdr;
-  if (fdl::bits_to_time(baud_, response_start_ - end) < kMergeBelow) on_response_start();
+  if (merged(response_start_ - end)) on_response_start();
 }
 
 void TimedLine::on_response_start() {
   phase_ = Phase::Response;
   event_bit_ = response_start_ + current_.response_bits;
   emit(current_.response, false, response_start_, event_bit_,
-       current_.answer_intact ? &current_.answer_telegram : nullptr);
+       current_.illegal ? nullptr : &current_.answer_telegram);
 }
 
 void TimedLine::on_response_end() {

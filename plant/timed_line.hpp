@@ -157,13 +157,12 @@ class TimedLine {
     bool handed_over = false;  // job->request went to the station (moved: its data is gone)
     std::vector<std::uint8_t> response;
     std::uint64_t response_bits = 0;
-    bool deaf = false;     // the request was garbled on the wire: the station did not get it
+    bool deaf = false;     // the request was garbled on the wire (`request` is not `telegram`): the
+                           // station did not get it
     bool illegal = false;  // the answer was garbled: the master cannot use it
     std::vector<std::uint8_t> late;  // an answer that comes after the slot time
-    bool request_intact = true;      // `request` is `telegram` as built (not garbled)
-    fdl::Telegram answer_telegram;   // what `response` is, when `answer_intact`
-    bool answer_intact = false;
-    void begin();  // a new exchange
+    fdl::Telegram answer_telegram;   // what `response` is, unless `illegal`
+    void begin();                    // a new exchange
   };
   // A late answer: it starts on the line when the slot time has expired.
   struct Late {
@@ -182,6 +181,8 @@ class TimedLine {
   void on_slot_expired();
   void on_unanswered_end();
   void unanswered(std::uint64_t free_bit);
+  // An idle of `bits` is shorter than kMergeBelow: not an event of its own.
+  bool merged(std::uint64_t bits) const { return fdl::bits_to_time(baud_, bits) < kMergeBelow; }
   // time_of(event_bit_), computed once an event.
   Time event_time() const;
   void flush_late();

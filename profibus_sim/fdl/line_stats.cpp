@@ -119,8 +119,7 @@ void LineStatistics::on_request(std::span<const std::uint8_t> bytes, std::uint8_
 }
 
 void LineStatistics::on_token(std::uint8_t sa, Time start) {
-  if (outstanding_ && !outstanding_->answered) close_unanswered(*outstanding_);
-  clear_outstanding();
+  new_request();  // the token ends what was outstanding, as a new request would
   if (!master_) master_ = sa;
   if (sa != *master_) return;
   // A rotation ends: repeats_max counts per rotation.
