@@ -43,6 +43,7 @@ TEST(EarliestDeadline, AgreesWithAWalkOverAllThroughRandomMoves) {
     }
     std::fill(asked.begin(), asked.end(), 0);
     ASSERT_EQ(e.earliest(of), walk(d)) << "step " << step;
+    for (std::size_t k = 0; k < d.size(); ++k) ASSERT_EQ(e.at(k), d[k]) << "step " << step;
     if (what != 1) {
       EXPECT_EQ(asked[i], 1);
       EXPECT_EQ(std::count(asked.begin(), asked.end(), 0), static_cast<long>(d.size()) - 1);
