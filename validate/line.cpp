@@ -39,7 +39,7 @@ LineReport check_line(const LineInput& in) {
     gap = gap || !taken[a];
   r.cycle = fdl::predict_cycle(in.baud, in.params, st, gap);
   for (const auto& p : fdl::check_bus_parameters(in.params))
-    r.problems.push_back({true, in.bus_parameters_path + "." + p.key, p.message});
+    r.problems.push_back({true, in.bus_parameters_path + "." + p.key, p.message, ""});
   const auto rate = gsd::rate_name(in.baud);
   for (const auto& s : in.stations) {
     if (!s.gsd && !s.max_tsdr_bits) continue;
@@ -47,7 +47,8 @@ LineReport check_line(const LineInput& in) {
       r.problems.push_back({true, s.json_path,
                             "station " + s.name + ": " + s.gsd_name + " does not support " +
                                 std::to_string(in.baud) + " bit/s (no " + std::string(*rate) +
-                                "_supp = 1); set " + in.baud_path + " to a rate it supports"});
+                                "_supp = 1); set " + in.baud_path + " to a rate it supports",
+                            s.json_path});
       continue;
     }
     const auto max = s.gsd ? gsd::max_tsdr(*s.gsd, in.baud) : s.max_tsdr_bits;
@@ -56,7 +57,8 @@ LineReport check_line(const LineInput& in) {
                             "station " + s.name + " answers as late as " + std::to_string(*max) +
                                 " bit times (MaxTsdr_" + std::string(*rate) + " of " + s.gsd_name +
                                 "), later than max_tsdr_bits " +
-                                std::to_string(in.params.max_tsdr_bits)});
+                                std::to_string(in.params.max_tsdr_bits),
+                            s.json_path});
   }
   const Duration grid = milliseconds(in.cycle_ms);
   if (r.cycle.worst > grid)
@@ -65,7 +67,8 @@ LineReport check_line(const LineInput& in) {
                               " is shorter than the bus cycle the line needs: the cycles run back "
                               "to back every " +
                               ms_text(r.cycle.mean) + " (at most " + ms_text(r.cycle.worst) +
-                              "), and grid points are missed"});
+                              "), and grid points are missed",
+                          ""});
   // A watchdog must outlast the time between two visits: the cycle (at least cycle_ms) and the
   // retries of an unanswered request before the master comes back.
   for (const auto& s : in.stations) {
@@ -75,12 +78,21 @@ LineReport check_line(const LineInput& in) {
         (fdl::data_exchange_request_bits(s.outputs) + in.params.slot_time_bits);
     const Duration visit = std::max(grid, r.cycle.worst) + fdl::bits_to_time(in.baud, retry_bits);
     if (milliseconds(s.watchdog_ms) < visit)
-      r.problems.push_back({false, s.json_path + ".watchdog_ms",
+      r.problems.push_back({false, s.watchdog_path,
                             "station " + s.name + ": watchdog " + std::to_string(s.watchdog_ms) +
                                 " ms is shorter than the bus cycle with its retries (" +
-                                ms_text(visit) + "): it will expire"});
+                                ms_text(visit) + "): it will expire",
+                            s.json_path});
   }
   return r;
+}
+
+std::vector<Warning> station_warnings(const LineReport& r, const std::string& station_path) {
+  std::vector<Warning> w;
+  for (const auto& p : r.problems)
+    if (!p.error && p.station == station_path)
+      w.push_back({WarningKind::Line, p.json_path, p.message});
+  return w;
 }
 
 }  // namespace candp2::validate

@@ -12,6 +12,7 @@
 
 #include "gsd/gsd.hpp"
 #include "profibus_sim/fdl/line_timing.hpp"
+#include "validate/warning.hpp"
 
 namespace candp2::validate {
 
@@ -26,12 +27,15 @@ struct LineStation {
   // Without a GSD: the latest it answers at the line's rate, when known otherwise (a CAN-DP/2's
   // own, gateway/line_limits.hpp).
   std::optional<std::uint32_t> max_tsdr_bits;
+  // Where its watchdog is set ("$.gateways[0].parameters.watchdog_ms", "$.slaves[0].watchdog_ms").
+  std::string watchdog_path;
 };
 
 struct LineProblem {
   bool error = false;     // the line cannot work (an unsupported rate); else a warning
   std::string json_path;  // where in the configuration
   std::string message;
+  std::string station;  // the json_path of the station it is about ("$.gateways[0]"), or ""
 };
 
 struct LineReport {
@@ -56,5 +60,8 @@ struct LineInput {
 };
 
 LineReport check_line(const LineInput& in);
+
+// The line's warnings about the station at `station_path`, as the station's block lists them too.
+std::vector<Warning> station_warnings(const LineReport& r, const std::string& station_path);
 
 }  // namespace candp2::validate

@@ -344,14 +344,11 @@ std::string format_text(const Report& r) {
     os << "  diagnosis: " << hex_bytes(g.diag) << "\n";
     os << "    " << dp::describe_diag(g.diag) << "\n";
     os << "    " << explain_diagnosis(g) << "\n";
-    os << "  warnings:";
-    if (g.warnings.empty()) os << " none";
-    os << "\n";
-    for (const auto& w : g.warnings) os << "    " << w.json_path << ": " << w.message << "\n";
+    format_warnings(os, g.warnings, station_warnings(r.line, in.json_path));
   }
   for (const auto& s : r.slaves) {
     if (!s.valid()) ++invalid;
-    format_slave(os, s);
+    format_slave(os, s, station_warnings(r.line, s.input.json_path));
   }
   if (r.line.baud) format_line(os, r.line);
   os << "\n";
@@ -420,18 +417,15 @@ json to_json(const Report& r, int exit_code) {
     else
       d["cfg_fault"] = nullptr;
     o["diagnosis"] = d;
-    json w = json::array();
-    for (const auto& x : g.warnings)
-      w.push_back(
-          {{"kind", to_string(x.kind)}, {"json_path", x.json_path}, {"message", x.message}});
-    o["warnings"] = w;
+    o["warnings"] = warnings_json(g.warnings, station_warnings(r.line, in.json_path));
     gateways.push_back(o);
   }
   j["gateways"] = gateways;
   // Only with generic slaves in the configuration (docs/validate.md "--json").
   if (!r.slaves.empty()) {
     json slaves = json::array();
-    for (const auto& s : r.slaves) slaves.push_back(slave_json(s));
+    for (const auto& s : r.slaves)
+      slaves.push_back(slave_json(s, station_warnings(r.line, s.input.json_path)));
     j["slaves"] = slaves;
   }
   j["line"] = line_json(r.line);

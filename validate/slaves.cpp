@@ -130,7 +130,7 @@ std::string explain_slave(const SlaveReport& s) {
   return state + ": the slave accepts the parameters and the configuration";
 }
 
-void format_slave(std::ostream& os, const SlaveReport& s) {
+void format_slave(std::ostream& os, const SlaveReport& s, const std::vector<Warning>& line) {
   const SlaveInput& in = s.input;
   os << "\nslave " << in.name << " (" << in.json_path << "): DP address " << int(in.setup.address);
   if (in.field_unit) os << ", field_unit " << int(*in.field_unit);
@@ -172,13 +172,10 @@ void format_slave(std::ostream& os, const SlaveReport& s) {
   os << "    " << explain_slave(s) << "\n";
   if (!in.notes.empty()) os << "  notes:\n";
   for (const auto& n : in.notes) os << "    " << n.json_path << ": " << n.message << "\n";
-  os << "  warnings:";
-  if (s.warnings.empty()) os << " none";
-  os << "\n";
-  for (const auto& w : s.warnings) os << "    " << w.json_path << ": " << w.message << "\n";
+  format_warnings(os, s.warnings, line);
 }
 
-json slave_json(const SlaveReport& s) {
+json slave_json(const SlaveReport& s, const std::vector<Warning>& line) {
   const SlaveInput& in = s.input;
   json o;
   o["name"] = in.name;
@@ -225,10 +222,7 @@ json slave_json(const SlaveReport& s) {
   for (const auto& n : in.notes)
     notes.push_back({{"json_path", n.json_path}, {"message", n.message}});
   o["notes"] = notes;
-  json w = json::array();
-  for (const auto& x : s.warnings)
-    w.push_back({{"kind", to_string(x.kind)}, {"json_path", x.json_path}, {"message", x.message}});
-  o["warnings"] = w;
+  o["warnings"] = warnings_json(s.warnings, line);
   return o;
 }
 

@@ -85,7 +85,8 @@ SlaveReport check_slave(SlaveInput input);
 // "Data_Exch: the slave accepts the parameters and the configuration", or the fault and why.
 std::string explain_slave(const SlaveReport& s);
 
-void format_slave(std::ostream& os, const SlaveReport& s);
-nlohmann::ordered_json slave_json(const SlaveReport& s);
+// `line`: the line's warnings about this slave (station_warnings()), listed with its own.
+void format_slave(std::ostream& os, const SlaveReport& s, const std::vector<Warning>& line);
+nlohmann::ordered_json slave_json(const SlaveReport& s, const std::vector<Warning>& line);
 
 }  // namespace candp2::validate

@@ -24,8 +24,29 @@ std::string_view to_string(WarningKind k) {
       return "overlap";
     case WarningKind::GsdEncoding:
       return "gsd-encoding";
+    case WarningKind::Line:
+      return "line";
   }
   return "?";
+}
+
+void format_warnings(std::ostream& os, const std::vector<Warning>& own,
+                     const std::vector<Warning>& line) {
+  os << "  warnings:";
+  if (own.empty() && line.empty()) os << " none";
+  os << "\n";
+  for (const auto* list : {&own, &line})
+    for (const auto& w : *list) os << "    " << w.json_path << ": " << w.message << "\n";
+}
+
+nlohmann::ordered_json warnings_json(const std::vector<Warning>& own,
+                                     const std::vector<Warning>& line) {
+  auto w = nlohmann::ordered_json::array();
+  for (const auto* list : {&own, &line})
+    for (const auto& x : *list)
+      w.push_back(
+          {{"kind", to_string(x.kind)}, {"json_path", x.json_path}, {"message", x.message}});
+  return w;
 }
 
 std::string prm_byte_name(std::size_t b) {

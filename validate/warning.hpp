@@ -2,8 +2,11 @@
 // accepts but a user rarely wants. Shared by the gateway and the generic-slave checks.
 #pragma once
 
+#include <nlohmann/json.hpp>
+#include <ostream>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace candp2::validate {
 
@@ -14,6 +17,8 @@ enum class WarningKind {
   InputCycle,      // docs/slots.md "Chk_Cfg slots": cycle bytes on an input slot are ignored
   Overlap,         // docs/modbus.md: PLC addresses overlap (one PLC image for all gateways)
   GsdEncoding,     // --gsd: the GSD encodes the parameters differently from the built-in encoding
+  Line,            // docs/validate.md "The line": a line warning about this station, listed in its
+                   // block too (counted once, in the line section)
 };
 std::string_view to_string(WarningKind k);  // "duplicate-rx", ...
 
@@ -22,5 +27,12 @@ struct Warning {
   std::string json_path;  // where in the configuration ("$.gateways[0].slots[2]")
   std::string message;
 };
+
+// A station's warnings as its block lists them (text and --json): its own, then the line's
+// about it (`line`, WarningKind::Line).
+void format_warnings(std::ostream& os, const std::vector<Warning>& own,
+                     const std::vector<Warning>& line);
+nlohmann::ordered_json warnings_json(const std::vector<Warning>& own,
+                                     const std::vector<Warning>& line);
 
 }  // namespace candp2::validate

@@ -5,6 +5,7 @@
 // configuration error, unusable GSD).
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <iostream>
@@ -69,25 +70,70 @@ validate::LineInput line_input(const config::DaemonConfig& cfg, const gsd::Model
   in.params = cfg.line->params;
   in.master_address = cfg.master_address;
   in.cycle_ms = cfg.cycle_ms;
+  // A gateway's watchdog is one of its parameters, a generic slave's a key of its own.
   auto add = [&](const std::string& name, const std::string& path, std::uint8_t address,
                  const dp::SlaveParameters& params, std::uint32_t watchdog_ms,
-                 const gsd::Model* model, const std::string& gsd_name) {
+                 const std::string& watchdog_path, const gsd::Model* model,
+                 const std::string& gsd_name) {
     const dp::ImageMap map = dp::map_image(params);
     in.stations.push_back({name, path, address, map.out_len, map.in_len, watchdog_ms, model,
-                           "the GSD " + gsd_name, std::nullopt});
+                           "the GSD " + gsd_name, std::nullopt, watchdog_path});
   };
   for (const auto& g : cfg.gateways) {
     add(g.name, g.json_path, g.dp_address(), config::slave_parameters(g), g.watchdog_ms,
-        gateway_gsd, gateway_gsd_name);
+        g.json_path + ".parameters.watchdog_ms", gateway_gsd, gateway_gsd_name);
     if (!gateway_gsd) {  // its own GSD's values, built in (as the plant answers)
       in.stations.back().max_tsdr_bits = gw::max_tsdr_bits(in.baud);
       in.stations.back().gsd_name = "the CAN-DP/2's GSD";
     }
   }
   for (const auto& s : cfg.slaves)
-    add(s.name, s.json_path, s.address, config::slave_parameters(s), s.watchdog_ms, s.model.get(),
-        s.gsd);
+    add(s.name, s.json_path, s.address, config::slave_parameters(s), s.watchdog_ms,
+        s.json_path + ".watchdog_ms", s.model.get(), s.gsd);
   return in;
+}
+
+// Whether element `i` of the top-level array `list` of the configuration has `key`: a path the
+// report prints must be one the file has (docs/validate.md: every path can be pasted into jq).
+bool has_key(const nlohmann::json& doc, const char* list, std::size_t i, const char* key) {
+  const auto it = doc.find(list);
+  return it != doc.end() && it->is_array() && i < it->size() && (*it)[i].is_object() &&
+         (*it)[i].contains(key);
+}
+
+// The longest head of `path` ("$.master.bus_parameters.max_tsdr_bits") that `doc` has: a line
+// check names the key to change, which the file may leave at its default (the message names the
+// key and its value).
+std::string existing_path(const nlohmann::json& doc, const std::string& path) {
+  const nlohmann::json* node = &doc;
+  std::size_t end = 1;  // after "$"
+  while (end < path.size()) {
+    std::size_t next = end;
+    const nlohmann::json* child = nullptr;
+    if (path[end] == '.') {
+      next = path.find_first_of(".[", end + 1);
+      if (next == std::string::npos) next = path.size();
+      const std::string key = path.substr(end + 1, next - end - 1);
+      if (node->is_object() && node->contains(key)) child = &(*node)[key];
+    } else if (path[end] == '[' && end + 1 < path.size() && path[end + 1] == '"') {
+      next = path.find("\"]", end);
+      if (next == std::string::npos) break;
+      next += 2;
+      const auto key = nlohmann::json::parse(path.substr(end + 1, next - end - 2), nullptr, false);
+      if (key.is_string() && node->is_object() && node->contains(key.get<std::string>()))
+        child = &(*node)[key.get<std::string>()];
+    } else if (path[end] == '[') {
+      next = path.find(']', end);
+      if (next == std::string::npos) break;
+      ++next;
+      const std::size_t i = std::strtoul(path.c_str() + end + 1, nullptr, 10);
+      if (node->is_array() && i < node->size()) child = &(*node)[i];
+    }
+    if (!child) break;
+    node = child;
+    end = next;
+  }
+  return path.substr(0, end);
 }
 
 int run_validate(const ValidateArgs& a) {
@@ -95,6 +141,8 @@ int run_validate(const ValidateArgs& a) {
   if (const auto* e = std::get_if<config::ConfigError>(&loaded))
     return unusable(a, e->file, e->json_path, e->message);
   const config::DaemonConfig& cfg = std::get<config::DaemonConfig>(loaded);
+  // The file as JSON again (it loaded, so it parses): which optional keys it spells out.
+  const nlohmann::json doc = nlohmann::json::parse(std::ifstream(a.config), nullptr, false);
 
   std::optional<gsd::ParseResult> gsd_file;
   if (!a.gsd.empty()) {
@@ -122,7 +170,12 @@ int run_validate(const ValidateArgs& a) {
     report.gsd_file = a.gsd;
     report.gsd_name = device_name(gsd_file->model);
   }
-  for (const auto& g : cfg.gateways) {
+  for (std::size_t i = 0; i < cfg.gateways.size(); ++i) {
+    const auto& g = cfg.gateways[i];
+    // Without a "parameters" object every parameter is its default (docs/configuration.md).
+    const bool named = has_key(doc, "gateways", i, "parameters");
+    const std::string prm_path = named ? g.json_path + ".parameters" : g.json_path;
+    const std::string defaults = named ? "" : " (no parameters: the defaults)";
     validate::GatewayInput in;
     in.name = g.name;
     in.json_path = g.json_path;
@@ -136,18 +189,18 @@ int run_validate(const ValidateArgs& a) {
       in.prm_source = g.json_path + ".prm_hex";
       if (gsd_file) in.prm_source += " (raw telegram, the GSD is not used)";
     } else if (!gsd_file) {
-      in.prm_source = g.json_path + ".parameters";
+      in.prm_source = prm_path + defaults;
     } else {
       const auto enc = validate::encode_set_prm(gsd_file->model, g.parameters, g.watchdog_ms);
       if (!enc.errors.empty())
-        return unusable(a, a.config, g.json_path + ".parameters",
+        return unusable(a, a.config, prm_path,
                         "cannot be encoded through the GSD " + a.gsd + ": " + enc.errors.front());
       // (the first error is enough to act on; `candp2 gsd FILE` shows the GSD's problems)
       in.params.prm = enc.telegram;
-      in.prm_source = g.json_path + ".parameters through the GSD";
+      in.prm_source = prm_path + defaults + " through the GSD";
       const auto builtin = config::set_prm_bytes(g);
       if (builtin != enc.telegram)
-        in.warnings.push_back({validate::WarningKind::GsdEncoding, g.json_path + ".parameters",
+        in.warnings.push_back({validate::WarningKind::GsdEncoding, prm_path,
                                "the GSD encodes Set_Prm as " + hex_bytes(enc.telegram) +
                                    ", the built-in encoding (docs/dp-slave.md) gives " +
                                    hex_bytes(builtin)});
@@ -156,7 +209,8 @@ int run_validate(const ValidateArgs& a) {
   }
   validate::check_overlaps(report.gateways);
   // Generic slaves: checked against their own GSD (the --gsd option is for the gateways).
-  for (const auto& s : cfg.slaves) {
+  for (std::size_t i = 0; i < cfg.slaves.size(); ++i) {
+    const auto& s = cfg.slaves[i];
     validate::SlaveInput in;
     in.name = s.name;
     in.json_path = s.json_path;
@@ -164,17 +218,29 @@ int run_validate(const ValidateArgs& a) {
     in.master_address = cfg.master_address;
     in.setup = s.setup();
     in.params = config::slave_parameters(s);
-    for (const auto& m : s.modules) in.module_paths.push_back(m.json_path);
-    in.prm_source = s.json_path + (s.prm_hex ? ".prm_hex" : ".parameters");
-    in.cfg_source = s.json_path + (s.cfg_hex ? ".cfg_hex" : ".modules");
+    const bool listed = has_key(doc, "slaves", i, "modules");
+    if (listed)  // else the GSD's own, at in.cfg_source
+      for (const auto& m : s.modules) in.module_paths.push_back(m.json_path);
+    // No "parameters": the GSD's defaults; no "modules": the GSD's own (a compact station's one
+    // module, docs/slaves.md).
+    in.prm_source =
+        s.json_path + (s.prm_hex                                 ? ".prm_hex"
+                       : has_key(doc, "slaves", i, "parameters") ? ".parameters"
+                                                                 : " (no parameters: "
+                                                                   "the GSD's defaults)");
+    in.cfg_source = s.json_path + (s.cfg_hex                              ? ".cfg_hex"
+                                   : listed                               ? ".modules"
+                                                                          : ".gsd");
     in.field_unit = s.field_unit;
     for (const auto& n : s.notes) in.notes.push_back({n.json_path, n.message});
     report.slaves.push_back(validate::check_slave(std::move(in)));
   }
   validate::check_slave_overlaps(report.gateways, report.slaves);
-  if (cfg.line)
+  if (cfg.line) {
     report.line =
         validate::check_line(line_input(cfg, gsd_file ? &gsd_file->model : nullptr, a.gsd));
+    for (auto& p : report.line.problems) p.json_path = existing_path(doc, p.json_path);
+  }
 
   const int rc = validate::exit_code(report, a.strict);
   if (a.json)
