@@ -19,7 +19,7 @@ from .connection import Connection, connect
 from .daemon import Daemon, running_daemons
 from .drive import Drive, DriveState
 from .errors import (Candp2Error, ConfigError, DaemonError, FrameNotSeen, ModbusError,
-                     UnexpectedFrame, WaitTimeout)
+                     NoLine, UnexpectedFrame, WaitTimeout)
 from .gateway import CfgFault, Counters, Diagnosis, Gateway, Led, Leds, PrmFault, Slot
 from .line import BusCycle, Line, LineFault, LineStation, LiveList
 from .registers import RegisterMap
@@ -33,8 +33,8 @@ __all__ = [
     "Bus", "BusCycle", "Candp2Error", "CfgFault", "ConfigError", "Connection", "Counters", "Daemon",
     "DaemonError", "DiagBlock", "Diagnosis", "Drive", "DriveState", "FieldImage", "FrameNotSeen",
     "Gateway", "Image", "Led", "Leds", "Line", "LineFault", "LineStation", "LiveList",
-    "ModbusError", "PrmFault", "Recorder", "RegisterMap", "ReplayResult", "ReplayStep", "Slave",
-    "SlaveDiagnosis", "SlaveFaults", "Slot", "Station", "UnexpectedFrame", "WaitTimeout",
+    "ModbusError", "NoLine", "PrmFault", "Recorder", "RegisterMap", "ReplayResult", "ReplayStep",
+    "Slave", "SlaveDiagnosis", "SlaveFaults", "Slot", "Station", "UnexpectedFrame", "WaitTimeout",
     "candump_line", "connect", "example", "find_binary", "find_example", "find_tool", "frame_text",
     "replay", "running_daemons",
 ]

@@ -15,7 +15,7 @@ from ._notify import parse_address
 from .binary import find_binary
 from .bus import Bus
 from .drive import Drive
-from .errors import Candp2Error, ModbusError
+from .errors import Candp2Error, ModbusError, NoLine
 from .gateway import Gateway
 from .line import Line
 from .registers import GatewayMap, RegisterMap, SlaveMap
@@ -81,13 +81,30 @@ class Connection:
         return self.http.status()
 
     @property
-    def line(self) -> Line | None:
+    def line(self) -> Line:
         """The built-in master's line (docs/profibus.md "Line statistics"): on a line in time
         (`master.baud`) or in profibus.role "master", its baud rate, bus cycle, live list and
-        station counters from the HTTP face, with inject() and noise(); None on an ideal
-        line."""
+        station counters from the HTTP face, with inject(), noise() and wait_until(). On an
+        ideal line there is none: NoLine says that line faults and statistics need
+        `master.baud` (`has_line` asks without raising)."""
         line = self.http_status().get("line")
-        return None if line is None else Line.from_status(line, self)
+        if line is None:
+            raise NoLine("daemon.line: candp2d runs an ideal line%s, which has no line "
+                         "statistics and takes no line faults (inject, noise): give the master a "
+                         "baud rate, \"master\": {\"baud\": 1500000} (docs/profibus.md \"The "
+                         "line in time\"); daemon.has_line is False here"
+                         % self._ideal_line_where())
+        return Line.from_status(line, self)
+
+    @property
+    def has_line(self) -> bool:
+        """Whether the daemon runs a line in time (or profibus.role "master"): `daemon.line`
+        answers; False on an ideal line."""
+        return self.http_status().get("line") is not None
+
+    def _ideal_line_where(self) -> str:
+        """Where the ideal line comes from, for NoLine's message (a Daemon names its file)."""
+        return " (no master.baud)"
 
     # ---- the objects a test works with ---------------------------------------------------
 
@@ -174,8 +191,9 @@ class Connection:
 
     def report(self) -> str:
         """What a failing test wants to see: every gateway's and generic slave's state and
-        decoded diagnosis (a slave's faults and field side too) and the last frames of every
-        bus (from the HTTP face's trace)."""
+        decoded diagnosis (a slave's faults and field side too), the line (baud rate, bus
+        cycle, live list, each station's counters and active fault) and the last frames of
+        every bus (from the HTTP face's trace)."""
         parts: list[str] = []
         try:
             for g in self.gateways():
@@ -190,6 +208,9 @@ class Connection:
         if self.http is not None:
             try:
                 status = self.http_status()
+                line = status.get("line")
+                parts.append("line: ideal (no master.baud: no line statistics)" if line is None
+                             else Line.from_status(line, self).describe())
                 # The daemon stamps frames with its own clock; shown as seconds since this
                 # connection was made (the test's start): now here minus the frame's age there.
                 since = time.monotonic() - self.started

@@ -108,8 +108,11 @@ class Daemon(Connection):
                                   "is found from anywhere with candp2.example(\"demo.json\")"
                                   % os.getcwd(), returncode=None) from None
             base = source.resolve().parent
+            #: The configuration file given (None: a dict).
+            self.source: str | None = str(source)
         else:
             loaded, base = config, Path.cwd()
+            self.source = None
         self.config, channels = rewrite_config(loaded, base)
         self.dir = tempfile.mkdtemp(prefix="candp2-")
         self.config_path = os.path.join(self.dir, "candp2d.json")
@@ -225,6 +228,9 @@ class Daemon(Connection):
         assert self._process is not None
         self.returncode = self._process.wait(timeout=timeout)
         return self.returncode
+
+    def _ideal_line_where(self) -> str:
+        return " (no master.baud in %s)" % (self.source or "the configuration")
 
     def _face_failed(self, error: ModbusError) -> None:
         rc = self.poll()

@@ -90,6 +90,12 @@ class ModbusError(Candp2Error):
             super().__init__("%s: exception 0x%02X (%s)" % (request, code, name))
 
 
+class NoLine(Candp2Error, AttributeError):
+    """`daemon.line` of a daemon whose master runs an ideal line (no `master.baud`): there are
+    no line statistics and no line faults. An AttributeError too, so `getattr(daemon, "line",
+    None)` is None there (`daemon.has_line` says the same)."""
+
+
 class WaitTimeout(AssertionError):
     """`Gateway.wait_until()` (and the other waits) gave up; the message says what was last seen."""
 

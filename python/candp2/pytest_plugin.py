@@ -8,7 +8,8 @@ Fixtures:
 
 When a test fails, its report carries a section per running daemon: every gateway's state and
 decoded diagnosis, every generic slave's state, decoded diagnosis, faults and field side, the
-last CAN frames of each bus and the daemon's log tail.
+line (baud rate, bus cycle, live list, each station's counters and active fault), the last CAN
+frames of each bus and the daemon's log tail.
 """
 
 from __future__ import annotations
@@ -18,9 +19,9 @@ from typing import Any, Callable, Generator, Iterator, Mapping
 
 import pytest
 
-from .binary import find_binary
+from .binary import find_binary, set_session_binary
 from .daemon import Daemon, running_daemons
-from .errors import DaemonError
+from .errors import Candp2Error, DaemonError
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -28,6 +29,17 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--candp2d", action="store", default=None, metavar="PATH",
                     help="the candp2d to test against (default: candp2d on PATH, else the "
                          "build tree of the candp2 source checkout)")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    # --candp2d is the session's candp2d everywhere: the fixtures, Daemon(config) without a
+    # binary, candp2.example() (which looks beside it).
+    explicit: str | None = config.getoption("candp2d", None)
+    if explicit is not None:
+        try:
+            set_session_binary(explicit)
+        except Candp2Error:
+            pass  # the candp2_binary fixture says why, in the test that needs it
 
 
 @pytest.fixture(scope="session")

@@ -173,6 +173,7 @@ class RegisterMap:
     `alarm_bytes` (Range of the alarm's byte registers), `field_inputs` and `field_outputs` (the
     tables of a slave's field side), `line_fault_table`, `line_fault_registers` (by name: "kind",
     "count", "every", "for_ms", "noise_for_ms") and `line_fault_kinds` (names by code),
+    `line_counters` (a line station's counters in table order),
     `gateways`, `slaves`, `drives`, and `document` (the parsed JSON).
     """
 
@@ -232,6 +233,10 @@ class RegisterMap:
         self.slaves = tuple(self._slave(s) for s in document["slaves"])
         line = document.get("line") or {}
         self._line_faults(line.get("faults", _LINE_FAULTS_FALLBACK))
+        #: A line station's counters in the daemon's table order (docs/profibus.md "Line
+        #: statistics"); empty where the map has no line block.
+        self.line_counters: tuple[str, ...] = tuple(str(c["name"])
+                                                    for c in line.get("counters", ()))
         self.drives = tuple(DriveMap(d["name"], d["bus"], int(d["rx_id"]), int(d["tx_id"]),
                                      None if d["unit"] is None else int(d["unit"]))
                             for d in document["drives"])

@@ -103,6 +103,26 @@ def describe_predicate(predicate: Callable[..., object]) -> str:
     return source.rstrip(",")
 
 
+def poll_until(evaluate: Callable[[dict[str, object]], T], timeout: float, what: str,
+               shown: Callable[[object], str], describe: Callable[[], str]) -> T:
+    """The waiting of every wait_until(): `evaluate(seen)` (which records in `seen` what it
+    read, by name) until it returns something true, which it returns. After `timeout` seconds
+    it raises WaitTimeout: `what` (the predicate's text), what it last read (`shown`) and
+    `describe()`."""
+    from .errors import WaitTimeout
+    deadline = time.monotonic() + timeout
+    while True:
+        seen: dict[str, object] = {}
+        value = evaluate(seen)
+        if value:
+            return value
+        if time.monotonic() >= deadline:
+            last = ", ".join("%s=%s" % (k, shown(v)) for k, v in seen.items())
+            raise WaitTimeout("%s: not true within %.1f s; last saw %s (predicate returned %s)\n%s"
+                              % (what, timeout, last or "nothing", shown(value), describe()))
+        time.sleep(POLL_INTERVAL)
+
+
 # ------------------------------------------------------------------------------- byte views
 
 class ByteView:
@@ -324,23 +344,15 @@ class Station:
 
         After `timeout` seconds it raises WaitTimeout saying what the predicate last read
         (`state='Wait_Prm'`, `inputs[0:6]=[A8 66 26 00 00 00]`) and the station's whole state."""
-        from .errors import WaitTimeout
-        deadline = time.monotonic() + timeout
-        while True:
-            self._seen = {}
+        def evaluate(seen: dict[str, object]) -> T:
+            self._seen = seen
             try:
-                value = predicate(self)
+                return predicate(self)
             finally:
-                seen, self._seen = self._seen, None
-            if value:
-                return value
-            if time.monotonic() >= deadline:
-                last = ", ".join("%s=%s" % (k, self._shown(v)) for k, v in seen.items())
-                raise WaitTimeout("%s: not true within %.1f s; last saw %s (predicate returned "
-                                  "%s)\n%s" % (describe_predicate(predicate), timeout,
-                                               last or "nothing", self._shown(value),
-                                               self.describe()))
-            time.sleep(POLL_INTERVAL)
+                self._seen = None
+
+        return poll_until(evaluate, timeout, describe_predicate(predicate), self._shown,
+                          self.describe)
 
     def _shown(self, value: object) -> str:
         """A value read by a predicate as a wait_until() message shows it: bytes in hex ("A8 00

@@ -12,41 +12,35 @@ installed candp2d (/usr/share/candp2/examples/).
 
 from typing import Callable
 
-from candp2 import Daemon, LineStation, find_example
+from candp2 import Daemon, find_example
 
 
 def test_faults_on_cue_and_what_an_analyser_counts(candp2d: Callable[..., Daemon],
                                                    candp2_binary: str) -> None:
     daemon = candp2d(find_example("line-1500k.json", candp2_binary))
-
-    def station(address: int) -> LineStation:
-        """The station's line counters now (GET /api/v1/status line)."""
-        line = daemon.line
-        assert line is not None
-        return line.station(address)
-
     gw, io = daemon.gateway(3), daemon.slave(4)
     gw.wait_until(lambda g: g.state == "Data_Exch" and g.master_state == "Data_Exch")
     io.wait_until(lambda s: s.state == "Data_Exch" and s.master_state == "Data_Exch")
-    line = daemon.line
-    assert line is not None and line.live_list.ok == (3, 4)
-    start = station(3)
+    line = daemon.line  # on an ideal line (no master.baud) this says so: candp2.NoLine
+    assert line.live_list.ok == (3, 4)
+    start = line.station(3)
 
     # Five corrupt answers of the gateway, one in every two requests: each is an illegal
     # telegram, the master repeats the request once and gets a good answer. It never drops out.
+    # A station's wait_until() reads its counters again until the predicate holds.
     line.inject(3, "corrupt", count=5, every=2)
-    gw.wait_until(lambda _: station(3).illegals == start.illegals + 5)
-    s = station(3)
+    start.wait_until(lambda s: s.illegals == start.illegals + 5)
+    s = daemon.line.station(3)
     assert (s.repeats, s.lost, s.syncs) == (start.repeats + 5, start.lost, start.syncs)
     assert s.repeats_max == 1 and s.live == "ok"
 
     # The generic slave falls silent for two requests: its Data_Exchange and the one repeat go
     # unanswered, it drops out of data exchange, and after retry_ms the master parameterizes it
     # again (one more Set_Prm) and it is back.
-    before = station(4)
+    before = line.station(4)
     line.inject(4, "silent", count=2)
-    io.wait_until(lambda _: station(4).lost == before.lost + 1)
-    io.wait_until(lambda _: station(4).syncs == before.syncs + 1 and station(4).live == "ok")
-    after = station(4)
+    before.wait_until(lambda s: s.lost == before.lost + 1)
+    before.wait_until(lambda s: s.syncs == before.syncs + 1 and s.live == "ok")
+    after = daemon.line.station(4)
     assert after.repeats == before.repeats + 1 and after.illegals == before.illegals
     io.wait_until(lambda s: s.state == "Data_Exch" and s.master_state == "Data_Exch")

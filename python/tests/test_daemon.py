@@ -174,3 +174,35 @@ def test_find_example_in_the_checkout_and_beside_an_installed_candp2d(
     assert candp2.find_example("plc-line.json", binary) == examples / "plc-line.json"
     with pytest.raises(candp2.Candp2Error, match="no example nothing.json \\(tried .*examples"):
         candp2.find_example("nothing.json", binary)
+
+
+def test_find_example_beside_a_candp2d_of_a_build_tree(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The package installed (not in a checkout) and candp2d from a build tree (pytest
+    --candp2d build/bin/candp2d): the examples are in the source tree that build tree's
+    CMakeCache.txt names, and $CANDP2_EXAMPLES comes first."""
+    monkeypatch.setattr("candp2.binary._checkout", lambda: None)
+    monkeypatch.delenv("CANDP2_EXAMPLES", raising=False)
+    source, build = tmp_path / "src", tmp_path / "build"
+    (source / "config").mkdir(parents=True)
+    (source / "config" / "demo.json").write_text("{}")
+    (build / "bin").mkdir(parents=True)
+    (build / "CMakeCache.txt").write_text(
+        "# This is the CMakeCache file.\nCMAKE_HOME_DIRECTORY:INTERNAL=%s\n" % source)
+    binary = build / "bin" / "candp2d"
+    binary.write_text("#!/bin/sh\n")
+    binary.chmod(0o755)
+    assert candp2.find_example("demo.json", binary) == source / "config" / "demo.json"
+    # What pytest --candp2d sets for the session: example() without a binary finds it too.
+    monkeypatch.setattr("candp2.binary._session_binary", None)
+    candp2.binary.set_session_binary(binary)
+    assert candp2.example("demo.json") == source / "config" / "demo.json"
+    with pytest.raises(candp2.Candp2Error, match="no example nothing.json \\(tried .*"
+                                                 "build/share/candp2/examples/nothing.json, .*"
+                                                 "src/config/nothing.json; \\$CANDP2_EXAMPLES"):
+        candp2.example("nothing.json")
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "demo.json").write_text("{}")
+    monkeypatch.setenv("CANDP2_EXAMPLES", str(mine))
+    assert candp2.example("demo.json") == mine / "demo.json"

@@ -3,11 +3,12 @@ cycle in /api/v1/status, /metrics and candp2.Daemon.line; nothing of it on an id
 
 import json
 import re
-import time
 import urllib.request
 from typing import Callable
 
-from candp2 import Daemon, Line
+import pytest
+
+from candp2 import Daemon, Line, NoLine, WaitTimeout
 
 from plants import MANUAL_514
 
@@ -41,25 +42,17 @@ def test_the_measured_bus_cycle_is_seen_from_outside(candp2d: Factory) -> None:
     assert float(got["max"]) >= float(got["min"]) > 0.001
 
 
-def test_an_ideal_line_shows_none(candp2d: Factory) -> None:
+def test_an_ideal_line_says_line_faults_need_a_baud_rate(candp2d: Factory) -> None:
+    """A test written for a line in time, run on an ideal one, fails saying what is missing
+    (master.baud), not with an AttributeError of None."""
     daemon = candp2d(MANUAL_514)
     daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch")
-    assert daemon.line is None
     assert "line" not in daemon.http_status()
-
-
-def line_until(daemon: Daemon, what: str, predicate: Callable[[Line], bool],
-               timeout: float = 5.0) -> Line:
-    """daemon.line, read again until predicate(line) holds (AssertionError after `timeout`)."""
-    end = time.monotonic() + timeout
-    while True:
-        line = daemon.line
-        assert line is not None
-        if predicate(line):
-            return line
-        if time.monotonic() > end:
-            raise AssertionError("%s not within %.0f s: %r" % (what, timeout, line))
-        time.sleep(0.02)
+    assert daemon.has_line is False
+    assert getattr(daemon, "line", None) is None  # NoLine is an AttributeError too
+    with pytest.raises(NoLine, match=r"ideal line \(no master\.baud in the configuration\).*"
+                                     r"line faults \(inject, noise\).*\"baud\": 1500000"):
+        daemon.line.inject(5, "corrupt", count=3)
 
 
 def test_line_faults_on_cue_show_in_the_counters(candp2d: Factory) -> None:
@@ -72,11 +65,77 @@ def test_line_faults_on_cue_show_in_the_counters(candp2d: Factory) -> None:
     before = line.station(5)
     assert before.live == "ok" and before.fault is None
     line.inject(5, "corrupt", count=3)
-    after = line_until(daemon, "three illegals of station 5",
-                       lambda li: li.station(5).illegals >= before.illegals + 3
-                       and li.station(5).fault is None)
+    after = line.wait_until(lambda li: li.station(5).illegals >= before.illegals + 3
+                            and li.station(5).fault is None and li)
+    assert isinstance(after, Line)
     assert after.station(5).illegals == before.illegals + 3
     assert after.station(5).repeats > before.repeats
     line.noise(for_ms=3000)
-    noisy = line_until(daemon, "noise on the line", lambda li: li.noise_remaining_ms > 0)
-    assert noisy.noise_remaining_ms <= 3000
+    noisy = line.wait_until(lambda li: li.noise_remaining_ms)
+    assert 0 < noisy <= 3000
+
+
+def test_a_station_that_is_not_on_the_line_is_named_before_anything_is_written(
+        candp2d: Factory) -> None:
+    daemon = candp2d(timed(1500000))
+    daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch")
+    line = daemon.line
+    assert line.configured == (5,)
+    with pytest.raises(ValueError, match=r"^no station 99 on the line \(stations: 5\)$"):
+        line.inject(99, "corrupt", count=3)
+    with pytest.raises(ValueError, match=r"^no station 4 on the line \(stations: 5\)$"):
+        line.inject(4, "silent")
+    # Nothing was written: no fault anywhere, and the line goes on.
+    assert all(s.fault is None for s in daemon.line.stations)
+
+
+def test_waiting_for_a_line_counter(candp2d: Factory) -> None:
+    """wait_until on the line and on one of its stations, like a gateway's: the counter's value
+    when it holds; a timeout names the counter and its last value."""
+    daemon = candp2d(timed(1500000))
+    daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch")
+    line = daemon.line
+    station = line.station(5)
+    line.inject(5, "corrupt", count=2, every=2)  # each answer repeated once: never lost
+    illegals = station.wait_until(lambda s: s.illegals >= station.illegals + 2 and s.illegals)
+    assert illegals == station.illegals + 2
+    # Timeouts: what the predicate read, by name, with the value it last had; then the line.
+    with pytest.raises(WaitTimeout) as e:
+        line.wait_until(lambda li: li.station(5).illegals > 1000, timeout=0.3)
+    text = str(e.value)
+    assert text.startswith("line: lambda li: li.station(5).illegals > 1000: not true within "
+                           "0.3 s; last saw station(5).illegals=%d (predicate returned False)"
+                           % illegals), text
+    assert "\nline: 1500000 bit/s, bus cycle " in text and "station 5 (ok): lost 0" in text
+    with pytest.raises(WaitTimeout) as e:
+        daemon.line.station(5).wait_until(lambda s: s.live == "missing" or s.lost > 0,
+                                          timeout=0.3)
+    text = str(e.value)
+    assert text.startswith("line station 5: lambda s: s.live == \"missing\" or s.lost > 0: "
+                           "not true within 0.3 s; last saw live='ok', lost=0"), text
+    assert "\nstation 5 (ok): lost 0, syncs 1, repeats " in text, text
+
+
+def test_the_line_described_for_a_failure_report(candp2d: Factory) -> None:
+    """daemon.report() (the pytest plugin's section) shows the line: baud rate, bus cycle in the
+    unit that reads, the live list, each station's counters in the table's order and its
+    active fault."""
+    daemon = candp2d(timed(9600))
+    daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch", timeout=10)
+    # A fault that stays active: it spoils one answer in 65535 (the master repeats it).
+    daemon.line.inject(5, "corrupt", count=65535, every=65535)
+    daemon.line.station(5).wait_until(lambda s: s.fault)
+    report = daemon.report()
+    assert re.search(r"^line: 9600 bit/s, bus cycle \d+\.\d ms \(min \d+\.\d ms, mean "
+                     r"[\d.]+ m?s, max [\d.]+ m?s over \d+ cycles\), \d+ retries, \d+ GAP polls$",
+                     report, re.M), report
+    assert "\n  live list: ok 5; missing none; phantom none\n" in report, report
+    assert re.search(r"^  station 5 \(ok\): lost 0, syncs 1, repeats \d+, repeats_max \d+, "
+                     r"illegals \d+, diagnostics \d+; fault corrupt \(\d+ left, every 65535\)$",
+                     report, re.M), report
+
+
+def test_an_ideal_line_in_the_report(candp2d: Factory) -> None:
+    daemon = candp2d(MANUAL_514)
+    daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch")
+    assert "\nline: ideal (no master.baud: no line statistics)\n" in daemon.report()

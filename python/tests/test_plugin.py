@@ -2,6 +2,7 @@
 and the daemon's log tail; a daemon that died fails the teardown."""
 
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -45,6 +46,24 @@ SLAVES = textwrap.dedent('''
 ''' % EXAMPLE_GSD)
 
 
+LINE = textwrap.dedent('''
+    PLANT = {"buses": {"can0": {"type": "virtual"}},
+             "master": {"baud": 1500000},
+             "gateways": [{"address": 5, "bus": "can0", "slots": [
+                 {"io": "output", "address": 0, "length": 2, "comment": "03,09,00"}]}]}
+
+    def test_fails(candp2d):
+        daemon = candp2d(PLANT)
+        daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch")
+        daemon.line.inject(5, "corrupt", count=3, every=2)
+        daemon.line.station(5).wait_until(lambda s: s.illegals == 3)
+        # A fault that stays active: it spoils the next answer, then one in 65535.
+        daemon.line.inject(5, "corrupt", count=65535, every=65535)
+        daemon.line.station(5).wait_until(lambda s: s.illegals == 4)
+        assert daemon.line.station(5).illegals == 0
+''')
+
+
 def run_pytest(tmp_path: Path, candp2_binary: str, *args: str, test: str = FAILING) -> str:
     (tmp_path / "test_report.py").write_text(test)
     env = dict(os.environ, PYTHONPATH=str(PYTHON_DIR))
@@ -82,3 +101,16 @@ def test_failure_report_shows_the_slaves(tmp_path: Path, candp2_binary: str) -> 
 def test_reports_under_xdist(tmp_path: Path, candp2_binary: str) -> None:
     out = run_pytest(tmp_path, candp2_binary, "-n", "2")
     assert "candp2d 0 (modbus 127.0.0.1:" in out and "309#1234" in out
+
+
+def test_failure_report_shows_the_line(tmp_path: Path, candp2_binary: str) -> None:
+    """The line section: baud rate and bus cycle, the live list, each station's counters in the
+    table's order with its active fault."""
+    out = run_pytest(tmp_path, candp2_binary, test=LINE)
+    assert "1 failed" in out
+    assert re.search(r"^line: 1500000 bit/s, bus cycle [\d.]+ (µs|ms) \(min .* over \d+ "
+                     r"cycles\), \d+ retries, \d+ GAP polls$", out, re.M), out
+    assert "\n  live list: ok 5; missing none; phantom none\n" in out
+    assert re.search(r"^  station 5 \(ok\): lost 0, syncs 1, repeats 4, repeats_max 1, "
+                     r"illegals 4, diagnostics \d+; fault corrupt \(\d+ left, every 65535\)$",
+                     out, re.M), out

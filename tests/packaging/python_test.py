@@ -17,7 +17,13 @@ Either way:
      option) passes: pytest finds the plugin through its entry point and candp2d on PATH;
   3. deb mode: the examples as shipped (/usr/share/doc/python3-candp2/examples, the same files
      as python/examples) pass against the installed /usr/bin/candp2d, also with pytest-xdist
-     (-n 4).
+     (-n 4);
+  4. the README's Python example passes from an empty folder: deb mode against the installed
+     candp2d; pip mode against the build tree's (`pytest --candp2d BUILD/bin/candp2d`, no
+     candp2d on PATH), whose examples candp2.example() finds through the build tree's source.
+
+pip mode installs from the checkout's python/ itself, as docs/python.md says, and fails when
+that leaves anything behind there (build/, candp2.egg-info).
 
 The deb mode unpacks instead of installing so that it needs no root, changes nothing on the
 machine and can run beside other tests; installing with apt on a fresh Debian 12 is shown in
@@ -129,16 +135,23 @@ def mode_pip(args, tmp):
     r = run(["/usr/bin/python3", "-m", "venv", "--system-site-packages", venv])
     if r.returncode != 0:
         fail("venv: %s" % r.stderr)
-    # A copy: setuptools builds in place, and the source tree stays as it is.
-    source = os.path.join(tmp, "python")
-    shutil.copytree(os.path.join(ROOT, "python"), source,
-                    ignore=shutil.ignore_patterns("build", "*.egg-info", "__pycache__"))
+    # From the checkout, as docs/python.md says: setup.py builds in a scratch folder, so the
+    # checkout must look the same afterwards (__pycache__ aside, which tests write anyway).
+    source = os.path.join(ROOT, "python")
+
+    def entries():
+        return {e for e in os.listdir(source) if e != "__pycache__"}
+
+    before = entries()
     python = os.path.join(venv, "bin", "python")
-    r = run([python, "-m", "pip", "install", "--no-index", source])
+    r = run([python, "-m", "pip", "install", "--no-index", source], cwd=ROOT)
     if r.returncode != 0:
         fail("pip install --no-index ./python:\n%s%s" % (r.stdout, r.stderr))
-    print("ok: pip install --no-index ./python")
+    if entries() != before:
+        fail("pip install ./python wrote %s into the checkout" % sorted(entries() - before))
+    print("ok: pip install --no-index ./python, nothing written into the checkout")
     env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    bare = dict(env)  # no candp2d on PATH: the README example gets it with --candp2d
     env["PATH"] = os.path.dirname(os.path.abspath(args.candp2d)) + os.pathsep + env["PATH"]
     check_installation(python, env, venv)
     r = run([python, "-c", CAN_BUS], env=env, cwd=tmp)
@@ -146,6 +159,8 @@ def mode_pip(args, tmp):
         fail("can.Bus(interface='candp2'): %s%s" % (r.stdout, r.stderr))
     print("ok: " + r.stdout.strip())
     throwaway_project(python, env, tmp)
+    # (--candp2d wins over a candp2d on PATH, so an installed one changes nothing here)
+    readme_example(python, bare, tmp, "--candp2d", os.path.abspath(args.candp2d))
 
 
 def mode_deb(args, tmp):
@@ -205,9 +220,9 @@ def mode_deb(args, tmp):
     return 0
 
 
-def readme_example(python, env, tmp):
+def readme_example(python, env, tmp, *args):
     """The README's Python example, as it stands there, from an empty folder: it finds the
-    shipped demo configuration with candp2.example()."""
+    shipped demo configuration with candp2.example(). `args` go to pytest (--candp2d)."""
     with open(os.path.join(ROOT, "README.md")) as f:
         block = re.search(r"```python\n(.*?)```", f.read(), re.S)
     if block is None:
@@ -216,10 +231,10 @@ def readme_example(python, env, tmp):
     os.makedirs(folder)
     with open(os.path.join(folder, "test_readme.py"), "w") as f:
         f.write(block.group(1))
-    out = run_pytest(python, env, folder, "-v")
+    out = run_pytest(python, env, folder, "-v", *args)
     if " PASSED" not in out or "failed" in out:
         fail("the README's example from an empty folder:\n" + out)
-    print("ok: the README's example passes from an empty folder")
+    print("ok: the README's example passes from an empty folder %s" % " ".join(args))
 
 
 def main():
