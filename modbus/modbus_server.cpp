@@ -24,6 +24,12 @@ namespace candp2::modbus {
 
 namespace {
 
+// Modbus function codes that write (MB spec §6): 5, 6, 15, 16, 22, 23.
+bool is_write(std::uint8_t function) {
+  return function == 5 || function == 6 || function == 15 || function == 16 || function == 22 ||
+         function == 23;
+}
+
 // Bytes read from a client per readiness callback: enough for many pipelined requests, small
 // enough that one busy client cannot starve the others (the loop is level-triggered).
 constexpr std::size_t kReadChunk = 4096;
@@ -208,14 +214,21 @@ class Server final : public ModbusServer {
     int rc;
     if (failure) {
       ++stats_.exceptions;
+      const std::string code = hex_bytes(std::array{static_cast<std::uint8_t>(failure->exception)});
       if (failure->exception == Exception::ServerDeviceFailure && !c.warned_device_failure) {
         c.warned_device_failure = true;  // once per client; later ones at debug
         clients_log_.warn("exception 0x04",
                           c.name + ": write refused with exception 0x04: " + failure->why);
+      } else if (failure->exception != Exception::ServerDeviceFailure && is_write(adu[7])) {
+        // A write the daemon refuses says why (docs/daemon.md "Logging"): a test or a PLC
+        // program that writes a wrong value learns it from the log, throttled per exception.
+        clients_log_.warn("write refused 0x" + code,
+                          c.name + ": unit " + std::to_string(adu[6]) + ": write (function " +
+                              std::to_string(adu[7]) + ") refused with exception 0x" + code + " (" +
+                              std::string(to_string(failure->exception)) + "): " + failure->why);
       } else if (log_.enabled(LogLevel::Debug))
         log_.debug(c.name + ": unit " + std::to_string(adu[6]) + " function " +
-                   std::to_string(adu[7]) + ": exception 0x" +
-                   hex_bytes(std::array{static_cast<std::uint8_t>(failure->exception)}) + " (" +
+                   std::to_string(adu[7]) + ": exception 0x" + code + " (" +
                    std::string(to_string(failure->exception)) + "): " + failure->why);
       rc = modbus_reply_exception(ctx_, adu.data(), static_cast<unsigned>(failure->exception));
     } else {

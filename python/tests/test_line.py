@@ -8,7 +8,7 @@ from typing import Callable
 
 import pytest
 
-from candp2 import Daemon, Line, NoLine, WaitTimeout
+from candp2 import Daemon, Line, ModbusError, NoLine, WaitTimeout
 
 from plants import MANUAL_514
 
@@ -139,3 +139,21 @@ def test_an_ideal_line_in_the_report(candp2d: Factory) -> None:
     daemon = candp2d(MANUAL_514)
     daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch")
     assert "\nline: ideal (no master.baud: no line statistics)\n" in daemon.report()
+
+
+def test_a_refused_line_fault_write_says_why_in_the_log(candp2d: Factory) -> None:
+    """docs/daemon.md "Logging": a Modbus write the daemon refuses (here a line fault of kind 9,
+    which does not exist) is logged once with its reason; repeats within a second are counted,
+    not written."""
+    daemon = candp2d(timed(1500000))
+    daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch")
+    rm = daemon.register_map
+    for _ in range(3):
+        with pytest.raises(ModbusError, match=r"exception 0x03 \(illegal data value\)"):
+            daemon.modbus.write_registers(rm.line_fault_registers["kind"], [9, 1, 1, 0], 5)
+    daemon.gateway(5).wait_until(lambda g: "refused" in daemon.log)
+    refused = [line for line in daemon.log.splitlines() if "refused" in line]
+    assert len(refused) == 1, refused
+    assert re.search(r"warning \[modbus\] 127\.0\.0\.1:\d+: unit 5: write \(function 16\) refused "
+                     r"with exception 0x03 \(illegal data value\): line fault kind 9 \(0 none, 1 "
+                     r"corrupt, 2 silent, 3 late, 4 double_address\)$", refused[0]), refused

@@ -104,6 +104,29 @@ TEST_F(ServerFixture, ExceptionsOnTheWireAndTheServerServesOn) {
   EXPECT_EQ(gw5.commands.load(), 1);
 }
 
+// docs/daemon.md "Logging": a write the daemon refuses says why, once, then throttled per
+// exception (one a second with the count); a refused read is not a warning.
+TEST_F(ServerFixture, ARefusedWriteIsLoggedOnceWithItsReason) {
+  ModbusClient c(port, 5);
+  EXPECT_EQ(std::get<int>(c.read_holding(4096, 1)), EMBXILADD);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(c.write_one(8192, 9), EMBXILVAL);
+  EXPECT_EQ(c.write_one(4096, 1), EMBXILADD);
+  thread.stop();
+  auto warnings = [&](std::string_view needle) {
+    int n = 0;
+    for (const auto& l : log.lines)
+      n += l.level == LogLevel::Warn && l.message.find(needle) != std::string::npos;
+    return n;
+  };
+  EXPECT_EQ(warnings(": unit 5: write (function 6) refused with exception 0x03 (illegal data "
+                     "value): "),
+            1)
+      << "the first refused write at once, the next two counted, not written";
+  EXPECT_EQ(warnings("write (function 6) refused with exception 0x02"), 1)
+      << "another exception is another kind: not hidden behind the first";
+  EXPECT_EQ(warnings("function 3"), 0) << "a refused read is no warning";
+}
+
 TEST_F(ServerFixture, QuantityZeroAndMaxPlusOneOnTheWire) {
   // libmodbus clients refuse to send such requests, so they go out raw. MB spec §7: the answer is
   // function | 0x80 and exception code 0x03; the server must answer at once (libmodbus's own
