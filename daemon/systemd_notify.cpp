@@ -1,11 +1,15 @@
 #include "daemon/systemd_notify.hpp"
 
-#include <systemd/sd-daemon.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
 
 #include <cerrno>
+#include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <string_view>
 
 namespace candp2::daemon {
 
@@ -13,6 +17,45 @@ namespace {
 
 // How often the status summary is compared with the last one sent (cheap: a few counters).
 constexpr Duration kStatusPeriod = milliseconds(1000);
+
+// sd_notify(3), whose protocol systemd documents as stable for programs that speak it without
+// libsystemd: one datagram with the state lines to the AF_UNIX socket $NOTIFY_SOCKET (a path, or
+// "@name" in the abstract namespace). Done here so that candp2d does not load libsystemd and the
+// seven libraries it pulls in (docs/daemon.md "systemd"). 0 = no NOTIFY_SOCKET, 1 sent, < 0 -errno.
+int notify(std::string_view state) {
+  const char* socket_path = std::getenv("NOTIFY_SOCKET");
+  if (!socket_path || !*socket_path) return 0;
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  const std::size_t len = std::strlen(socket_path);
+  if ((socket_path[0] != '/' && socket_path[0] != '@') || len >= sizeof addr.sun_path)
+    return -EINVAL;
+  std::memcpy(addr.sun_path, socket_path, len);
+  if (addr.sun_path[0] == '@') addr.sun_path[0] = '\0';
+  const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return -errno;
+  const auto size = static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + len);
+  const ssize_t sent = ::sendto(fd, state.data(), state.size(), MSG_NOSIGNAL,
+                                reinterpret_cast<const sockaddr*>(&addr), size);
+  const int rc = sent < 0 ? -errno : 1;
+  ::close(fd);
+  return rc;
+}
+
+// sd_watchdog_enabled(3): the interval of $WATCHDOG_USEC when it is set and $WATCHDOG_PID, if
+// set, is this process; else 0.
+std::uint64_t watchdog_usec() {
+  const char* usec = std::getenv("WATCHDOG_USEC");
+  if (!usec || !*usec) return 0;
+  char* end = nullptr;
+  const unsigned long long v = std::strtoull(usec, &end, 10);
+  if (*end != '\0') return 0;
+  if (const char* pid = std::getenv("WATCHDOG_PID"); pid && *pid) {
+    const unsigned long long p = std::strtoull(pid, &end, 10);
+    if (*end != '\0' || p != static_cast<unsigned long long>(::getpid())) return 0;
+  }
+  return v;
+}
 
 std::string count(std::size_t n, const char* singular, const char* plural) {
   std::string out = std::to_string(n);
@@ -72,8 +115,7 @@ SystemdNotifier::~SystemdNotifier() {
 }
 
 void SystemdNotifier::send(const std::string& state) {
-  // sd_notify(3): 0 = no NOTIFY_SOCKET, > 0 sent, < 0 -errno.
-  const int rc = sd_notify(0, state.c_str());
+  const int rc = notify(state);
   if (rc < 0) log_.warn("sd_notify(" + state + "): " + std::strerror(-rc));
 }
 
@@ -85,8 +127,7 @@ void SystemdNotifier::ready(Daemon& daemon, const config::DaemonConfig& config) 
   status_timer_ = loop_.add_periodic(kStatusPeriod, [this] { update_status(); });
   // sd_watchdog_enabled(3): > 0 when WATCHDOG_USEC is set (and WATCHDOG_PID, if set, is ours);
   // systemd recommends sending WATCHDOG=1 at half the interval.
-  std::uint64_t usec = 0;
-  if (sd_watchdog_enabled(0, &usec) > 0 && usec > 0) {
+  if (const std::uint64_t usec = watchdog_usec(); usec > 0) {
     const Duration half = microseconds(static_cast<std::int64_t>(usec / 2));
     send("WATCHDOG=1");
     watchdog_timer_ = loop_.add_periodic(half > Duration{0} ? half : microseconds(1),

@@ -32,7 +32,7 @@ run_packages=(
   libmodbus-dev nlohmann-json3-dev libcli11-dev         # Modbus/TCP, JSON configuration, CLI
   libspdlog-dev libfmt-dev                              # logging
   libsocketcan-dev                                      # SocketCAN bit rate and controller state (netlink)
-  libmicrohttpd-dev libsystemd-dev                      # HTTP face; sd_notify (Type=notify)
+  libmicrohttpd-dev libsystemd-dev                      # HTTP face; sd-daemon.h (journal priorities)
   mbpoll                                                # the Modbus client of the README's demo
 )
 deb_packages=(

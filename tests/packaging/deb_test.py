@@ -5,7 +5,8 @@
     copyright and changelog in Debian's places, owned by root; no tests, benchmarks, headers or
     static libraries; the example drop-ins are not active (nothing under /etc/systemd);
   - control (dpkg-deb -f): Package, Version, Architecture, Depends computed from the shared
-    libraries (libmodbus, libsystemd, spdlog, fmt, libc, libstdc++);
+    libraries (libmodbus, libmicrohttpd, spdlog, fmt, libc, libstdc++; not libsystemd, whose
+    sd_notify protocol candp2d speaks itself, docs/daemon.md "systemd");
   - conffiles: exactly /etc/candp2/candp2d.json; maintainer scripts are valid sh;
   - lintian: exit status 0 with --fail-on error,warning;
   - the installed tree (dpkg-deb -x): candp2d --version, candp2d --check on the installed
@@ -98,8 +99,9 @@ def main():
             fields["Version"])
     c.check(fields["Architecture"] == arch, "Architecture: " + arch, fields["Architecture"])
     depends = [d.strip().split()[0] for d in fields["Depends"].split(",") if d.strip()]
-    for lib in ("libc6", "libstdc++6", "libmodbus5", "libsystemd0"):
+    for lib in ("libc6", "libstdc++6", "libmodbus5", "libmicrohttpd12"):
         c.check(lib in depends, "Depends names " + lib, fields["Depends"])
+    c.check("libsystemd0" not in depends, "Depends does not name libsystemd0", fields["Depends"])
     for prefix in ("libspdlog", "libfmt"):
         c.check(any(d.startswith(prefix) for d in depends), "Depends names %s*" % prefix,
                 fields["Depends"])
