@@ -41,6 +41,9 @@ class _Recorded:
         object.__setattr__(self, "_seen", seen)
         object.__setattr__(self, "_label", label)
 
+    def describe(self) -> str:
+        raise NotImplementedError
+
     if not TYPE_CHECKING:  # to a type checker every attribute keeps its own type
         def __getattribute__(self, name: str) -> Any:
             value = object.__getattribute__(self, name)
@@ -148,20 +151,8 @@ class LineStation(_Recorded):
             raise RuntimeError("this LineStation was not read from a daemon: use "
                                "daemon.line.station(%d).wait_until()" % self.address)
         connection = self._connection
-        last = [self]
-
-        def evaluate(seen: dict[str, object]) -> T:
-            station = connection.line.station(self.address)
-            last[0] = station
-            station._record(seen, "")
-            try:
-                return predicate(station)
-            finally:
-                station._record(None, "")
-
-        return poll_until(evaluate, timeout, "line station %d: %s"
-                          % (self.address, describe_predicate(predicate)), _shown,
-                          lambda: last[0].describe())
+        return _wait_reading(lambda: connection.line.station(self.address), predicate, timeout,
+                             "line station %d: " % self.address)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, LineStation):
@@ -178,8 +169,26 @@ class LineStation(_Recorded):
         return "<LineStation %d %s %s%s>" % (self.address, self.live, counters, fault)
 
 
-def _shown(value: object) -> str:
-    return repr(value)
+R = TypeVar("R", bound=_Recorded)
+
+
+def _wait_reading(read: Callable[[], R], predicate: Callable[[R], T], timeout: float,
+                  what: str) -> T:
+    """The wait_until() of the line and of a station: `read()` anew until `predicate` of it is
+    true; the timeout's message names what the predicate read and describes the last one."""
+    last: list[R] = []
+
+    def evaluate(seen: dict[str, object]) -> T:
+        value = read()
+        last[:] = [value]
+        value._record(seen, "")
+        try:
+            return predicate(value)
+        finally:
+            value._record(None, "")
+
+    return poll_until(evaluate, timeout, what + describe_predicate(predicate), repr,
+                      lambda: last[0].describe() if last else "nothing read")
 
 
 @dataclass(frozen=True)
@@ -283,19 +292,7 @@ class Line(_Recorded):
         with its last value (`station(3).illegals=4`, `noise_remaining_ms=0`) and the whole
         line (describe())."""
         connection = self._connection()
-        last = [self]
-
-        def evaluate(seen: dict[str, object]) -> T:
-            line = connection.line
-            last[0] = line
-            line._record(seen, "")
-            try:
-                return predicate(line)
-            finally:
-                line._record(None, "")
-
-        return poll_until(evaluate, timeout, "line: " + describe_predicate(predicate), _shown,
-                          lambda: last[0].describe())
+        return _wait_reading(lambda: connection.line, predicate, timeout, "line: ")
 
     # ---- faults on cue (docs/faults.md "Line faults") ----------------------------------------
 
