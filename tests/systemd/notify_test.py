@@ -11,7 +11,10 @@ the test owns the NOTIFY_SOCKET (an AF_UNIX datagram socket, sd_notify(3)) and t
   5. with JOURNAL_STREAM = stderr's st_dev:st_ino every log line is "<N>[component] ..." with
      syslog priorities (6 = info) and no time stamp;
   6. a start that fails (Modbus port taken) never sends READY=1, says why in STATUS= and exits 1;
-     its stderr does not match JOURNAL_STREAM, so its lines keep their time stamps.
+     its stderr does not match JOURNAL_STREAM, so its lines keep their time stamps;
+  7. NOTIFY_SOCKET in the abstract namespace ("@name") works as a path does, and a WATCHDOG_PID
+     that is not candp2d's turns the watchdog off (sd_watchdog_enabled(3); candp2d speaks the
+     protocol itself, docs/daemon.md "systemd").
 
   notify_test.py --candp2d build/bin/candp2d
 """
@@ -60,7 +63,8 @@ class Notify:
 
     def __init__(self, path):
         self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
-        self.sock.bind(path)
+        # "@name": the abstract namespace, as systemd writes it in NOTIFY_SOCKET.
+        self.sock.bind("\0" + path[1:] if path.startswith("@") else path)
         self.path = path
         self.messages = []  # every datagram, in order: {"READY": "1", "STATUS": "..."}
 
@@ -212,6 +216,33 @@ def test_failed_start(candp2d, tmp):
     print("failed start: exit 1, no READY, %r" % notify.messages[-1].get("STATUS"))
 
 
+def test_abstract_socket_foreign_watchdog(candp2d, tmp):
+    # 7. "@name" socket; WATCHDOG_PID of another process: READY=1, no WATCHDOG=1, STOPPING=1.
+    port = free_port()
+    config = demo_config(tmp, port)
+    notify = Notify("@candp2-notify-test-%d-%d" % (os.getpid(), port))
+    proc = start(candp2d, config, {"NOTIFY_SOCKET": notify.path, "WATCHDOG_USEC": "100000",
+                                   "WATCHDOG_PID": "1"}, subprocess.DEVNULL)
+    try:
+        notify.wait_for(lambda m: m.get("READY") == "1", proc)
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:
+            notify.receive(end - time.monotonic())
+        if any("WATCHDOG" in m for m in notify.messages):
+            fail("WATCHDOG=1 although WATCHDOG_PID names another process: %s" % notify.messages)
+        proc.send_signal(signal.SIGTERM)
+        notify.wait_for(lambda m: m.get("STOPPING") == "1", proc, may_exit=True)
+        if proc.wait(timeout=10) != 0:
+            fail("exit status %d after SIGTERM" % proc.returncode)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=10)
+        notify.close()
+    print("abstract NOTIFY_SOCKET %s: READY=1, STOPPING=1; foreign WATCHDOG_PID: no WATCHDOG=1"
+          % notify.path)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--candp2d", required=True)
@@ -219,7 +250,8 @@ def main():
     with tempfile.TemporaryDirectory(prefix="candp2-notify-") as tmp:
         test_service(args.candp2d, tmp)
         test_failed_start(args.candp2d, tmp)
-    print("2 passed, 0 failed")
+        test_abstract_socket_foreign_watchdog(args.candp2d, tmp)
+    print("3 passed, 0 failed")
     return 0
 
 
