@@ -22,10 +22,9 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from cdp import Browser  # noqa: E402
-from http_common import ROOT, Daemon  # noqa: E402
+from http_common import ROOT, STATION_COUNTERS, Daemon  # noqa: E402
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
-STATION_COUNTERS = ["lost", "syncs", "repeats", "repeats_max", "illegals", "diagnostics"]
 TIME = r"(\d+ µs|\d+\.\d ms|\d+\.\d\d s)"
 # The plot's axis labels as drawn (plot() in http/web/panel.js), recorded by a wrapped fillText.
 RECORD_LABELS = """(() => { const c = document.querySelector('#line canvas');
@@ -89,10 +88,7 @@ def test_line_view_at_9600(candp2_binary, tmp_path):
         print("plot axis: %s; running cycle up to %d µs, the longest since the start %d µs"
               % (", ".join(axis), running, longest))
 
-        path = os.path.join(output_dir, "front-panel-line-9600.png")
-        browser.screenshot_page(path)
-        assert os.path.getsize(path) > 10000, os.path.getsize(path)
-        print("screenshot: " + path)
+        browser.keep_page(os.path.join(output_dir, "front-panel-line-9600.png"))
     finally:
         if browser:
             browser.close()
