@@ -55,6 +55,7 @@ struct Stream {
   std::string event;
   std::size_t offset = 0;
   bool suspended = false;
+  bool once = false;  // ?once: the first event only, then the end of the answer
 };
 
 // GET /api/v1/status or GET /metrics: built in steps for the requests waiting for it.
@@ -473,6 +474,11 @@ class HttpServerImpl final : public HttpServer {
       for (std::size_t i = 0; i < slaves.size(); ++i)
         if (std::to_string(slaves[i].cfg->address) == sl) stream->cursor.slave = i;
     }
+    // ?once: one full event and the end of the answer, for a page that renders from it before its
+    // load event (docs/daemon.md "Server-Sent Events").
+    const char* once = nullptr;  // (a key without a value has none: only its presence counts)
+    stream->once = MHD_lookup_connection_value_n(connection, MHD_GET_ARGUMENT_KIND, "once", 4,
+                                                 &once, nullptr) == MHD_YES;
     stream->first_round = view_.first_round_for(stream->cursor.gateway, stream->cursor.slave);
     auto* ctx = new StreamContext{this, stream.get()};
     auto* r = MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, kStreamBlock,
@@ -501,6 +507,8 @@ class HttpServerImpl final : public HttpServer {
     Stream& s = *ctx->stream;
     if (self.closing_) return MHD_CONTENT_READER_END_OF_STREAM;
     if (!s.conn || s.conn->closing) return MHD_CONTENT_READER_END_WITH_ERROR;
+    if (s.offset >= s.event.size() && s.once && s.cursor.round)
+      return MHD_CONTENT_READER_END_OF_STREAM;
     if (s.offset >= s.event.size() && !self.compose(s)) {
       // Nothing new: park the connection until the next round is published.
       s.suspended = true;

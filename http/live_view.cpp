@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "profibus_sim/fdl/line_stats.hpp"
+
 namespace candp2::http {
 
 namespace {
@@ -87,7 +89,14 @@ bool LiveView::step(Time now) {
         nlohmann::json h;
         h["time_ms"] = static_cast<double>(now.count()) / 1000.0;
         h["cycle"] = model_.cycle_json();
-        if (const auto l = model_.line_json(); !l.is_null()) h["line"] = l;
+        if (auto l = model_.line_json(); !l.is_null()) {
+          // The page lists a station's counters in the table's order (docs/profibus.md "Line
+          // statistics"); the document's objects have their keys sorted.
+          if (l.contains("stations"))
+            for (const auto& f : fdl::kStationCounters)
+              l["counters"].push_back(std::string(f.name));
+          h["line"] = std::move(l);
+        }
         if (const auto m = model_.modbus_json(); !m.is_null()) h["modbus"] = m;
         h["http"] = model_.http_json();
         h["gateway_count"] = tiles_.size();

@@ -2,9 +2,11 @@
 // DP state, fault, frames/s) and every generic DP slave (slave.js), the routing between the
 // overview and one gateway's panel (#gw=17, panel.js) or one slave's (#slave=8, slave.js) and the
 // stream (/api/v1/events). The stream sends everything on connect and then only what changed
-// (docs/daemon.md "Server-Sent Events"): this file keeps the merged state.
+// (docs/daemon.md "Server-Sent Events"): this file keeps the merged state. The page renders its
+// view from one event fetched before its load event (`?once`), so that it is complete when it
+// opens and in a DOM dump; the stream goes on from there.
 // A configuration with one gateway and no generic slaves (the demo) opens on its panel. Below, the
-// PROFIBUS line's live list and bus cycle, when there is a line.
+// PROFIBUS line's live list and bus cycle, when there is a line (from the stream's header).
 'use strict';
 
 // ---- state merged from the stream ----------------------------------------------------------------
@@ -132,11 +134,11 @@ function renderHeader(s) {
   const lat = c.lateness_us;
   let text = c.period_ms + ' ms';
   if (c.missed !== undefined) text += ' · missed ' + c.missed;
-  if (lat) text += ' · late p50 ' + lat.p50 + ' µs, p99 ' + lat.p99 + ' µs';
+  if (lat) text += ' · late p50 ' + us(lat.p50) + ', p99 ' + us(lat.p99);
   // The line in time (docs/profibus.md): the measured bus cycle, last and longest (a line in
   // profibus.role "master" has none).
   const bc = s.line && s.line.bus_cycle_us;
-  if (bc) text += ' · bus cycle ' + bc.last + ' µs (max ' + bc.max + ' µs at ' +
+  if (bc) text += ' · bus cycle ' + us(bc.last) + ' (max ' + us(bc.max) + ' at ' +
     s.line.baud / 1000 + ' kbit/s)';
   const cyc = document.getElementById('cycle');
   setText(cyc, text);
@@ -156,7 +158,7 @@ function renderHeader(s) {
 
 function render(s) {
   renderHeader(s);
-  if (s.line) watchLine();
+  renderLine(s.line);
   renderTiles(s.gateways || [], makeTile, updateTile);
   renderTiles(s.slaves || [], makeSlaveTile, updateSlaveTile);
   if (s.full && wanted() === null && s.gateway_count === 1 && s.gateways.length === 1 &&
@@ -173,18 +175,67 @@ function render(s) {
   if (!document.body.dataset.drawn && s.gateway_count !== undefined &&
       tiles.size >= s.gateway_count + (s.slave_count || 0))
     requestAnimationFrame(() => { document.body.dataset.drawn = String(Math.round(performance.now())); });
+  markRendered(s);
+}
+
+// The first time the view the page opened on is complete (every tile; the open panel with its
+// slot rows or modules; the line view when there is a line): `data-rendered` on the body and the
+// performance mark `candp2-rendered`, ms since the page's navigation started (the browser tests
+// read them).
+function markRendered(s) {
+  if (document.body.dataset.rendered || s.gateway_count === undefined) return;
+  if (tiles.size < s.gateway_count + (s.slave_count || 0)) return;
+  if (wanted() !== null && !(open && open.panel)) return;
+  if (s.line && !line.view) return;
+  performance.mark('candp2-rendered');
+  document.body.dataset.rendered = String(Math.round(performance.now()));
+}
+
+function streamUrl(want, once) {
+  const q = (want === null ? [] : [want.kind + '=' + want.addr]).concat(once ? ['once'] : []);
+  return '/api/v1/events' + (q.length ? '?' + q.join('&') : '');
 }
 
 function connect(want) {
   if (source) source.close();
   const conn = document.getElementById('conn');
-  source = new EventSource('/api/v1/events' + (want === null ? '' : '?' + want.kind + '=' + want.addr));
+  source = new EventSource(streamUrl(want, false));
   source.addEventListener('status', ev => {
     setText(conn, 'live'); setClass(conn, 'conn on');
     render(JSON.parse(ev.data));
     animateLeds();
   });
   source.onerror = () => { setText(conn, 'reconnecting…'); setClass(conn, 'conn off'); };
+}
+
+// The stream's first event for `want`, fetched synchronously (the load event waits for it, so a
+// DOM dump after the load has the data), or null. One round of the live view: a few ms at one
+// gateway, tens at 122 × 48.
+function firstEvent(want) {
+  const x = new XMLHttpRequest();
+  try {
+    x.open('GET', streamUrl(want, true), false);
+    x.send();
+  } catch (e) {
+    return null;  // the daemon away: the stream will say so
+  }
+  const m = x.status === 200 && /^data: (.*)$/m.exec(x.responseText);
+  return m ? JSON.parse(m[1]) : null;
+}
+
+// Opening the page: the view from the first event, then the stream.
+function boot() {
+  let s = firstEvent(wanted());
+  if (s && wanted() === null && s.gateway_count === 1 && s.gateways.length === 1 && !s.slave_count) {
+    single = true;  // the demo: its panel at once
+    history.replaceState(null, '', '#gw=' + s.gateways[0].dp_address);
+    s = firstEvent(wanted());
+  }
+  show();
+  if (s) {
+    render(s);
+    animateLeds();
+  }
 }
 
 function animateLeds() {
@@ -200,14 +251,15 @@ function animateLeds() {
 setInterval(animateLeds, 40);
 
 // ---- the PROFIBUS line (docs/profibus.md "Line statistics"): live list and bus cycle ------------
-// Shown only when GET /api/v1/status has "line" (a line in time, profibus.role "master"): polled
-// once a second while it has, once at load otherwise (and again when the stream's header shows a
-// line). One tile per station: its address, its live state as a colour, its counters under the
-// document's names (the daemon's one table; none is listed here); the bus cycle's last, min,
-// mean and max over the last two minutes.
-const LINE_POLL_MS = 1000, LINE_POINTS = 120;
+// Shown only when the stream's header has "line" (a line in time, profibus.role "master"; the
+// same object as in GET /api/v1/status, and `counters`: the station counters' names in the
+// table's order). One tile per station: its address, its live state as a colour, its counters in
+// that order under the document's names (none is listed here); the bus cycle's last, min, mean
+// and max, a point a second over the last two minutes. The axis follows the running cycle (last,
+// min, mean): the max since the start (the start-up rotation) is drawn clipped to it.
+const LINE_POINT_MS = 1000, LINE_POINTS = 120;
 const LINE_SERIES = [['last', '#5fb3ff'], ['min', '#35e06b'], ['mean', '#d8dee6'], ['max', '#ffb62e']];
-const line = { timer: 0, polling: false, view: null, tiles: new Map(), cycle: {} };
+const line = { view: null, tiles: new Map(), cycle: {}, pointAt: -Infinity };
 for (const [k] of LINE_SERIES) line.cycle[k] = [];
 
 function lineView() {
@@ -216,11 +268,10 @@ function lineView() {
   v.info = el('span', { class: 'hw' });
   v.tiles = el('div', { class: 'tiles ltiles' });
   v.canvas = el('canvas');
-  // (The unit in the legend: the headings' capitals would make µs "ΜS".)
   v.plot = el('div', { class: 'card lplot' }, el('h3', { text: 'Bus cycle, last two minutes' }),
     v.canvas, el('div', { class: 'legend' },
       ...LINE_SERIES.map(([k, color]) => el('span', { style: 'color:' + color, text: '— ' + k + ' ' })),
-      'µs, a point a second'));
+      'a point a second'));
   v.root = document.getElementById('line');
   v.root.append(el('div', { class: 'card' }, el('div', { class: 'lhead' },
     el('h2', { text: 'PROFIBUS line' }), v.info), v.tiles), v.plot);
@@ -242,6 +293,10 @@ function lineTile(v, addr) {
 }
 
 function renderLine(l) {
+  if (!l) {  // no line (or none any more)
+    document.getElementById('line').hidden = true;
+    return;
+  }
   const v = lineView();
   v.root.hidden = false;
   const live = l.live_list || {};
@@ -259,7 +314,8 @@ function renderLine(l) {
     setText(x.addr, String(st.address).padStart(3, '0'));
     setText(x.live, st.live);
     setClass(x.root, 'tile ltile live-' + st.live);
-    kvSet(x.counters, Object.entries(st).filter(([k, val]) => k !== 'address' && typeof val === 'number'));
+    const names = l.counters || Object.keys(st).filter(k => k !== 'address' && typeof st[k] === 'number');
+    kvSet(x.counters, names.map(k => [k, st[k]]));
     const f = st.fault;
     setText(x.fault, f ? f.kind + (f.remaining_ms ? ' ' + f.remaining_ms + ' ms' : ' ×' + f.remaining) +
       (f.every > 1 ? ', every ' + f.every : '') : '');
@@ -270,36 +326,17 @@ function renderLine(l) {
   const c = l.bus_cycle_us;
   v.plot.hidden = !c;
   if (!c) return;
+  const now = performance.now();
+  if (now - line.pointAt < LINE_POINT_MS) return;
+  line.pointAt = now;
   for (const [k] of LINE_SERIES) {
     line.cycle[k].push(c[k]);
     if (line.cycle[k].length > LINE_POINTS) line.cycle[k].shift();
   }
   v.canvas.dataset.points = String(line.cycle.last.length);
-  plot(v.canvas, LINE_SERIES.map(([k, color]) => ({ data: line.cycle[k], color })),
-    { points: LINE_POINTS, label: '120 s' });
+  plot(v.canvas, LINE_SERIES.map(([k, color]) => ({ data: line.cycle[k], color, scale: k !== 'max' })),
+    { points: LINE_POINTS, label: '120 s', fmt: us, left: 52 });
 }
-
-function pollLine() {
-  line.timer = 0;
-  fetch('/api/v1/status', { cache: 'no-store' })
-    .then(r => r.ok ? r.json() : Promise.reject(new Error('HTTP ' + r.status)))
-    .then(s => {
-      if (!s.line) {  // no line (or none any more): stop until the stream shows one
-        line.polling = false;
-        document.getElementById('line').hidden = true;
-        return;
-      }
-      renderLine(s.line);
-      schedulePoll(LINE_POLL_MS);
-    })
-    .catch(() => schedulePoll(2 * LINE_POLL_MS));  // the daemon away: the stream says so
-}
-function schedulePoll(ms) {
-  line.polling = true;
-  if (!line.timer) line.timer = setTimeout(pollLine, ms);
-}
-function watchLine() { if (!line.polling) schedulePoll(0); }
 
 window.addEventListener('hashchange', show);
-show();
-schedulePoll(0);
+boot();

@@ -87,7 +87,18 @@ function age(ms) {
   return Math.round(ms / 60000) + ' min';
 }
 
+// A time in microseconds in the unit that reads: 912 µs, 252.4 ms, 1.17 s.
+function us(v) {
+  if (v < 1000) return Math.round(v) + ' µs';
+  if (v < 1e6) return (v / 1000).toFixed(1) + ' ms';
+  return (v / 1e6).toFixed(2) + ' s';
+}
+
 // ---- a line plot on a canvas (no library) ------------------------------------------------------
+// series: [{data, color, scale}]; a series with scale: false does not stretch the axis (drawn
+// clipped to it). opts: points (the width in points), label, min, max, fmt (an axis label's text),
+// left (the labels' width in pixels).
+
 function plot(canvas, series, opts) {
   const dpr = window.devicePixelRatio || 1;
   const w = canvas.clientWidth || 300, h = canvas.clientHeight || 120;
@@ -96,22 +107,24 @@ function plot(canvas, series, opts) {
   g.setTransform(dpr, 0, 0, dpr, 0, 0);
   g.clearRect(0, 0, w, h);
   let lo = opts.min ?? 0, hi = opts.max ?? 1;
-  for (const s of series) for (const v of s.data) { hi = Math.max(hi, v); lo = Math.min(lo, v); }
+  for (const s of series)
+    if (s.scale !== false) for (const v of s.data) { hi = Math.max(hi, v); lo = Math.min(lo, v); }
   if (hi === lo) hi = lo + 1;
-  const pad = 16, n = opts.points;
+  const fmt = opts.fmt || (v => Math.abs(hi - lo) < 10 ? v.toFixed(1) : String(Math.round(v)));
+  const pad = 16, n = opts.points, left = opts.left || 30;
   g.strokeStyle = '#2b3138'; g.lineWidth = 1; g.fillStyle = '#8a96a3'; g.font = '10px sans-serif';
   for (let k = 0; k <= 2; k++) {
     const y = pad + (h - 2 * pad) * k / 2;
-    g.beginPath(); g.moveTo(30, y); g.lineTo(w - 4, y); g.stroke();
+    g.beginPath(); g.moveTo(left, y); g.lineTo(w - 4, y); g.stroke();
     const v = hi - (hi - lo) * k / 2;
-    g.fillText(Math.abs(hi - lo) < 10 ? v.toFixed(1) : String(Math.round(v)), 2, y + 3);
+    g.fillText(fmt(v), 2, y + 3);
   }
-  g.fillText(opts.label || '', 34, h - 3);
+  g.fillText(opts.label || '', left + 4, h - 3);
   for (const s of series) {
     g.strokeStyle = s.color; g.fillStyle = s.color; g.lineWidth = 1.5; g.beginPath();
     s.data.forEach((v, i) => {
-      const x = 30 + (w - 34) * (n - s.data.length + i) / Math.max(1, n - 1);
-      const y = pad + (h - 2 * pad) * (hi - v) / (hi - lo);
+      const x = left + (w - left - 4) * (n - s.data.length + i) / Math.max(1, n - 1);
+      const y = pad + (h - 2 * pad) * (hi - Math.min(hi, Math.max(lo, v))) / (hi - lo);
       i ? g.lineTo(x, y) : g.moveTo(x, y);
       if (s.data.length === 1) g.fillRect(x - 2, y - 2, 4, 4);  // one point: a dot, not nothing
     });

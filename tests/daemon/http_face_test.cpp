@@ -91,8 +91,9 @@ constexpr const char* kConfig = R"({
 })";
 
 struct Face : ::testing::Test {
+  virtual std::string text() const { return kConfig; }
   void SetUp() override {
-    auto parsed = config::parse_daemon(kConfig, "face.json");
+    auto parsed = config::parse_daemon(text(), "face.json");
     ASSERT_TRUE(std::holds_alternative<config::DaemonConfig>(parsed));
     cfg = std::get<config::DaemonConfig>(parsed);
     std::string error;
@@ -240,6 +241,34 @@ TEST_F(Face, APanelOpenedLaterWaitsForARoundThatRefreshedIt) {
   EXPECT_EQ(e["open"], 4);
   EXPECT_EQ(e["panel"]["name"], "gw4");
   EXPECT_EQ(e["slots"].size(), 1u);
+}
+
+// The same plant on a 1.5 Mbit/s line in time (docs/profibus.md "The line in time").
+struct LineFace : Face {
+  std::string text() const override {
+    std::string t = kConfig;
+    const std::string cycle = R"("cycle_ms": 10 })";
+    t.replace(t.find(cycle), cycle.size(), R"("cycle_ms": 10, "baud": 1500000 })");
+    return t;
+  }
+};
+
+// docs/daemon.md "Server-Sent Events": the header's line is the status document's and names the
+// station counters in the table's order (docs/profibus.md "Line statistics"), which the page
+// lists them in; the status document's objects have their keys sorted and no such list.
+TEST_F(LineFace, TheStreamsLineNamesTheStationCountersInTheTablesOrder) {
+  http::LiveView view(*model);
+  http::LiveView::Cursor overview;
+  test::run_round(view, now, {});
+  json e = json::parse(view.compose(overview));
+  ASSERT_TRUE(e.contains("line")) << e.dump();
+  const json want = {"lost", "syncs", "repeats", "repeats_max", "illegals", "diagnostics"};
+  EXPECT_EQ(e["line"]["counters"], want);
+  ASSERT_EQ(e["line"]["stations"].size(), 2u);
+  json status = model->status(now)["line"];
+  EXPECT_FALSE(status.contains("counters"));
+  e["line"].erase("counters");
+  EXPECT_EQ(e["line"], status);
 }
 
 }  // namespace

@@ -107,6 +107,12 @@ class Browser:
         self.screenshot(path)
         self.call("Emulation.clearDeviceMetricsOverride")
 
+    def keep_page(self, path):
+        """screenshot_page() to `path`, asserted not blank (a dark page of text is > 10 kB)."""
+        self.screenshot_page(path)
+        assert os.path.getsize(path) > 10000, os.path.getsize(path)
+        print("screenshot: " + path)
+
     def close(self):
         try:
             self.ws.close()

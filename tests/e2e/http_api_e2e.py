@@ -7,6 +7,7 @@
   - read-only: POST, PUT, DELETE get 405 with "Allow: GET, HEAD"; unknown paths 404;
   - GET /metrics parsed by Debian's python3-prometheus-client with values asserted;
   - GET /api/v1/events: Server-Sent Events, rate-limited (never faster than every 100 ms);
+    `?once`: the first (full) event and the end of the answer, with the panel asked for;
   - a stalled SSE client (never reads) does not hold up the others: they keep receiving and
     requests are answered; closing it ends its stream.
 
@@ -163,6 +164,22 @@ def test_4_events(d):
     first = body.split(b"data: ", 1)[1].split(b"\n", 1)[0]
     assert json.loads(first)["gateways"][0]["dp_address"] == UNIT
     print("events: ok (%d snapshots in 1.5 s)" % events)
+
+
+def test_4_events_once(d):
+    """?once (the page's first render): one full event, then the answer ends by itself."""
+    for query, panel in (("?once", False), ("?gw=%d&once" % UNIT, True)):
+        t0 = time.monotonic()
+        code, headers, body = d.get("/api/v1/events" + query, timeout=5)
+        took = time.monotonic() - t0
+        assert code == 200 and headers["Content-Type"] == "text/event-stream", (code, headers)
+        assert body.count(b"event: status\ndata: ") == 1 and body.endswith(b"\n\n"), body[:300]
+        e = json.loads(body.split(b"data: ", 1)[1].split(b"\n", 1)[0])
+        assert e["full"] is True and e["gateways"][0]["dp_address"] == UNIT, e
+        assert ("open" in e) == panel, sorted(e)
+        if panel:
+            assert e["open"] == UNIT and e["panel"]["slot_count"] == len(e["slots"]) == 4, e
+        print("events%s: one event of %d bytes in %.0f ms" % (query, len(body), 1000 * took))
 
 
 def read_events(port, seconds):

@@ -24,6 +24,9 @@ def demo_config():
         return json.load(f)
 
 
+# docs/profibus.md "Line statistics": the counters of a station, in the table's order.
+STATION_COUNTERS = ["lost", "syncs", "repeats", "repeats_max", "illegals", "diagnostics"]
+
 LINE_GATEWAYS = 122  # DP addresses 3..124: the largest line the product allows
 LINE_SLOTS = 24      # outputs and as many inputs per gateway, 6 bytes each
 SLOT_LEN = 6
