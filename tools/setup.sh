@@ -229,26 +229,23 @@ stage_rows=()   # the table, one line per stage
 stage_note=""   # what a stage adds to its row (tests run, ccache hits), set by the stage
 stage_failed=() # the keys of failed stages
 
-# ccache's hits and misses so far ("hits misses"), to tell each build stage's share.
-ccache_counts() {
-  command -v ccache >/dev/null || { echo "0 0"; return; }
-  ccache --print-stats 2>/dev/null | awk '$1 ~ /^(direct|preprocessed)_cache_hit$/ {h += $2}
-    $1 == "cache_miss" {m = $2} END {print h + 0, m + 0}'
-}
-
 # stage KEY NAME COMMAND...: run COMMAND as the stage KEY unless CANDP2_STAGES leaves it out;
 # print its time, add its row.
 stage() {
-  local key=$1 name=$2 t=$SECONDS rc=0 result c0 c1
+  local key=$1 name=$2 t=$SECONDS rc=0 result cclog hits misses
   shift 2
   case " ${CANDP2_STAGES:-$all_stages} " in *" $key "*) ;; *) return 0 ;; esac
   echo "== $name"
   stage_note=""
-  read -r -a c0 <<<"$(ccache_counts)"
-  "$@" || rc=$?
-  read -r -a c1 <<<"$(ccache_counts)"
-  if [ "${c1[0]}" -ne "${c0[0]}" ] || [ "${c1[1]}" -ne "${c0[1]}" ]; then
-    stage_note="${stage_note:+$stage_note, }ccache $((c1[0] - c0[0])) hits $((c1[1] - c0[1])) misses"
+  # This stage's own compiler-cache hits and misses (ccache's stats log: other builds on the
+  # machine do not count).
+  cclog=$(mktemp)
+  CCACHE_STATSLOG=$cclog "$@" || rc=$?
+  hits=$(grep -cxE '(direct|preprocessed)_cache_hit' "$cclog" || true)
+  misses=$(grep -cx cache_miss "$cclog" || true)
+  rm -f "$cclog"
+  if [ "$hits" -gt 0 ] || [ "$misses" -gt 0 ]; then
+    stage_note="${stage_note:+$stage_note, }ccache $hits hits $misses misses"
   fi
   result=ok
   if [ $rc -ne 0 ]; then
