@@ -7,8 +7,9 @@
 #   tools/setup.sh test   install what is needed, build, run every test: the run command's own
 #                         build and a smoke test of it, the Debian package, unit and end-to-end
 #                         tests, the unit tests again under ASan/UBSan, every libFuzzer target for a
-#                         bounded time, and the SocketCAN tests inside a QEMU guest; development
-#                         builds with warnings as errors (CANDP2_WERROR)
+#                         bounded time, and the SocketCAN tests inside a QEMU guest; a compiler
+#                         warning in any of its builds fails it. Every stage prints its time, the
+#                         end a table of them (docs/development.md "The test command")
 #   tools/setup.sh deb    install what is needed, build, write dist/candp2_VERSION_ARCH.deb and
 #                         dist/python3-candp2_VERSION_all.deb
 #   tools/setup.sh deps [run|test|deb]   only install the packages (default: test, all of them)
@@ -16,7 +17,8 @@
 #
 # Each command installs only what it uses: `run` what the Release build and the daemon need,
 # `deb` adds packaging, `test` adds the tests (and builds the package too).
-# Environment: CANDP2_FUZZ_SECONDS (default 20 per target), CANDP2_JOBS (default: nproc).
+# Environment: CANDP2_FUZZ_SECONDS (default 20 per target), CANDP2_JOBS (default: nproc),
+# CANDP2_STAGES (test: only the stages named, default all of them; see all_stages below).
 # ccache is used when installed.
 set -euo pipefail
 
@@ -94,18 +96,18 @@ fi
 configure_build() {  # DIR [cmake args...]
   local dir=$1
   shift
-  cmake -S . -B "$dir" -G Ninja "${launcher[@]}" "$@" >/dev/null
-  cmake --build "$dir" -j "$jobs"
+  cmake -S . -B "$dir" -G Ninja "${launcher[@]}" "$@" >/dev/null &&
+    cmake --build "$dir" -j "$jobs"
 }
 
 # The run command's build, exactly what a user builds: Release, warnings not fatal (a new
 # compiler's false positive must not stop a user's build), only the user-facing executables.
 # `test` and `deb` use this very function and directory.
-release_dir=build-release
+release_dir="build-release"
 build_release() {
   cmake -S . -B "$release_dir" -G Ninja "${launcher[@]}" -DCMAKE_BUILD_TYPE=Release \
-    -DCANDP2_WERROR=OFF -DCANDP2_BENCH=OFF -DCANDP2_TESTS=OFF >/dev/null
-  cmake --build "$release_dir" -j "$jobs" --target candp2d candp2 candp2-drive
+    -DCANDP2_WERROR=OFF -DCANDP2_BENCH=OFF -DCANDP2_TESTS=OFF >/dev/null &&
+    cmake --build "$release_dir" -j "$jobs" --target candp2d candp2 candp2-drive
 }
 
 run_daemon() {
@@ -121,33 +123,59 @@ build_deb() {
   packaging/deb/build-deb.sh "$release_dir" dist
 }
 
-run_fuzzers() {
-  local dir=build-fuzz
-  CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -G Ninja "${launcher[@]}" -DCANDP2_FUZZ=ON \
-    -DCANDP2_APPS=OFF -DCANDP2_BENCH=OFF -DCANDP2_WERROR=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    >/dev/null
-  cmake --build "$dir" -j "$jobs"
-  local failed=0 ran=0
-  for f in "$dir"/fuzz/*; do
-    [ -x "$f" ] || continue
-    local name corpus
-    name=$(basename "$f")
-    corpus="tests/fuzz/corpus/$name"
-    local work="$dir/fuzz-work/$name"
-    mkdir -p "$work"
-    [ -d "$corpus" ] && cp -n "$corpus"/* "$work"/ 2>/dev/null || true
+# The fuzz build: the libFuzzer targets and what they link, nothing of the test suite
+# (CANDP2_TESTS=OFF; the target candp2_fuzzers).
+fuzz_dir="build-fuzz"
+build_fuzzers() {
+  CC=clang-14 CXX=clang++-14 cmake -S . -B "$fuzz_dir" -G Ninja "${launcher[@]}" -DCANDP2_FUZZ=ON \
+    -DCANDP2_TESTS=OFF -DCANDP2_APPS=OFF -DCANDP2_BENCH=OFF -DCANDP2_WERROR=ON \
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null &&
+    cmake --build "$fuzz_dir" -j "$jobs" --target candp2_fuzzers
+}
+
+# fuzz_one TARGET: one libFuzzer target for $fuzz_seconds on its corpus; its lines go to
+# WORK.out, its verdict (ok, FAILED) to WORK.result.
+fuzz_one() {
+  local f=$1 name corpus work result=ok
+  name=$(basename "$f")
+  corpus="tests/fuzz/corpus/$name"
+  work="$fuzz_dir/fuzz-work/$name"
+  mkdir -p "$work"
+  if [ -d "$corpus" ]; then cp -n "$corpus"/* "$work"/ 2>/dev/null || true; fi
+  {
     echo "fuzz: $name for ${fuzz_seconds}s"
     if "$f" -max_total_time="$fuzz_seconds" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-      -artifact_prefix="$dir/fuzz-work/$name-" "$work" >"$dir/fuzz-work/$name.log" 2>&1; then
-      echo "fuzz: $name ok ($(grep -m1 -o 'stat::number_of_executed_units: [0-9]*' "$dir/fuzz-work/$name.log"))"
+      -artifact_prefix="$work-" "$work" >"$work.log" 2>&1; then
+      echo "fuzz: $name ok ($(grep -m1 -o 'stat::number_of_executed_units: [0-9]*' "$work.log"))"
     else
       echo "fuzz: $name FAILED"
-      tail -40 "$dir/fuzz-work/$name.log"
-      failed=$((failed + 1))
+      tail -40 "$work.log"
+      result=FAILED
     fi
+  } >"$work.out"
+  echo "$result" >"$work.result"
+}
+
+# Every fuzz target, $jobs of them at a time (each one core, each its full time); their lines
+# in the targets' order.
+run_fuzzers() {
+  local f name failed=0 ran=0 targets=()
+  for f in "$fuzz_dir"/fuzz/*; do [ -x "$f" ] && targets+=("$f"); done
+  mkdir -p "$fuzz_dir/fuzz-work"
+  for f in "${targets[@]}"; do
+    rm -f "$fuzz_dir/fuzz-work/$(basename "$f").result"
+    while [ "$(jobs -rp | wc -l)" -ge "$jobs" ]; do wait -n || true; done
+    fuzz_one "$f" &
+  done
+  wait
+  for f in "${targets[@]}"; do
+    name=$(basename "$f")
+    cat "$fuzz_dir/fuzz-work/$name.out"
+    [ "$(cat "$fuzz_dir/fuzz-work/$name.result" 2>/dev/null)" = ok ] || failed=$((failed + 1))
     ran=$((ran + 1))
   done
   echo "fuzz: $ran targets, $failed failed"
+  stage_note="$ran targets, $failed failed"
   [ "$ran" -gt 0 ] && [ "$failed" -eq 0 ]
 }
 
@@ -192,64 +220,166 @@ ctest_failed() {
   if [ -f "$log" ]; then cut -d: -f2- "$log" | tr '\n' ' '; else echo "(no list)"; fi
 }
 
+# ---- The test command's stages (docs/development.md "The test command: stages and times").
+# Each stage prints its time; the end prints a table of every stage, its time and result, and the
+# total, also when a stage failed (the tail of a CI log is what a contributor reads).
+# CANDP2_STAGES (default: all) runs only the stages named, e.g. CANDP2_STAGES="fuzz-build fuzz-run".
+all_stages="packages release smoke deb dev-build dev-test asan-build asan-test fuzz-build fuzz-run"
+stage_rows=()   # the table, one line per stage
+stage_note=""   # what a stage adds to its row (tests run, ccache hits), set by the stage
+stage_failed=() # the keys of failed stages
+
+# stage KEY NAME COMMAND...: run COMMAND as the stage KEY unless CANDP2_STAGES leaves it out;
+# print its time, add its row.
+stage() {
+  local key=$1 name=$2 t=$SECONDS rc=0 result cclog hits misses
+  shift 2
+  case " ${CANDP2_STAGES:-$all_stages} " in *" $key "*) ;; *) return 0 ;; esac
+  echo "== $name"
+  stage_note=""
+  # This stage's own compiler-cache hits and misses (ccache's stats log: other builds on the
+  # machine do not count).
+  cclog=$(mktemp)
+  CCACHE_STATSLOG=$cclog "$@" || rc=$?
+  hits=$(grep -cxE '(direct|preprocessed)_cache_hit' "$cclog" || true)
+  misses=$(grep -cx cache_miss "$cclog" || true)
+  rm -f "$cclog"
+  if [ "$hits" -gt 0 ] || [ "$misses" -gt 0 ]; then
+    stage_note="${stage_note:+$stage_note, }ccache $hits hits $misses misses"
+  fi
+  result=ok
+  if [ $rc -ne 0 ]; then
+    result="FAILED"
+    stage_failed+=("$key")
+  fi
+  echo "setup: $name took $((SECONDS - t)) s ($result)"
+  stage_rows+=("$(printf '%-36s %5d s  %s' "$name" $((SECONDS - t)) "$result${stage_note:+ ($stage_note)}")")
+  return $rc
+}
+
+# not_run_after NAME BUILD_KEY: true (and a row saying so) when the build stage BUILD_KEY failed:
+# the stage NAME that needs that build is not run.
+not_run_after() {
+  local name=$1 build=$2
+  case " ${stage_failed[*]} " in
+    *" $build "*)
+      stage_rows+=("$(printf '%-36s %5s    %s' "$name" - "not run ($build failed)")")
+      return 0
+      ;;
+  esac
+  return 1
+}
+
+stage_table() {  # TOTAL_SECONDS
+  echo "setup: ---- stages (time, result) ----"
+  local row
+  for row in "${stage_rows[@]}"; do echo "setup: $row"; done
+  printf 'setup: %-36s %5d s\n' "total" "$1"
+}
+
+# ctest in build directory $1 with more arguments; the row notes how many tests ran.
+ctest_stage() {
+  local dir=$1 rc=0
+  shift
+  ctest --test-dir "$dir" --output-on-failure -j "$jobs" --timeout 600 "$@" | tee "$dir/ctest.log" ||
+    rc=$?
+  stage_note=$(grep -o '[0-9]* tests failed out of [0-9]*' "$dir/ctest.log" | tail -1)
+  return $rc
+}
+
+# warning_check LOG WHAT: a build must be warning-free, though warnings do not stop it (a user's
+# build, and the development build that shares its compiler flags): whatever LOG shows compiled is
+# checked for compiler warnings here.
+warning_check() {
+  local log=$1 what=$2
+  grep -q "warning:" "$log" || return 0
+  echo "setup: the $what printed compiler warnings (see above)"
+  # Our files the warnings name ("../http/x.cpp:52" in "inlined from ... at" and "In file
+  # included from" lines), then the first warning itself.
+  failures+=("$what: compiler warnings, at $(grep -o '\.\./[A-Za-z0-9_/.-]*\.[ch]pp:[0-9]*' \
+    "$log" | sort -u | tr '\n' ' ')- $(grep -m1 'warning:' "$log")")
+  return 1
+}
+
+# The run command's build (Release, warnings not fatal).
+release_stage() {
+  local log=$release_dir/build.log
+  mkdir -p "$release_dir"
+  if ! build_release 2>&1 | tee "$log"; then
+    failures+=("Release build failed")
+    return 1
+  fi
+  warning_check "$log" "Release build"
+}
+
+# The development build: everything (ctest runs every label on it). The very compiler flags of
+# the Release build above (Release, warnings checked by warning_check rather than -Werror), so that
+# every library and executable compiled there is a compiler-cache hit here: only the tests and
+# benchmarks are compiled anew.
+dev_build() {
+  local log=build/build.log
+  mkdir -p build
+  if ! configure_build build -DCMAKE_BUILD_TYPE=Release -DCANDP2_WERROR=OFF 2>&1 | tee "$log"; then
+    failures+=("dev build (build/) failed")
+    return 1
+  fi
+  warning_check "$log" "dev build"
+}
+
+# The sanitizer build: only what `ctest -L unit` runs (the target candp2_unit_tests).
+asan_build() {
+  cmake -S . -B build-asan -G Ninja "${launcher[@]}" -DCMAKE_BUILD_TYPE=Debug -DCANDP2_SANITIZE=ON \
+    -DCANDP2_BENCH=OFF -DCANDP2_APPS=OFF -DCANDP2_WERROR=ON >/dev/null &&
+    cmake --build build-asan -j "$jobs" --target candp2_unit_tests
+}
+
 run_tests() {
   vendor_setup
-  local status=0
+  local start=$SECONDS
   local failures=()  # one line per failed stage, repeated at the very end (CI shows the tail)
-  local t=$SECONDS
-  echo "== the run command's build (Release) and its smoke test"
-  # A user's build must be warning-free too, though warnings do not stop it there:
-  # whatever this build compiles is checked for compiler warnings here.
-  local release_log=$release_dir/build.log
-  mkdir -p "$release_dir"
-  if build_release 2>&1 | tee "$release_log"; then
-    if grep -q "warning:" "$release_log"; then
-      echo "setup: the Release build printed compiler warnings (see above)"
-      # Our files the warnings name ("../http/x.cpp:52" in "inlined from ... at" and "In file
-      # included from" lines), then the first warning itself.
-      failures+=("Release build: compiler warnings, at $(grep -o '\.\./[A-Za-z0-9_/.-]*\.[ch]pp:[0-9]*' \
-        "$release_log" | sort -u | tr '\n' ' ')- $(grep -m1 'warning:' "$release_log")")
-      status=1
-    fi
-  else
-    failures+=("Release build failed")
-    status=1
+
+  stage packages "packages (apt)" install_deps test || failures+=("installing the packages")
+  stage release "Release build (the run command's)" release_stage
+  if ! not_run_after "smoke test of the Release candp2d" release; then
+    stage smoke "smoke test of the Release candp2d" \
+      /usr/bin/python3 tests/e2e/run_smoke.py --candp2d "$release_dir/bin/candp2d" ||
+      failures+=("smoke test of the Release candp2d")
   fi
-  /usr/bin/python3 tests/e2e/run_smoke.py --candp2d "$release_dir/bin/candp2d" ||
-    { failures+=("smoke test of the Release candp2d"); status=1; }
-  echo "setup: Release build and smoke test took $((SECONDS - t)) s"
-
-  t=$SECONDS
-  echo "== the Debian package (dist/), tested by ctest's deb_package"
-  packaging/deb/build-deb.sh "$release_dir" dist || { failures+=("Debian package build"); status=1; }
-  echo "setup: Debian package took $((SECONDS - t)) s"
-
-  echo "== build and all tests (unit, e2e, replay, systemd, package, qemu)"
-  configure_build build -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCANDP2_WERROR=ON
-  if ! ctest --test-dir build --output-on-failure -j "$jobs" --timeout 600; then
-    failures+=("ctest (build): $(ctest_failed build)")
-    status=1
+  # The Debian package from the Release build above (tested by ctest's deb_package).
+  if ! not_run_after "Debian package (dist/)" release; then
+    stage deb "Debian package (dist/)" packaging/deb/build-deb.sh "$release_dir" dist ||
+      failures+=("Debian package build")
   fi
 
-  echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer"
-  configure_build build-asan -DCMAKE_BUILD_TYPE=Debug -DCANDP2_SANITIZE=ON -DCANDP2_BENCH=OFF \
-    -DCANDP2_APPS=OFF -DCANDP2_WERROR=ON
-  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
-    ctest --test-dir build-asan --output-on-failure -j "$jobs" -L unit --timeout 600 ||
-    { failures+=("ctest under sanitizers (build-asan): $(ctest_failed build-asan)"); status=1; }
+  stage dev-build "dev build (Release flags, all)" dev_build
+  if ! not_run_after "ctest, every label (build/)" dev-build; then
+    stage dev-test "ctest, every label (build/)" ctest_stage build ||
+      failures+=("ctest (build): $(ctest_failed build)")
+  fi
 
-  echo "== libFuzzer targets, ${fuzz_seconds}s each"
-  run_fuzzers || { failures+=("fuzzers (see fuzz: lines above)"); status=1; }
+  stage asan-build "ASan/UBSan build (unit tests)" asan_build || failures+=("ASan/UBSan build")
+  if ! not_run_after "ctest -L unit, ASan/UBSan" asan-build; then
+    ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
+      stage asan-test "ctest -L unit, ASan/UBSan" ctest_stage build-asan -L unit ||
+      failures+=("ctest under sanitizers (build-asan): $(ctest_failed build-asan)")
+  fi
+
+  stage fuzz-build "libFuzzer build (fuzz targets)" build_fuzzers || failures+=("libFuzzer build")
+  if ! not_run_after "libFuzzer, ${fuzz_seconds} s each" fuzz-build; then
+    stage fuzz-run "libFuzzer, ${fuzz_seconds} s each" run_fuzzers ||
+      failures+=("fuzzers (see fuzz: lines above)")
+  fi
 
   vendor_summary
-  if [ $status -eq 0 ]; then
+  stage_table $((SECONDS - start))
+  if [ ${#failures[@]} -eq 0 ]; then
     echo "setup: ALL TESTS PASSED"
-  else
-    local f
-    for f in "${failures[@]}"; do echo "setup: FAILED: $f"; done
-    echo "setup: SOME TESTS FAILED"
+    return 0
   fi
-  return $status
+  local f
+  for f in "${failures[@]}"; do echo "setup: FAILED: $f"; done
+  echo "setup: SOME TESTS FAILED"
+  return 1
 }
 
 case "${1:-}" in
@@ -259,7 +389,7 @@ case "${1:-}" in
     packages_for "$2"
     ;;
   run) install_deps run; shift; run_daemon "$@" ;;
-  test) install_deps test; run_tests ;;
+  test) run_tests ;;
   deb) install_deps deb; build_deb ;;
   *)
     echo "usage: $0 run|test|deb|deps [run|test|deb]|packages run|test|deb" >&2
