@@ -158,11 +158,22 @@ class GatewayUnit final : private can::FrameSink {
   std::optional<std::pair<can::BusState, std::uint32_t>> applied_;
 };
 
+// What a face shows of a drive (docs/daemon.md "HTTP face"): read through its unit, not the
+// engine.
+struct DriveStatus {
+  bool enabled = false;
+  drive::ControlMode mode = drive::ControlMode::Speed;
+  std::int16_t speed = 0;     // actual speed
+  std::int32_t position = 0;  // actual position
+  std::uint32_t status = 0;   // the status register
+};
+
 // One simulated drive on a virtual bus, behind its fault layer.
 class DriveUnit {
  public:
   const config::DriveConfig& config() const { return *cfg_; }
   const std::string& name() const { return cfg_->name; }
+  DriveStatus status() const;
   faults::FaultyDrive& drive() { return *drive_; }
   const faults::FaultyDrive& drive() const { return *drive_; }
   can::VirtualEndpoint& endpoint() { return *endpoint_; }

@@ -25,17 +25,9 @@
 #include "profibus_sim/fdl/fdl.hpp"
 #include "profibus_sim/fdl/fdl_slave.hpp"
 #include "profibus_sim/master/dp_master.hpp"
+#include "station/status.hpp"
 
 namespace candp2::plant {
-
-// The line figures the Modbus status block shows for one station (docs/modbus.md "Status block").
-struct LineStatus {
-  std::uint16_t role = 0;  // 1 role slaves, 2 role master
-  std::uint32_t telegrams = 0, fcs_errors = 0, other_errors = 0;
-  std::uint32_t requests = 0, retries = 0;
-  std::uint32_t response_us = 0, response_max_us = 0;
-  bool present = false;
-};
 
 class SlaveLine {
  public:
@@ -66,7 +58,7 @@ class SlaveLine {
   // Logs a station whose master went silent; call periodically.
   void check_presence(Time now);
 
-  std::optional<LineStatus> status(std::uint8_t address) const;
+  std::optional<station::LineStatus> status(std::uint8_t address) const;
   const fdl::ParserStats& line_stats() const { return front_.line_stats(); }
   const fdl::SlaveFrontEnd& front_end() const { return front_; }
 

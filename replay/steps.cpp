@@ -173,7 +173,7 @@ void Sim::expect_counters(const Step& s, StepResult& r) {
         bool all = true;
         d.clear();
         for (const auto& [name, want] : s.counters) {
-          const std::uint32_t got = station::field(name)->get(st);
+          const std::uint64_t got = station::field(name)->get(st);
           d += (d.empty() ? "" : ", ") + name + " " + std::to_string(got);
           all = all && got == want;
         }
