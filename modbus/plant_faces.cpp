@@ -260,14 +260,17 @@ std::optional<DecodeFailure> PlantLineAccess::write_faults(std::uint8_t address,
                          "line fault: give a count (8401) or for_ms (8403) above 0"};
   pending_.at(address) = p;
   if (kind) {
-    plant::TimedLine::Fault f;
-    f.kind = static_cast<fdl::StationFault>(*kind);
-    f.count = p.count;
-    f.every = p.every;
+    plant::LineFault f{.kind = plant::line_fault_kind(static_cast<fdl::StationFault>(*kind)),
+                       .station = address,
+                       .count = p.count,
+                       .every = p.every,
+                       .duration = std::nullopt};
     if (p.for_ms) f.duration = milliseconds(p.for_ms);
-    plant_.line_fault(address, f, now, kOrigin);
+    plant_.line_fault(f, now, kOrigin);
   }
-  if (noise) plant_.line_noise(milliseconds(*noise), now, kOrigin);
+  if (noise)
+    plant_.line_fault({.kind = plant::LineFaultKind::Noise, .duration = milliseconds(*noise)}, now,
+                      kOrigin);
   return std::nullopt;
 }
 

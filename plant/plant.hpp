@@ -255,9 +255,7 @@ class Plant final : public ControlSurface {
                          std::string_view origin) override;
   void power_cycle(SlaveUnit& s, Time now, std::string_view origin) override;
   void note(std::string_view text, Time now) override;
-  bool line_fault(std::uint8_t address, const TimedLine::Fault& fault, Time now,
-                  std::string_view origin) override;
-  bool line_noise(Duration duration, Time now, std::string_view origin) override;
+  bool line_fault(const LineFault& fault, Time now, std::string_view origin) override;
 
   // ---- inspection ---------------------------------------------------------------------------
   const config::DaemonConfig& config() const { return config_; }
@@ -302,6 +300,7 @@ class Plant final : public ControlSurface {
   std::uint64_t bus_changes() const { return bus_changes_; }
 
  private:
+  bool line_noise(Duration duration, std::string_view origin);
   friend class GatewayUnit;
   Plant(const config::DaemonConfig& config, Options options, Time now);
   bool build_parts(std::string* error);
