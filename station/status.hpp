@@ -15,6 +15,7 @@
 #include <string_view>
 
 #include "gateway/gateway.hpp"
+#include "plant/line_status.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::station {
@@ -27,16 +28,6 @@ struct BitrateStatus {
   bool mismatch = false;
 };
 
-// A station's line figures (docs/modbus.md "Status block"): the plant's slave line (role slaves)
-// or master line (role master) counts them, every face shows them.
-struct LineStatus {
-  std::uint16_t role = 0;  // 1 role slaves, 2 role master
-  std::uint32_t telegrams = 0, fcs_errors = 0, other_errors = 0;
-  std::uint32_t requests = 0, retries = 0;
-  std::uint32_t response_us = 0, response_max_us = 0;
-  bool present = false;
-};
-
 // Everything a station's status shows, gathered by the owner of gateway and master.
 struct Status {
   gw::GatewayStatus gateway;
@@ -47,7 +38,7 @@ struct Status {
   std::optional<dp::MasterSlaveState> master_state;
   std::uint32_t parameterizations = 0;
   std::uint8_t dp_address = 0;
-  std::optional<LineStatus> line;
+  std::optional<plant::LineStatus> line;  // the plant's line figures (plant/line_status.hpp)
   bool addressed = true;
   // Fault injection (docs/faults.md).
   std::uint16_t forced_state = 0;
