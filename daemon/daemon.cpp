@@ -397,8 +397,17 @@ bool DaemonImpl::start_http(std::string* error) {
               ": not a loopback address; the status page and API are readable from the network");
   monitors_ = std::make_unique<http::BusMonitors>(plant_->buses().size());
   plant_->add_tap(monitors_.get());
+  // The Modbus server's figures, handed to the HTTP face (which reads no other face).
+  std::function<http::ModbusFigures()> modbus_figures;
+  if (modbus_)
+    modbus_figures = [m = modbus_.get()] {
+      const auto& st = m->stats();
+      return http::ModbusFigures{st.requests, st.exceptions, m->client_count(),
+                                 st.clients_accepted};
+    };
   status_model_ = std::make_unique<http::StatusModel>(
-      http::make_sources(*plant_, faces_, monitors_.get(), modbus_.get()));
+      http::make_sources(*plant_, monitors_.get(), std::move(modbus_figures),
+                         [this](std::size_t g) { return bitrate(g); }));
   std::string e;
   http_ = http::HttpServer::listen(
       {.host = at.host,

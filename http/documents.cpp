@@ -137,7 +137,7 @@ void MetricsBuild::per_row(const station::Field& f, const station::Metric& m,
       out_ += '"';
     }
     out_ += "} ";
-    put(out_, std::uint64_t{modbus::field_value(r.block, f)});
+    put(out_, f.get(r.status));
     out_ += '\n';
   }
 }
@@ -149,9 +149,10 @@ bool MetricsBuild::step(Time now) {
   if (rows_.size() < gateways.size()) {
     for (std::size_t n = 0; n < kGatewaysPerStep && rows_.size() < gateways.size(); ++n) {
       const auto& g = gateways[rows_.size()];
-      rows_.push_back({"gateway=\"" + std::to_string(g.face->dp_address()) + "\",bus=\"" +
-                           g.cfg->bus + "\",name=\"" + g.cfg->name + "\"",
-                       g.face->status(now)});
+      const station::Status st = g.status(now);
+      rows_.push_back({"gateway=\"" + std::to_string(st.dp_address) + "\",bus=\"" + g.cfg->bus +
+                           "\",name=\"" + g.cfg->name + "\"",
+                       st});
     }
     return false;
   }
@@ -161,7 +162,7 @@ bool MetricsBuild::step(Time now) {
       const auto& sl = slaves[slave_rows_.size()];
       slave_rows_.push_back(
           {"address=\"" + std::to_string(sl.cfg->address) + "\",name=\"" + sl.cfg->name + "\"",
-           sl.face->status(now)});
+           sl.status(now)});
     }
     return false;
   }
@@ -210,12 +211,13 @@ void MetricsBuild::tail() {
     out_ += '\n';
   };
   if (src.modbus) {
+    const ModbusFigures m = src.modbus();
     family("candp2_modbus_requests_total", "counter",
            "Modbus/TCP requests answered (normal and exception answers)");
-    one("candp2_modbus_requests_total", "result=\"ok\"", src.modbus->stats().requests);
-    one("candp2_modbus_requests_total", "result=\"exception\"", src.modbus->stats().exceptions);
+    one("candp2_modbus_requests_total", "result=\"ok\"", m.requests);
+    one("candp2_modbus_requests_total", "result=\"exception\"", m.exceptions);
     family("candp2_modbus_clients", "gauge", "Modbus/TCP clients connected");
-    one("candp2_modbus_clients", "", src.modbus->client_count());
+    one("candp2_modbus_clients", "", m.clients);
   }
   const auto& h = model_.http_counters();
   family("candp2_http_connections", "gauge", "HTTP connections open");

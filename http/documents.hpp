@@ -12,7 +12,7 @@
 
 #include "common/time.hpp"
 #include "http/http_status.hpp"
-#include "modbus/modbus_map.hpp"
+#include "station/status.hpp"
 
 namespace candp2::http {
 
@@ -53,7 +53,7 @@ class StatusBuild final : public DocumentBuild {
   std::size_t slave_ = 0;
 };
 
-// Prometheus text format 0.0.4: the gateways' and the generic slaves' status blocks a few at a
+// Prometheus text format 0.0.4: the gateways' and the generic slaves' statuses a few at a
 // time, then one metric family per step.
 class MetricsBuild final : public DocumentBuild {
  public:
@@ -65,7 +65,7 @@ class MetricsBuild final : public DocumentBuild {
   void family(std::string_view name, std::string_view type, std::string_view help);
   struct Row {
     std::string labels;
-    modbus::StatusBlock block;
+    station::Status status;
   };
   // One family of the station table (station/status.hpp) over the gateways' or slaves' rows.
   void per_row(const station::Field& f, const station::Metric& m, const std::vector<Row>& rows);
@@ -74,7 +74,7 @@ class MetricsBuild final : public DocumentBuild {
   StatusModel& model_;
   bool started_ = false;
   std::vector<Row> rows_;
-  std::vector<Row> slave_rows_;  // the generic slaves' status blocks
+  std::vector<Row> slave_rows_;  // the generic slaves' statuses
   std::size_t family_ = 0;
   std::size_t slave_family_ = 0;
   bool done_ = false;

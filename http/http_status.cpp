@@ -30,12 +30,27 @@ double ms_since(Time now, Time then) {
   return static_cast<double>((now - then).count()) / 1000.0;
 }
 
-// The one line a tile shows when something is wrong, from the status block (docs/modbus.md):
-// the diagnosis' Prm/Cfg fault (manual §3.4), a CAN controller state other than ok, a master that
-// stopped addressing the gateway. Empty when all is well.
-std::string fault_text(const modbus::StatusBlock& b) {
-  using namespace modbus::status;
-  const auto d = [&](int i) { return b[kDiag + i]; };
+// A row of the station table (station/status.hpp) by name; a name the table lacks does not
+// compile.
+consteval const station::Field& row(std::string_view name) {
+  const station::Field* f = station::field(name);
+  if (!f) throw "no such field in station::kFields";
+  return *f;
+}
+
+// The four LEDs' codes (manual table 3.3.1) as the station table reads them.
+json leds(const station::Status& s) {
+  return {{"P", row("led_p").get(s)},
+          {"D", row("led_d").get(s)},
+          {"E", row("led_e").get(s)},
+          {"C", row("led_c").get(s)}};
+}
+
+// The one line a tile shows when something is wrong, from the station's status (docs/modbus.md
+// "Status block" lists the fields): the diagnosis' Prm/Cfg fault (manual §3.4), a CAN controller
+// state other than ok, a master that stopped addressing the gateway. Empty when all is well.
+std::string fault_text(const station::Status& s) {
+  const auto d = [&](int i) { return s.diag[static_cast<std::size_t>(i)]; };
   if (d(8) == 0x3D)
     return "Prm fault: byte " + std::to_string(d(9)) + ", expected 0x" +
            hex_bytes(std::array{static_cast<std::uint8_t>(d(10))});
@@ -44,8 +59,9 @@ std::string fault_text(const modbus::StatusBlock& b) {
   if (d(0) & 0x04) return "Cfg fault";
   if (d(0) & 0x40) return "Prm fault";
   static constexpr const char* kBus[] = {"", "CAN warning", "CAN error-passive", "CAN bus-off"};
-  if (b[kBusState] >= 1 && b[kBusState] <= 3) return kBus[b[kBusState]];
-  if (b[kAddressed] == 0) return "not addressed by the master";
+  const std::uint64_t bus = row("bus_state").get(s);
+  if (bus >= 1 && bus <= 3) return kBus[bus];
+  if (row("addressed").get(s) == 0) return "not addressed by the master";
   return "";
 }
 
@@ -94,21 +110,19 @@ void StatusModel::update_load(Time now) {
 
 json StatusModel::gateway_head(std::size_t index, Time now) const {
   const GatewaySource& g = src_.gateways[index];
-  using namespace modbus::status;
-  const auto block = g.face->status(now);
-  const auto st = g.unit->gateway().status();
+  const station::Status status = g.status(now);
+  const gw::GatewayStatus& st = status.gateway;
   json j;
   j["name"] = g.cfg->name;
   j["bus"] = g.cfg->bus;
-  j["dp_address"] = block[kDpAddress];
+  j["dp_address"] = row("dp_address").get(status);
   j["dp_state"] = std::string(dp::to_string(st.dp_state));
-  j["dp_state_code"] = block[kDpState];
+  j["dp_state_code"] = row("dp_state").get(status);
   const auto view = src_.master ? src_.master->slave(g.unit->gateway().address()) : std::nullopt;
   j["master_state"] = view ? std::string(dp::to_string(view->state)) : "";
-  // manual table 3.3.1, encoded once in modbus::encode_status (docs/modbus.md led codes).
-  j["leds"] = {{"P", block[kLedP]}, {"D", block[kLedD]}, {"E", block[kLedE]}, {"C", block[kLedC]}};
+  j["leds"] = leds(status);  // manual table 3.3.1, encoded once in station::led::codes
   json diag = json::array();
-  for (int i = 0; i < 11; ++i) diag.push_back(block[kDiag + i]);
+  for (const std::uint8_t b : status.diag) diag.push_back(b);
   j["diag"] = std::move(diag);
   j["bus_state"] = std::string(can::to_string(st.bus_state));
   j["released"] = st.released;
@@ -116,8 +130,7 @@ json StatusModel::gateway_head(std::size_t index, Time now) const {
   // The gateway's counters of the station table (station/status.hpp), and the master's count.
   json counters = json::object();
   for (const auto& f : station::fields())
-    if (f.shown & station::kGatewayCounters)
-      counters[std::string(f.name)] = modbus::field_value(block, f);
+    if (f.shown & station::kGatewayCounters) counters[std::string(f.name)] = f.get(status);
   counters["master_data_exchanges"] = view ? view->data_exchanges : 0u;
   j["counters"] = std::move(counters);
   j["fifo"] = {{"level", st.fifo_level}, {"high_water", st.fifo_high_water}};
@@ -209,10 +222,9 @@ json StatusModel::slot_json(std::size_t index, std::size_t i, Time now, bool age
 
 json StatusModel::tile(std::size_t index, Time now) {
   const GatewaySource& g = src_.gateways[index];
-  using namespace modbus::status;
-  const auto block = g.face->status(now);
+  const station::Status status = g.status(now);
   Rate& r = rates_[index];
-  const std::uint32_t rx = get32(block, kRxFrames), tx = get32(block, kTxFrames);
+  const std::uint32_t rx = status.gateway.rx_frames, tx = status.gateway.tx_frames;
   if (r.start == Time{0} || rx < r.rx || tx < r.tx) {  // first look, or a power cycle
     r = {now, rx, tx, 0, 0};
   } else if (now - r.start >= seconds(1)) {
@@ -220,12 +232,12 @@ json StatusModel::tile(std::size_t index, Time now) {
     r = {now, rx, tx, (rx - r.rx) / s, (tx - r.tx) / s};
   }
   json j;
-  j["dp_address"] = block[kDpAddress];
+  j["dp_address"] = row("dp_address").get(status);
   j["name"] = g.cfg->name;
   j["bus"] = g.cfg->bus;
-  j["leds"] = {{"P", block[kLedP]}, {"D", block[kLedD]}, {"E", block[kLedE]}, {"C", block[kLedC]}};
-  j["dp_state"] = std::string(dp::to_string(static_cast<dp::SlaveState>(block[kDpState])));
-  j["fault"] = fault_text(block);
+  j["leds"] = leds(status);
+  j["dp_state"] = std::string(dp::to_string(status.gateway.dp_state));
+  j["fault"] = fault_text(status);
   // Whole frames/s: a tile changes only when something a viewer can see changes.
   j["fps"] = {{"rx", std::lround(r.rx_fps)}, {"tx", std::lround(r.tx_fps)}};
   return j;
@@ -290,11 +302,11 @@ json StatusModel::line_json() const {
 
 json StatusModel::modbus_json() const {
   if (!src_.modbus) return nullptr;
-  const auto& ms = src_.modbus->stats();
-  return {{"requests", ms.requests},
-          {"exceptions", ms.exceptions},
-          {"clients", src_.modbus->client_count()},
-          {"clients_accepted", ms.clients_accepted}};
+  const ModbusFigures m = src_.modbus();
+  return {{"requests", m.requests},
+          {"exceptions", m.exceptions},
+          {"clients", m.clients},
+          {"clients_accepted", m.clients_accepted}};
 }
 
 json StatusModel::http_json() const {
@@ -345,13 +357,11 @@ json StatusModel::bus_json(std::size_t i, Time now, bool trace) {
 
 json StatusModel::drive_json(std::size_t i) const {
   const auto& d = src_.drives[i];
-  return {{"name", d.cfg->name},
-          {"bus", d.cfg->bus},
-          {"enabled", d.unit->drive().drive().enabled()},
-          {"mode", std::string(drive::to_string(d.unit->drive().drive().control_mode()))},
-          {"speed", d.unit->drive().drive().speed_actual()},
-          {"position", d.unit->drive().drive().position_actual()},
-          {"status", d.unit->drive().drive().status()}};
+  const plant::DriveStatus st = d.unit->status();
+  return {{"name", d.cfg->name},   {"bus", d.cfg->bus},
+          {"enabled", st.enabled}, {"mode", std::string(drive::to_string(st.mode))},
+          {"speed", st.speed},     {"position", st.position},
+          {"status", st.status}};
 }
 
 std::optional<std::size_t> StatusModel::bus_of(std::size_t gateway) const {

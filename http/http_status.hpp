@@ -6,12 +6,15 @@
 // loop's thread between two callbacks, so each piece it returns (one gateway, one slot row, the
 // head of the status) belongs to one instant between two master cycles. The HTTP face builds a
 // large status from such pieces over several loop turns (http/documents.hpp, http/live_view.hpp).
-// LED codes come from the Modbus status block (modbus::encode_status, manual table 3.3.1), so the
-// page, Modbus and /metrics can never disagree.
+// A station's fields, LED codes included (manual table 3.3.1), come from its status
+// (station::Status, gathered by station/gather.hpp) through the station table (station::kFields),
+// the one every face reads, so the page, Modbus and /metrics can never disagree; values show as
+// the status holds them (only Modbus saturates them to its registers). No other face is read.
 #pragma once
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <span>
 #include <string>
@@ -20,11 +23,10 @@
 #include "can/frame.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
-#include "modbus/modbus_map.hpp"
-#include "modbus/modbus_server.hpp"
 #include "plant/cycle_stats.hpp"
 #include "plant/timed_line.hpp"
 #include "profibus_sim/master/dp_master.hpp"
+#include "station/status.hpp"
 
 namespace candp2::plant {
 class GatewayUnit;
@@ -39,8 +41,6 @@ namespace candp2::http {
 // floor((n - 1) / 4) stuff bits, n = the stuffed part SOF..CRC = 34 + 8 * DLC (11-bit identifier)
 // or 54 + 8 * DLC (29-bit); remote frames carry no data bytes.
 std::uint32_t frame_bits_stuffed(const can::Frame& f);
-
-using modbus::get32;  // the status block's 32-bit counters (modbus/registers.hpp)
 
 // Every frame on one bus, counted and kept for the live trace. Fed exactly once per frame by the
 // plant's tap (http::BusMonitors, http/plant_sources.hpp).
@@ -66,14 +66,16 @@ class BusMonitor {
 struct GatewaySource {
   const config::GatewayConfig* cfg = nullptr;
   const plant::GatewayUnit* unit = nullptr;
-  modbus::GatewayFace* face = nullptr;  // the Modbus status block (LEDs, diagnosis, counters)
+  // Its status now (LEDs, diagnosis, counters; station/gather.hpp).
+  std::function<station::Status(Time)> status;
 };
 // A generic DP-V0 slave from its GSD (docs/slaves.md "Front panel and HTTP API").
 struct SlaveSource {
   const config::SlaveConfig* cfg = nullptr;
   const plant::SlaveUnit* unit = nullptr;
-  modbus::GatewayFace* face = nullptr;  // its status block and whole diagnosis, as Modbus has them
-  bool line = false;                    // on a profibus line in role slaves (else in-process)
+  std::function<station::Status(Time)> status;               // station/gather.hpp
+  std::function<std::vector<std::uint8_t>(Time)> diagnosis;  // the whole Slave_Diag answer
+  bool line = false;  // on a profibus line in role slaves (else in-process)
 };
 struct BusSource {
   const config::BusConfig* cfg = nullptr;
@@ -101,6 +103,14 @@ struct HttpCounters {
   std::uint64_t work_us_max = 0;        // the longest slice of snapshot work in one loop turn
 };
 
+// The Modbus face's figures, handed over by candp2d (the HTTP face reads no other face).
+struct ModbusFigures {
+  std::uint64_t requests = 0;    // answered normally
+  std::uint64_t exceptions = 0;  // answered with an exception
+  std::uint64_t clients = 0;     // connected now
+  std::uint64_t clients_accepted = 0;
+};
+
 struct StatusSources {
   const dp::DpMaster* master = nullptr;
   std::uint32_t cycle_ms = 10;
@@ -111,8 +121,8 @@ struct StatusSources {
   // What an analyser counts on the line (docs/profibus.md "Line statistics"): the timed line's or
   // in role master the FDL master's; null otherwise.
   const fdl::LineStatistics* line_stats = nullptr;
-  std::uint32_t line_baud = 0;  // of the line the statistics are counted on
-  const modbus::ModbusServer* modbus = nullptr;
+  std::uint32_t line_baud = 0;            // of the line the statistics are counted on
+  std::function<ModbusFigures()> modbus;  // empty: no Modbus face
   std::vector<GatewaySource> gateways;
   std::vector<SlaveSource> slaves;
   std::vector<BusSource> buses;

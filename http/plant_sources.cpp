@@ -8,8 +8,8 @@ void BusMonitors::on_can(const plant::CanRecord& r) {
   if (r.bus < buses_.size()) buses_[r.bus].on_frame(r.frame, r.time);
 }
 
-StatusSources make_sources(plant::Plant& plant, const modbus::PlantFaces& faces,
-                           const BusMonitors* monitors, const modbus::ModbusServer* modbus) {
+StatusSources make_sources(plant::Plant& plant, const BusMonitors* monitors,
+                           std::function<ModbusFigures()> modbus, station::BitrateFn bitrate) {
   StatusSources src;
   src.master = &plant.master();
   src.cycle_ms = plant.config().cycle_ms;
@@ -20,9 +20,11 @@ StatusSources make_sources(plant::Plant& plant, const modbus::PlantFaces& faces,
     src.line_baud = src.line->baud();
   else if (plant.master_line())
     src.line_baud = plant.config().profibus->baud;  // role master: the real line's rate
-  src.modbus = modbus;
+  src.modbus = std::move(modbus);
   for (const auto& g : plant.gateways())
-    src.gateways.push_back({&g->config(), g.get(), faces.gateways.at(g->index()).get()});
+    src.gateways.push_back({&g->config(), g.get(), [&plant, unit = g.get(), bitrate](Time now) {
+                              return station::gateway_status(plant, *unit, now, bitrate);
+                            }});
   for (const auto& b : plant.buses()) {
     BusSource bs{&b->config(), monitors ? &monitors->at(b->index()) : nullptr, 0};
     for (const auto& g :
@@ -33,9 +35,11 @@ StatusSources make_sources(plant::Plant& plant, const modbus::PlantFaces& faces,
   }
   for (const auto& d : plant.drives()) src.drives.push_back({&d->config(), d.get()});
   for (const auto& s : plant.slaves())
-    for (const auto& f : faces.gateways)
-      if (f->dp_address() == s->config().address)
-        src.slaves.push_back({&s->config(), s.get(), f.get(), plant.slave_line() != nullptr});
+    src.slaves.push_back(
+        {&s->config(), s.get(),
+         [&plant, unit = s.get()](Time now) { return station::slave_status(plant, *unit, now); },
+         [unit = s.get()](Time now) { return station::slave_diagnosis(*unit, now); },
+         plant.slave_line() != nullptr});
   return src;
 }
 

@@ -4,16 +4,13 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <vector>
 
 #include "http/http_status.hpp"
-#include "modbus/plant_faces.hpp"
 #include "plant/plant.hpp"
 #include "plant/tap.hpp"
-
-namespace candp2::modbus {
-class ModbusServer;
-}
+#include "station/gather.hpp"
 
 namespace candp2::http {
 
@@ -30,13 +27,13 @@ class BusMonitors final : public plant::Tap {
 };
 
 // The status model's sources for `plant`: the master, its cycle and period; every gateway and
-// generic slave (docs/slaves.md "Front panel and HTTP API") with the Modbus face of its DP address
-// from `faces` (the status block Modbus shows, so the page, Modbus and /metrics never disagree);
-// every bus with its monitor from `monitors` (none when null) and the CAN bit rate its first
-// gateway is configured to (manual table 5.1.1); every drive; `modbus` for the server's figures
-// (none when null).
-StatusSources make_sources(plant::Plant& plant, const modbus::PlantFaces& faces,
-                           const BusMonitors* monitors = nullptr,
-                           const modbus::ModbusServer* modbus = nullptr);
+// generic slave (docs/slaves.md "Front panel and HTTP API") with its status as station/gather.hpp
+// gathers it for every face (gateways with their bit rate group from `bitrate`), so the page,
+// Modbus and /metrics never disagree; every bus with its monitor from `monitors` (none when null)
+// and the CAN bit rate its first gateway is configured to (manual table 5.1.1); every drive;
+// `modbus` for the Modbus server's figures (none when empty).
+StatusSources make_sources(plant::Plant& plant, const BusMonitors* monitors = nullptr,
+                           std::function<ModbusFigures()> modbus = {},
+                           station::BitrateFn bitrate = {});
 
 }  // namespace candp2::http

@@ -1,7 +1,7 @@
 // The generic DP-V0 slaves in the HTTP face (docs/slaves.md "Front panel and HTTP API",
 // docs/daemon.md "HTTP face"): a slave's overview tile and its whole state, read from the slave
-// (gsd_slave::GsdSlave) and from its Modbus face (the status block and the whole diagnosis), so
-// the page, Modbus and /metrics can never disagree.
+// (gsd_slave::GsdSlave) and from its status and whole diagnosis (station/gather.hpp), so the page,
+// Modbus and /metrics can never disagree.
 
 #include "common/hex.hpp"
 #include "gsd/cfg.hpp"
@@ -96,7 +96,7 @@ json modules_json(const SlaveSource& s) {
 
 json StatusModel::slave_tile(std::size_t index, Time now) const {
   const SlaveSource& s = src_.slaves[index];
-  const auto diag = s.face->diagnosis(now);
+  const auto diag = s.diagnosis(now);
   const auto view = src_.master ? src_.master->slave(s.cfg->address) : std::nullopt;
   return {{"dp_address", s.cfg->address},
           {"name", s.cfg->name},
@@ -110,9 +110,8 @@ json StatusModel::slave_json(std::size_t index, Time now) const {
   const SlaveSource& s = src_.slaves[index];
   const auto& g = s.unit->slave();
   const auto& p = g.profile();
-  using namespace modbus::status;
-  const auto block = s.face->status(now);
-  const auto diag = s.face->diagnosis(now);
+  const station::Status status = s.status(now);
+  const auto diag = s.diagnosis(now);
   const auto view = src_.master ? src_.master->slave(s.cfg->address) : std::nullopt;
   json j;
   j["name"] = s.cfg->name;
@@ -125,7 +124,7 @@ json StatusModel::slave_json(std::size_t index, Time now) const {
   j["field_unit"] = s.cfg->field_unit ? json(*s.cfg->field_unit) : json(nullptr);
   j["watchdog_ms"] = s.cfg->watchdog_ms;
   j["dp_state"] = std::string(dp::to_string(g.dp().state()));
-  j["dp_state_code"] = block[kDpState];
+  j["dp_state_code"] = station::field("dp_state")->get(status);
   if (view)
     j["master"] = {{"state", std::string(dp::to_string(view->state))},
                    {"data_exchanges", view->data_exchanges},
@@ -136,8 +135,7 @@ json StatusModel::slave_json(std::size_t index, Time now) const {
     j["master"] = nullptr;         // no built-in master drives it (profibus role slaves)
   json counters = json::object();  // the station table's (station/status.hpp)
   for (const auto& f : station::fields())
-    if (f.shown & station::kSlaveCounters)
-      counters[std::string(f.name)] = modbus::field_value(block, f);
+    if (f.shown & station::kSlaveCounters) counters[std::string(f.name)] = f.get(status);
   j["counters"] = std::move(counters);
 
   // The whole diagnosis (docs/slaves.md "Diagnosis"): 6 standard bytes, then Ext_Diag_Data.

@@ -14,11 +14,6 @@ constexpr std::string_view kOrigin = "over Modbus";
 
 namespace {
 
-// What every station's status block shares: station/gather.hpp.
-StatusInputs station_inputs(plant::Plant& plant, std::uint8_t address) {
-  return station::common_status(plant, address);
-}
-
 // The commands every station takes alike (docs/faults.md): 2 re-parameterize, 3 / 4 the master
 // stops / resumes addressing it; the others (0 nothing, 1 power cycle) are not done here.
 void station_control(plant::Plant& plant, std::uint8_t address, Control command, Time now) {
@@ -41,12 +36,7 @@ void station_control(plant::Plant& plant, std::uint8_t address, Control command,
 // ------------------------------------------------------------------------------ local gateway
 
 StatusBlock PlantGatewayFace::status(Time now) {
-  StatusInputs in = station_inputs(plant_, unit_.gateway().address());
-  station::add_gateway(in, unit_);
-  in.diag = unit_.gateway().dp().slave_diag(now);
-  if (bitrate_)
-    if (auto b = bitrate_(unit_.index())) in.bitrate = *b;
-  return encode_status(in);
+  return encode_status(station::gateway_status(plant_, unit_, now, bitrate_));
 }
 
 std::vector<std::uint8_t> PlantGatewayFace::diagnosis(Time now) {
@@ -76,22 +66,7 @@ std::uint16_t PlantGatewayFace::drop_remaining() const {
 // ----------------------------------------------------------------------------- remote station
 
 StatusBlock RemoteStationFace::status(Time) {
-  StatusInputs in = station_inputs(plant_, address_);
-  if (const auto v = plant_.master().slave(address_)) {
-    if (v->last_diag) in.diag = *v->last_diag;
-    // The slave's DP state as the master knows it (docs/profibus.md role master).
-    switch (v->state) {
-      case dp::MasterSlaveState::DataExch:
-        in.gateway.dp_state = dp::SlaveState::DataExch;
-        break;
-      case dp::MasterSlaveState::ChkCfg:
-        in.gateway.dp_state = dp::SlaveState::WaitCfg;
-        break;
-      default:
-        in.gateway.dp_state = dp::SlaveState::WaitPrm;
-    }
-  }
-  return encode_status(in);
+  return encode_status(station::remote_status(plant_, address_));
 }
 
 void RemoteStationFace::control(Control command, Time now) {
@@ -117,16 +92,11 @@ std::optional<std::string> RemoteStationFace::refuses(Control command) const {
 // ------------------------------------------------------------------------------ generic slave
 
 StatusBlock GenericSlaveFace::status(Time now) {
-  auto& dp = unit_.slave().dp();
-  StatusInputs in = station_inputs(plant_, dp.info().address);
-  in.leds = false;  // docs/slaves.md "Modbus": a generic slave has no CAN-DP/2 front plate
-  in.gateway.dp_state = dp.state();
-  in.diag = dp.slave_diag(now);
-  return encode_status(in);
+  return encode_status(station::slave_status(plant_, unit_, now));
 }
 
 std::vector<std::uint8_t> GenericSlaveFace::diagnosis(Time now) {
-  return unit_.slave().dp().diagnosis(now);
+  return station::slave_diagnosis(unit_, now);
 }
 
 void GenericSlaveFace::control(Control command, Time now) {
@@ -290,14 +260,17 @@ std::optional<DecodeFailure> PlantLineAccess::write_faults(std::uint8_t address,
                          "line fault: give a count (8401) or for_ms (8403) above 0"};
   pending_.at(address) = p;
   if (kind) {
-    plant::TimedLine::Fault f;
-    f.kind = static_cast<fdl::StationFault>(*kind);
-    f.count = p.count;
-    f.every = p.every;
+    plant::LineFault f{.kind = plant::line_fault_kind(static_cast<fdl::StationFault>(*kind)),
+                       .station = address,
+                       .count = p.count,
+                       .every = p.every,
+                       .duration = std::nullopt};
     if (p.for_ms) f.duration = milliseconds(p.for_ms);
-    plant_.line_fault(address, f, now, kOrigin);
+    plant_.line_fault(f, now, kOrigin);
   }
-  if (noise) plant_.line_noise(milliseconds(*noise), now, kOrigin);
+  if (noise)
+    plant_.line_fault({.kind = plant::LineFaultKind::Noise, .duration = milliseconds(*noise)}, now,
+                      kOrigin);
   return std::nullopt;
 }
 

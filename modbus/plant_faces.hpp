@@ -15,11 +15,11 @@
 #include "modbus/modbus_map.hpp"
 #include "plant/plant.hpp"
 #include "plant/slave_line.hpp"
+#include "station/gather.hpp"
 
 namespace candp2::modbus {
 
-// The CAN bit rate group of gateway `index` (the daemon's SocketCAN supervisor), if any.
-using BitrateFn = std::function<std::optional<BitrateStatus>(std::size_t gateway)>;
+using BitrateFn = station::BitrateFn;
 
 class PlantGatewayFace final : public GatewayFace {
  public:

@@ -56,10 +56,12 @@ StatusBlock encode_status(const StatusInputs& in) {
         b[f.offset + i] = in.diag[i];
       continue;
     }
-    const std::uint32_t v = row.get(in);
+    // The one face that saturates: a value to its 16 or 32 bits (docs/modbus.md).
+    const std::uint64_t v = row.get(in);
     if (f.registers == 2) {
-      b[f.offset] = static_cast<std::uint16_t>(v >> 16);
-      b[f.offset + 1] = static_cast<std::uint16_t>(v & 0xFFFF);
+      const std::uint32_t x = station::sat32(v);
+      b[f.offset] = static_cast<std::uint16_t>(x >> 16);
+      b[f.offset + 1] = static_cast<std::uint16_t>(x & 0xFFFF);
     } else {
       b[f.offset] = static_cast<std::uint16_t>(station::sat16(v));
     }

@@ -134,22 +134,24 @@ void Plant::power_cycle(SlaveUnit& s, Time now, std::string_view origin) {
   restarted(s.config().address);
 }
 
-bool Plant::line_fault(std::uint8_t address, const TimedLine::Fault& fault, Time now,
-                       std::string_view origin) {
+bool Plant::line_fault(const LineFault& fault, Time now, std::string_view origin) {
   set_now(now);
+  if (fault.kind == LineFaultKind::Noise)
+    return line_noise(fault.duration.value_or(Duration{0}), origin);
+  const std::uint8_t address = fault.station;
   const std::string name = station_name(address);
   if (!timed_line_) {
     log_.warn(name + ": line fault requested " + std::string(origin) +
               " ignored: the line has no baud rate ($.master.baud, docs/profibus.md)");
     return false;
   }
-  if (!timed_line_->inject(address, fault, now_)) {
+  if (!timed_line_->inject(fault, now_)) {
     log_.warn("line fault requested " + std::string(origin) + " for station " +
               std::to_string(address) + " ignored: no such station on the line");
     return false;
   }
-  std::string what = "line fault " + std::string(fdl::to_string(fault.kind));
-  if (fault.kind != fdl::StationFault::None) {
+  std::string what = "line fault " + std::string(to_string(fault.kind));
+  if (fault.kind != LineFaultKind::None) {
     what += fault.duration ? " for " + std::to_string(fault.duration->count() / 1000) + " ms"
                            : ", " + std::to_string(fault.count) + " answer(s)";
     if (fault.every > 1) what += ", one in every " + std::to_string(fault.every);
@@ -159,8 +161,7 @@ bool Plant::line_fault(std::uint8_t address, const TimedLine::Fault& fault, Time
   return true;
 }
 
-bool Plant::line_noise(Duration duration, Time now, std::string_view origin) {
-  set_now(now);
+bool Plant::line_noise(Duration duration, std::string_view origin) {
   if (!timed_line_) {
     log_.warn("line noise requested " + std::string(origin) +
               " ignored: the line has no baud rate ($.master.baud, docs/profibus.md)");

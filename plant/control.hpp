@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "common/time.hpp"
-#include "plant/timed_line.hpp"
+#include "plant/line_fault.hpp"
 
 namespace candp2::plant {
 
@@ -50,9 +50,7 @@ class ControlSurface {
   virtual void note(std::string_view text, Time now) = 0;
   // Faults on cue on the line in time (docs/faults.md "Line faults"): a station's answers, or
   // noise on the whole line. False (the reason logged) without a timed line or such a station.
-  virtual bool line_fault(std::uint8_t address, const TimedLine::Fault& fault, Time now,
-                          std::string_view origin) = 0;
-  virtual bool line_noise(Duration duration, Time now, std::string_view origin) = 0;
+  virtual bool line_fault(const LineFault& fault, Time now, std::string_view origin) = 0;
 };
 
 }  // namespace candp2::plant

@@ -336,6 +336,11 @@ SlaveUnit* Plant::slave_at(std::uint8_t dp_address) {
   return nullptr;
 }
 
+DriveStatus DriveUnit::status() const {
+  const auto& d = drive_->drive();
+  return {d.enabled(), d.control_mode(), d.speed_actual(), d.position_actual(), d.status()};
+}
+
 DriveUnit* Plant::drive(std::string_view name) {
   for (auto& d : drives_)
     if (d->name() == name) return d.get();

@@ -158,11 +158,22 @@ class GatewayUnit final : private can::FrameSink {
   std::optional<std::pair<can::BusState, std::uint32_t>> applied_;
 };
 
+// What a face shows of a drive (docs/daemon.md "HTTP face"): read through its unit, not the
+// engine.
+struct DriveStatus {
+  bool enabled = false;
+  drive::ControlMode mode = drive::ControlMode::Speed;
+  std::int16_t speed = 0;     // actual speed
+  std::int32_t position = 0;  // actual position
+  std::uint32_t status = 0;   // the status register
+};
+
 // One simulated drive on a virtual bus, behind its fault layer.
 class DriveUnit {
  public:
   const config::DriveConfig& config() const { return *cfg_; }
   const std::string& name() const { return cfg_->name; }
+  DriveStatus status() const;
   faults::FaultyDrive& drive() { return *drive_; }
   const faults::FaultyDrive& drive() const { return *drive_; }
   can::VirtualEndpoint& endpoint() { return *endpoint_; }
@@ -244,9 +255,7 @@ class Plant final : public ControlSurface {
                          std::string_view origin) override;
   void power_cycle(SlaveUnit& s, Time now, std::string_view origin) override;
   void note(std::string_view text, Time now) override;
-  bool line_fault(std::uint8_t address, const TimedLine::Fault& fault, Time now,
-                  std::string_view origin) override;
-  bool line_noise(Duration duration, Time now, std::string_view origin) override;
+  bool line_fault(const LineFault& fault, Time now, std::string_view origin) override;
 
   // ---- inspection ---------------------------------------------------------------------------
   const config::DaemonConfig& config() const { return config_; }
@@ -291,6 +300,7 @@ class Plant final : public ControlSurface {
   std::uint64_t bus_changes() const { return bus_changes_; }
 
  private:
+  bool line_noise(Duration duration, std::string_view origin);
   friend class GatewayUnit;
   Plant(const config::DaemonConfig& config, Options options, Time now);
   bool build_parts(std::string* error);

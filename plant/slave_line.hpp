@@ -21,21 +21,13 @@
 #include "common/log.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
+#include "plant/line_status.hpp"
 #include "plant/tap.hpp"
 #include "profibus_sim/fdl/fdl.hpp"
 #include "profibus_sim/fdl/fdl_slave.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::plant {
-
-// The line figures the Modbus status block shows for one station (docs/modbus.md "Status block").
-struct LineStatus {
-  std::uint16_t role = 0;  // 1 role slaves, 2 role master
-  std::uint32_t telegrams = 0, fcs_errors = 0, other_errors = 0;
-  std::uint32_t requests = 0, retries = 0;
-  std::uint32_t response_us = 0, response_max_us = 0;
-  bool present = false;
-};
 
 class SlaveLine {
  public:

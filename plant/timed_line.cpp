@@ -30,21 +30,21 @@ class TimedLine::Station final : public dp::SlaveLink {
   fdl::FcbSequence seq_;
 
   // The fault on cue (docs/faults.md "Line faults") and how far it has gone.
-  Fault fault_;
+  LineFault fault_;
   std::uint32_t remaining_ = 0;
   std::uint64_t received_ = 0;  // requests received since it was injected
   Time until_{0};
   // The fault the answer to a request received at `t` gets (None: none).
   fdl::StationFault applies(Time t) {
-    if (fault_.kind == fdl::StationFault::None) return fault_.kind;
+    if (fault_.kind == LineFaultKind::None) return fdl::StationFault::None;
     if (fault_.duration && t >= until_) {
-      fault_.kind = fdl::StationFault::None;
-      return fault_.kind;
+      fault_.kind = LineFaultKind::None;
+      return fdl::StationFault::None;
     }
     const std::uint64_t n = received_++;
     if (n % std::max<std::uint32_t>(fault_.every, 1) != 0) return fdl::StationFault::None;
-    const fdl::StationFault kind = fault_.kind;
-    if (!fault_.duration && --remaining_ == 0) fault_.kind = fdl::StationFault::None;
+    const fdl::StationFault kind = station_fault(fault_.kind);
+    if (!fault_.duration && --remaining_ == 0) fault_.kind = LineFaultKind::None;
     return kind;
   }
 };
@@ -76,16 +76,16 @@ void TimedLine::restarted(std::uint8_t address) {
   }
 }
 
-bool TimedLine::inject(std::uint8_t address, const Fault& fault, Time now) {
-  const auto it = stations_.find(address);
+bool TimedLine::inject(const LineFault& fault, Time now) {
+  const auto it = stations_.find(fault.station);
   if (it == stations_.end()) return false;
   Station& s = *it->second;
   s.fault_ = fault;
   s.remaining_ = fault.count;
   s.received_ = 0;
   s.until_ = fault.duration ? now + *fault.duration : Time{0};
-  if (fault.kind != fdl::StationFault::None && !fault.duration && fault.count == 0)
-    s.fault_.kind = fdl::StationFault::None;
+  if (fault.kind == LineFaultKind::Noise || (!fault.duration && fault.count == 0))
+    s.fault_.kind = LineFaultKind::None;
   return true;
 }
 
@@ -98,12 +98,13 @@ TimedLine::FaultState TimedLine::fault(std::uint8_t address, Time now) const {
   const auto it = stations_.find(address);
   if (it == stations_.end()) return {};
   const Station& s = *it->second;
-  if (s.fault_.kind == fdl::StationFault::None) return {};
+  if (s.fault_.kind == LineFaultKind::None) return {};
+  const fdl::StationFault kind = station_fault(s.fault_.kind);
   if (s.fault_.duration) {
     if (now >= s.until_) return {};
-    return {s.fault_.kind, 0, s.fault_.every, s.until_ - now};
+    return {kind, 0, s.fault_.every, s.until_ - now};
   }
-  return {s.fault_.kind, s.remaining_, s.fault_.every, Duration(0)};
+  return {kind, s.remaining_, s.fault_.every, Duration(0)};
 }
 
 bool TimedLine::noisy(std::uint64_t bit) const {

@@ -27,6 +27,7 @@
 
 #include "common/log.hpp"
 #include "common/time.hpp"
+#include "plant/line_fault.hpp"
 #include "profibus_sim/dp/slave_link.hpp"
 #include "profibus_sim/fdl/dp_wire.hpp"
 #include "profibus_sim/fdl/line_stats.hpp"
@@ -110,13 +111,8 @@ class TimedLine {
   // Faults on cue (docs/faults.md "Line faults"). A station's fault applies to one answer in every
   // `every` requests it receives (repeats included), `count` times, or for `duration` instead; a
   // new fault replaces the one before, kind None cancels. False: no such station.
-  struct Fault {
-    fdl::StationFault kind = fdl::StationFault::None;
-    std::uint32_t count = 1;
-    std::uint32_t every = 1;
-    std::optional<Duration> duration;
-  };
-  bool inject(std::uint8_t address, const Fault& fault, Time now);
+  // A station's fault (plant/line_fault.hpp; noise has noise()). False: no such station.
+  bool inject(const LineFault& fault, Time now);
   // Every telegram that starts on the line from now for `duration` is garbled.
   void noise(Duration duration, Time now);
   // The station's active fault: kind, remaining count (0 with a duration), every, remaining time.

@@ -137,14 +137,15 @@ std::string expect_field_text(const Step& st, std::string s) {
 }
 
 std::string line_fault_text(const Step& st, std::string s) {
+  const plant::LineFault& f = st.line_fault;
   s += ' ';  // not `" " + ...`: GCC 12 -O3 false -Wrestrict
-  s += st.fault_kind;
-  if (st.station) s += " station " + std::to_string(*st.station);
-  if (st.duration)
-    s += " for " + ms_text(*st.duration);
+  s += plant::to_string(f.kind);
+  if (f.kind != plant::LineFaultKind::Noise) s += " station " + std::to_string(f.station);
+  if (f.duration)
+    s += " for " + ms_text(*f.duration);
   else
-    s += " count " + std::to_string(st.count);
-  if (st.every > 1) s += " every " + std::to_string(st.every);
+    s += " count " + std::to_string(f.count);
+  if (f.every > 1) s += " every " + std::to_string(f.every);
   return s;
 }
 std::string expect_line_text(const Step& st, std::string s) {

@@ -286,21 +286,24 @@ void need_timed_line(const StepInput& in) {
 void parse_line_fault(Step& s, const StepInput& in) {
   need_timed_line(in);
   const Object w(in.value, in.path, {"station", "kind", "count", "every", "for_ms"});
-  s.fault_kind = as_string(w.at("kind"), w.path("kind"), "a fault kind");
-  if (w.has("for_ms")) s.duration = as_ms(w.at("for_ms"), w.path("for_ms"));
-  if (s.fault_kind == "noise") {
+  const std::string kind = as_string(w.at("kind"), w.path("kind"), "a fault kind");
+  const auto parsed = plant::line_fault_kind(kind);
+  if (!parsed)
+    fail(w.path("kind"),
+         "expected corrupt, silent, late, double_address, none or noise, got \"" + kind + "\"");
+  plant::LineFault& f = s.line_fault;
+  f.kind = *parsed;
+  if (w.has("for_ms")) f.duration = as_ms(w.at("for_ms"), w.path("for_ms"));
+  if (f.kind == plant::LineFaultKind::Noise) {
     for (const char* k : {"station", "count", "every"})
       if (w.has(k)) fail(w.path(k), "noise is on the whole line: give only \"for_ms\"");
-    if (!s.duration) fail(in.path, "noise needs \"for_ms\"");
+    if (!f.duration) fail(in.path, "noise needs \"for_ms\"");
     return;
   }
-  if (!fdl::station_fault(s.fault_kind))
-    fail(w.path("kind"), "expected corrupt, silent, late, double_address, none or noise, got \"" +
-                             s.fault_kind + "\"");
-  s.station = line_station(w, in);
-  if (w.has("count") && s.duration) fail(w.path("count"), "give \"count\" or \"for_ms\", not both");
-  s.count = get_uint<std::uint32_t>(w, "count", 1, 1, 65535, "answers");
-  s.every = get_uint<std::uint32_t>(w, "every", 1, 1, 65535, "requests");
+  f.station = line_station(w, in);
+  if (w.has("count") && f.duration) fail(w.path("count"), "give \"count\" or \"for_ms\", not both");
+  f.count = get_uint<std::uint32_t>(w, "count", 1, 1, 65535, "answers");
+  f.every = get_uint<std::uint32_t>(w, "every", 1, 1, 65535, "requests");
 }
 
 // expect_line: {"station", the counters of fdl::kStationCounters, "live", "bus_cycle_us":

@@ -19,6 +19,7 @@
 #include "common/time.hpp"
 #include "config/config.hpp"
 #include "gateway/page_mode.hpp"
+#include "plant/line_fault.hpp"
 #include "profibus_sim/dp/dp_slave.hpp"
 #include "profibus_sim/plc/page_driver.hpp"
 
@@ -127,11 +128,10 @@ struct Step {
   std::uint16_t bits = 0;       // drive_error_bits / drive_warning_bits
   // expect_counters: name → value, names as the Modbus status block (docs/modbus.md).
   std::vector<std::pair<std::string, std::uint32_t>> counters;
-  // line_fault / expect_line (docs/replay-format.md): the station's DP address (none: noise, or
-  // only the bus cycle), the fault, how often and how long, the bus cycle's bound in µs.
+  // line_fault (docs/replay-format.md): the fault as the plant takes it, kind parsed once.
+  plant::LineFault line_fault;
+  // expect_line: the station's DP address (none: only the bus cycle), the bus cycle's bound in µs.
   std::optional<std::uint8_t> station;
-  std::string fault_kind;  // a fdl::StationFault name or "noise"
-  std::uint32_t every = 1;
   std::optional<Duration> duration;
   std::string live;  // expect_line: "ok", "missing", "phantom", "none"; empty: not checked
   std::optional<std::uint64_t> bus_cycle_max_le;

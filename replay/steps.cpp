@@ -173,7 +173,7 @@ void Sim::expect_counters(const Step& s, StepResult& r) {
         bool all = true;
         d.clear();
         for (const auto& [name, want] : s.counters) {
-          const std::uint32_t got = station::field(name)->get(st);
+          const std::uint64_t got = station::field(name)->get(st);
           d += (d.empty() ? "" : ", ") + name + " " + std::to_string(got);
           all = all && got == want;
         }
@@ -394,18 +394,7 @@ void Sim::drive_fault(const Step& s, StepResult&) {
 // ---------------------------------------------------------- the line in time (docs/faults.md)
 
 void Sim::line_fault(const Step& s, StepResult& r) {
-  bool ok = false;
-  if (s.fault_kind == "noise") {
-    ok = plant_->line_noise(*s.duration, now_, kOrigin);
-  } else {
-    plant::TimedLine::Fault f;
-    f.kind = *fdl::station_fault(s.fault_kind);
-    f.count = s.count;
-    f.every = s.every;
-    f.duration = s.duration;
-    ok = plant_->line_fault(*s.station, f, now_, kOrigin);
-  }
-  if (!ok) {
+  if (!plant_->line_fault(s.line_fault, now_, kOrigin)) {
     r.passed = false;
     r.detail = "the plant refused the line fault (see the log)";
   }

@@ -4,20 +4,6 @@
 
 namespace candp2::station {
 
-Status::Line line_status(const plant::LineStatus& l) {
-  Status::Line out;
-  out.role = l.role;
-  out.telegrams = l.telegrams;
-  out.fcs_errors = l.fcs_errors;
-  out.other_errors = l.other_errors;
-  out.requests = l.requests;
-  out.retries = l.retries;
-  out.response_us = l.response_us;
-  out.response_max_us = l.response_max_us;
-  out.present = l.present;
-  return out;
-}
-
 Status common_status(plant::Plant& plant, std::uint8_t address) {
   Status in;
   in.dp_address = address;
@@ -28,9 +14,9 @@ Status common_status(plant::Plant& plant, std::uint8_t address) {
     in.gateway.data_exchanges = view->data_exchanges;
   }
   if (auto* line = plant.slave_line()) {
-    if (auto l = line->status(address)) in.line = line_status(*l);
+    in.line = line->status(address);
   } else if (auto* master_line = plant.master_line()) {
-    in.line = line_status(master_line->status(address, plant.master()));
+    in.line = master_line->status(address, plant.master());
   }
   in.cycles_missed = plant.cycle_stats().missed();
   return in;
@@ -44,6 +30,48 @@ void add_gateway(Status& s, const plant::GatewayUnit& unit) {
   s.rx_suppressed = f.rx_suppressed();
   s.rx_drop_remaining = f.drop_remaining();
   s.reconnects = unit.reconnects();
+}
+
+Status gateway_status(plant::Plant& plant, plant::GatewayUnit& unit, Time now,
+                      const BitrateFn& bitrate) {
+  Status s = common_status(plant, unit.gateway().address());
+  add_gateway(s, unit);
+  s.diag = unit.gateway().dp().slave_diag(now);
+  if (bitrate)
+    if (auto b = bitrate(unit.index())) s.bitrate = *b;
+  return s;
+}
+
+Status remote_status(plant::Plant& plant, std::uint8_t address) {
+  Status s = common_status(plant, address);
+  if (const auto v = plant.master().slave(address)) {
+    if (v->last_diag) s.diag = *v->last_diag;
+    // The slave's DP state as the master knows it (docs/profibus.md role master).
+    switch (v->state) {
+      case dp::MasterSlaveState::DataExch:
+        s.gateway.dp_state = dp::SlaveState::DataExch;
+        break;
+      case dp::MasterSlaveState::ChkCfg:
+        s.gateway.dp_state = dp::SlaveState::WaitCfg;
+        break;
+      default:
+        s.gateway.dp_state = dp::SlaveState::WaitPrm;
+    }
+  }
+  return s;
+}
+
+Status slave_status(plant::Plant& plant, plant::SlaveUnit& unit, Time now) {
+  auto& dp = unit.slave().dp();
+  Status s = common_status(plant, dp.info().address);
+  s.leds = false;  // docs/slaves.md "Modbus": a generic slave has no CAN-DP/2 front plate
+  s.gateway.dp_state = dp.state();
+  s.diag = dp.slave_diag(now);
+  return s;
+}
+
+std::vector<std::uint8_t> slave_diagnosis(plant::SlaveUnit& unit, Time now) {
+  return unit.slave().dp().diagnosis(now);
 }
 
 }  // namespace candp2::station

@@ -15,6 +15,7 @@
 #include <string_view>
 
 #include "gateway/gateway.hpp"
+#include "plant/line_status.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::station {
@@ -37,14 +38,7 @@ struct Status {
   std::optional<dp::MasterSlaveState> master_state;
   std::uint32_t parameterizations = 0;
   std::uint8_t dp_address = 0;
-  struct Line {
-    std::uint16_t role = 0;  // 1 slaves, 2 master
-    std::uint32_t telegrams = 0, fcs_errors = 0, other_errors = 0;
-    std::uint32_t requests = 0, retries = 0;
-    std::uint32_t response_us = 0, response_max_us = 0;
-    bool present = false;
-  };
-  std::optional<Line> line;
+  std::optional<plant::LineStatus> line;  // the plant's line figures (plant/line_status.hpp)
   bool addressed = true;
   // Fault injection (docs/faults.md).
   std::uint16_t forced_state = 0;
@@ -52,7 +46,7 @@ struct Status {
   std::uint32_t rx_suppressed = 0;
   std::uint32_t rx_drop_remaining = 0;
   std::uint32_t reconnects = 0;
-  std::uint64_t cycles_missed = 0;  // the master's (saturates at 2^32 - 1)
+  std::uint64_t cycles_missed = 0;  // the master's
 };
 
 // LED codes (manual §3.3, table 3.3.1).
@@ -89,22 +83,25 @@ enum Shown : std::uint8_t {
   kSlaveCounters = 2,    // a generic slave's "counters" object
 };
 
-// One field of a station's status. Its value is 16 bit (saturating at 0xFFFF) or 32 bit; the
-// diagnosis is the one field of several values (Status::diag, one byte a register).
+// One field of a station's status. In the Modbus status block its value is 16 bit (saturating at
+// 0xFFFF) or 32 bit (saturating at 2^32 - 1); the diagnosis is the one field of several values
+// (Status::diag, one byte a register). The other faces show the value as it is.
 struct Field {
   std::string_view name = {};   // status block field, JSON key, expect_counters name (public)
   std::uint16_t registers = 1;  // 1 (16 bit), 2 (32 bit), or the diagnosis' 11
   std::string_view unit = {};   // of the value ("frames", "ms", ...); empty for codes and flags
   std::string_view meaning = {};
-  std::uint32_t (*get)(const Status&) = nullptr;  // null only for the diagnosis
-  std::uint8_t shown = 0;                         // Shown bits
-  Metric gateway_metric{};                        // a gateway's /metrics family
-  Metric slave_metric{};                          // a generic slave's /metrics family
+  // The value as the status holds it (32 or 64 bit); only the Modbus face saturates it to its
+  // registers (modbus::encode_status). Null only for the diagnosis.
+  std::uint64_t (*get)(const Status&) = nullptr;
+  std::uint8_t shown = 0;   // Shown bits
+  Metric gateway_metric{};  // a gateway's /metrics family
+  Metric slave_metric{};    // a generic slave's /metrics family
   // Position among replay's expect_counters names (docs/replay-format.md; 0 = not one).
   std::uint8_t replay = 0;
 };
 
-// Saturating 16-bit and 32-bit readings.
+// Saturating 16-bit and 32-bit readings (the Modbus registers).
 constexpr std::uint32_t sat16(std::uint64_t v) {
   return v > 0xFFFF ? 0xFFFF : static_cast<std::uint32_t>(v);
 }
@@ -117,7 +114,7 @@ constexpr std::uint32_t sat32(std::uint64_t v) {
 // clang-format off
 inline constexpr Field kFields[] = {
     {.name = "dp_state", .meaning = "DP slave state: 0 Wait_Prm, 1 Wait_Cfg, 2 Data_Exch",
-     .get = [](const Status& s) { return std::uint32_t(s.gateway.dp_state); },
+     .get = [](const Status& s) -> std::uint64_t { return std::uint32_t(s.gateway.dp_state); },
      .gateway_metric = {9, "candp2_gateway_dp_state", "gauge", "", ""},
      .slave_metric = {1, "candp2_slave_dp_state", "gauge",
                       "generic DP slave state: 0 Wait_Prm, 1 Wait_Cfg, 2 Data_Exch", ""}},
@@ -125,30 +122,34 @@ inline constexpr Field kFields[] = {
      .meaning = "Slave_Diag bytes 0..10, one per register (docs/dp-slave.md)"},
     {.name = "master_state",
      .meaning = "master's view: 0 Init, 1 Set_Prm, 2 Chk_Cfg, 3 Check_Diag, 4 Data_Exch, 5 Retry",
-     .get = [](const Status& s) { return s.master_state ? std::uint32_t(*s.master_state) : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t {
+          return s.master_state ? std::uint32_t(*s.master_state) : 0u; }},
     {.name = "bus_state", .meaning = "CAN controller: 0 ok, 1 warning, 2 error-passive, 3 bus-off",
-     .get = [](const Status& s) { return std::uint32_t(s.gateway.bus_state); },
+     .get = [](const Status& s) -> std::uint64_t { return std::uint32_t(s.gateway.bus_state); },
      .gateway_metric = {10, "candp2_gateway_can_bus_state", "gauge", "", ""}},
     {.name = "released", .meaning = "CAN transmission released: 0 no, 1 yes (docs/canopen.md)",
-     .get = [](const Status& s) { return s.gateway.released ? 1u : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.gateway.released ? 1u : 0u; }},
     {.name = "nmt_state",
      .meaning = "CANopen NMT state: 0 initialising, 1 pre-operational, 2 operational, 3 stopped",
-     .get = [](const Status& s) { return std::uint32_t(s.gateway.nmt); }},
+     .get = [](const Status& s) -> std::uint64_t { return std::uint32_t(s.gateway.nmt); }},
     {.name = "rx_frames", .registers = 2, .unit = "frames",
      .meaning = "CAN frames received since power-on",
-     .get = [](const Status& s) { return s.gateway.rx_frames; }, .shown = kGatewayCounters,
+     .get = [](const Status& s) -> std::uint64_t {
+          return s.gateway.rx_frames; }, .shown = kGatewayCounters,
      .gateway_metric = {1, "candp2_gateway_can_frames_received_total", "counter",
                         "CAN frames the gateway received since power-on", ""},
      .replay = 3},
     {.name = "tx_frames", .registers = 2, .unit = "frames",
      .meaning = "CAN frames sent since power-on",
-     .get = [](const Status& s) { return s.gateway.tx_frames; }, .shown = kGatewayCounters,
+     .get = [](const Status& s) -> std::uint64_t {
+          return s.gateway.tx_frames; }, .shown = kGatewayCounters,
      .gateway_metric = {2, "candp2_gateway_can_frames_sent_total", "counter",
                         "CAN frames the gateway sent since power-on", ""},
      .replay = 4},
     {.name = "irq_lost", .registers = 2, .unit = "frames",
      .meaning = "frames lost before the gateway saw them (IRQ_LOST)",
-     .get = [](const Status& s) { return s.gateway.irq_lost; }, .shown = kGatewayCounters,
+     .get = [](const Status& s) -> std::uint64_t {
+          return s.gateway.irq_lost; }, .shown = kGatewayCounters,
      .gateway_metric = {3, "candp2_gateway_can_frames_lost_total", "counter",
                         "CAN frames lost: irq = before the gateway saw them (IRQ_LOST), fifo = "
                         "dropped at the full Communication Window FIFO (MSG_LOST), "
@@ -156,46 +157,51 @@ inline constexpr Field kFields[] = {
      .replay = 1},
     {.name = "msg_lost", .registers = 2, .unit = "frames",
      .meaning = "frames dropped at the full CW FIFO (MSG_LOST)",
-     .get = [](const Status& s) { return s.gateway.msg_lost; }, .shown = kGatewayCounters,
+     .get = [](const Status& s) -> std::uint64_t {
+          return s.gateway.msg_lost; }, .shown = kGatewayCounters,
      .gateway_metric = {4, "candp2_gateway_can_frames_lost_total", "", "", "fifo"},
      .replay = 2},
     {.name = "fifo_level", .unit = "frames",
      .meaning = "frames waiting in the Communication Window FIFO",
-     .get = [](const Status& s) { return sat16(s.gateway.fifo_level); },
+     .get = [](const Status& s) -> std::uint64_t { return s.gateway.fifo_level; },
      .gateway_metric = {7, "candp2_gateway_fifo_level", "gauge",
                         "frames waiting in the Communication Window FIFO (manual §5.3)", ""}},
     {.name = "fifo_high_water", .unit = "frames", .meaning = "highest FIFO level since power-on",
-     .get = [](const Status& s) { return sat16(s.gateway.fifo_high_water); },
+     .get = [](const Status& s) -> std::uint64_t { return s.gateway.fifo_high_water; },
      .gateway_metric = {8, "candp2_gateway_fifo_high_water", "gauge", "", ""}},
     {.name = "sync_ms", .unit = "ms", .meaning = "effective SYNC time, ms (0 = off)",
-     .get = [](const Status& s) { return std::uint32_t{s.gateway.sync_ms}; }},
+     .get = [](const Status& s) -> std::uint64_t { return std::uint32_t{s.gateway.sync_ms}; }},
     {.name = "wakeup_s", .unit = "s", .meaning = "stored wake-up time, s",
-     .get = [](const Status& s) { return std::uint32_t{s.gateway.wakeup_s}; }},
+     .get = [](const Status& s) -> std::uint64_t { return std::uint32_t{s.gateway.wakeup_s}; }},
     {.name = "data_exchanges", .registers = 2, .unit = "telegrams",
      .meaning = "Data_Exchange telegrams the gateway answered",
-     .get = [](const Status& s) { return s.gateway.data_exchanges; },
+     .get = [](const Status& s) -> std::uint64_t { return s.gateway.data_exchanges; },
      .shown = kGatewayCounters | kSlaveCounters,
      .gateway_metric = {5, "candp2_gateway_data_exchanges_total", "counter", "", ""},
      .slave_metric = {2, "candp2_slave_data_exchanges_total", "counter",
                       "Data_Exchange telegrams the built-in master completed with the generic DP "
                       "slave", ""}},
     {.name = "led_d", .meaning = "LED D (Data Exchange): 0 off, 1 on",
-     .get = [](const Status& s) { return s.leds ? std::uint32_t{led::codes(s.gateway).d} : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t {
+          return s.leds ? std::uint32_t{led::codes(s.gateway).d} : 0u; }},
     {.name = "led_e",
      .meaning = "LED E (DP status): 0 off, 3 = 3 flashes (waiting for Set_Prm), 4 = 4 flashes "
                 "(Chk_Cfg)",
-     .get = [](const Status& s) { return s.leds ? std::uint32_t{led::codes(s.gateway).e} : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t {
+          return s.leds ? std::uint32_t{led::codes(s.gateway).e} : 0u; }},
     {.name = "led_p", .meaning = "LED P (power): 1 on",
-     .get = [](const Status& s) { return s.leds ? std::uint32_t{led::codes(s.gateway).p} : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t {
+          return s.leds ? std::uint32_t{led::codes(s.gateway).p} : 0u; }},
     {.name = "led_c",
      .meaning = "LED C (CAN): 1 on (ok), 0x45 Morse E (error passive), 0x57 W (warning), 0x4F O "
                 "(bus off)",
-     .get = [](const Status& s) { return s.leds ? std::uint32_t{led::codes(s.gateway).c} : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t {
+          return s.leds ? std::uint32_t{led::codes(s.gateway).c} : 0u; }},
     {.name = "dp_address", .meaning = "the gateway's DP station address",
-     .get = [](const Status& s) { return std::uint32_t{s.dp_address}; }},
+     .get = [](const Status& s) -> std::uint64_t { return std::uint32_t{s.dp_address}; }},
     {.name = "parameterizations", .registers = 2, .unit = "telegrams",
      .meaning = "Set_Prm telegrams the master sent",
-     .get = [](const Status& s) { return s.parameterizations; },
+     .get = [](const Status& s) -> std::uint64_t { return s.parameterizations; },
      .shown = kGatewayCounters | kSlaveCounters,
      .gateway_metric = {6, "candp2_gateway_parameterizations_total", "counter",
                         "Set_Prm telegrams the master sent to the gateway", ""},
@@ -203,68 +209,69 @@ inline constexpr Field kFields[] = {
                       "Set_Prm telegrams the built-in master sent to the generic DP slave", ""}},
     {.name = "bitrate_mode",
      .meaning = "SocketCAN bit rate handling: 0 none (not SocketCAN), 1 check, 2 apply",
-     .get = [](const Status& s) { return std::uint32_t{s.bitrate.mode}; }},
+     .get = [](const Status& s) -> std::uint64_t { return std::uint32_t{s.bitrate.mode}; }},
     {.name = "bitrate_configured", .registers = 2, .unit = "bit/s",
      .meaning = "CAN bit rate of the gateway's Set_Prm byte 8, bit/s (0 before Set_Prm)",
-     .get = [](const Status& s) { return s.bitrate.configured; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.bitrate.configured; }},
     {.name = "bitrate_interface", .registers = 2, .unit = "bit/s",
      .meaning = "bit rate of the SocketCAN interface, bit/s (0 = no bit timing, e.g. vcan)",
-     .get = [](const Status& s) { return s.bitrate.interface; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.bitrate.interface; }},
     {.name = "bitrate_mismatch",
      .meaning = "1 = the interface's bit rate differs from Set_Prm's by more than 1 %",
-     .get = [](const Status& s) { return s.bitrate.mismatch ? 1u : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.bitrate.mismatch ? 1u : 0u; }},
     {.name = "line_role",
      .meaning = "PROFIBUS line (docs/profibus.md): 0 none (in-process), 1 role slaves, 2 role "
                 "master",
-     .get = [](const Status& s) { return s.line ? std::uint32_t{s.line->role} : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t {
+          return s.line ? std::uint32_t{s.line->role} : 0u; }},
     {.name = "line_telegrams", .registers = 2, .unit = "telegrams",
      .meaning = "good FDL telegrams received on the line",
-     .get = [](const Status& s) { return s.line ? s.line->telegrams : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.line ? s.line->telegrams : 0u; }},
     {.name = "line_fcs_errors", .registers = 2, .unit = "telegrams",
      .meaning = "telegrams dropped for a wrong FCS",
-     .get = [](const Status& s) { return s.line ? s.line->fcs_errors : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.line ? s.line->fcs_errors : 0u; }},
     {.name = "line_other_errors", .registers = 2, .unit = "telegrams",
      .meaning = "telegrams dropped for framing (LE/LEr, ED, truncated) or parity errors",
-     .get = [](const Status& s) { return s.line ? s.line->other_errors : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.line ? s.line->other_errors : 0u; }},
     {.name = "station_requests", .registers = 2, .unit = "telegrams",
      .meaning = "requests addressed to this station",
-     .get = [](const Status& s) { return s.line ? s.line->requests : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.line ? s.line->requests : 0u; }},
     {.name = "station_retries", .registers = 2, .unit = "telegrams",
      .meaning = "role slaves: FCB repetitions answered; role master: requests repeated (no answer)",
-     .get = [](const Status& s) { return s.line ? s.line->retries : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.line ? s.line->retries : 0u; }},
     {.name = "response_us", .unit = "µs",
      .meaning = "last response time, µs: role slaves request end → answer written; role master "
                 "request written → answer complete (65535 = longer)",
-     .get = [](const Status& s) { return s.line ? sat16(s.line->response_us) : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.line ? s.line->response_us : 0u; }},
     {.name = "response_max_us", .unit = "µs", .meaning = "highest response time since start, µs",
-     .get = [](const Status& s) { return s.line ? sat16(s.line->response_max_us) : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.line ? s.line->response_max_us : 0u; }},
     {.name = "station_present",
      .meaning = "role slaves: 1 while a master talks to the station; role master: 1 while it "
                 "answers",
-     .get = [](const Status& s) { return s.line && s.line->present ? 1u : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.line && s.line->present ? 1u : 0u; }},
     {.name = "forced_can_state",
      .meaning = "holding register 8193: 0 real, 1 warning, 2 error-passive, 3 bus-off "
                 "(docs/faults.md)",
-     .get = [](const Status& s) { return std::uint32_t{s.forced_state}; }},
+     .get = [](const Status& s) -> std::uint64_t { return std::uint32_t{s.forced_state}; }},
     {.name = "tx_suppressed", .registers = 2, .unit = "frames",
      .meaning = "frames not sent because of a forced bus-off",
-     .get = [](const Status& s) { return s.tx_suppressed; }, .replay = 5},
+     .get = [](const Status& s) -> std::uint64_t { return s.tx_suppressed; }, .replay = 5},
     {.name = "rx_suppressed", .registers = 2, .unit = "frames",
      .meaning = "frames not received because of a forced bus-off",
-     .get = [](const Status& s) { return s.rx_suppressed; }, .replay = 6},
+     .get = [](const Status& s) -> std::uint64_t { return s.rx_suppressed; }, .replay = 6},
     {.name = "rx_drop_remaining", .unit = "frames",
      .meaning = "holding register 8194: received frames still to drop (each counts in IRQ_LOST)",
-     .get = [](const Status& s) { return sat16(s.rx_drop_remaining); }},
+     .get = [](const Status& s) -> std::uint64_t { return s.rx_drop_remaining; }},
     {.name = "addressed", .meaning = "1 the master addresses the gateway, 0 stopped (control 3)",
-     .get = [](const Status& s) { return s.addressed ? 1u : 0u; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.addressed ? 1u : 0u; }},
     {.name = "reconnects", .registers = 2, .unit = "connections",
      .meaning = "socketcand client: connections re-established",
-     .get = [](const Status& s) { return s.reconnects; }},
+     .get = [](const Status& s) -> std::uint64_t { return s.reconnects; }},
     {.name = "master_cycles_missed", .registers = 2, .unit = "cycles",
      .meaning = "DP master cycles missed since start: grid points (every cycle_ms) that passed "
                 "without a cycle because the previous one started more than a period late; the "
                 "same in every block",
-     .get = [](const Status& s) { return sat32(s.cycles_missed); }},
+     .get = [](const Status& s) -> std::uint64_t { return s.cycles_missed; }},
 };
 // clang-format on
 

@@ -90,8 +90,8 @@ std::string line_config() {
 // time, with PLC outputs written at 100 ms so that frames flow.
 // `act`, when given, runs at 200 ms of virtual time through the Modbus map (a test's requests).
 using Act = std::function<std::string(modbus::ProcessImageMap& map, Time now)>;
-void check_documents(const std::string& name, const config::DaemonConfig& cfg, Time run,
-                     bool whole, const Act& act = {}) {
+void check_documents(const std::string& name, const config::DaemonConfig& cfg, Time run, bool whole,
+                     const Act& act = {}) {
   expect_golden(name + ".map.txt", modbus::map_text(cfg), whole);
   expect_golden(name + ".map.json", modbus::map_json_text(cfg), whole);
 
@@ -101,7 +101,7 @@ void check_documents(const std::string& name, const config::DaemonConfig& cfg, T
   http::BusMonitors monitors(plant->buses().size());
   plant->add_tap(&monitors);
   auto faces = modbus::make_faces(*plant);
-  http::StatusModel model(http::make_sources(*plant, faces, &monitors));
+  http::StatusModel model(http::make_sources(*plant, &monitors));
   Time now{0};
   test::run_plant_until(*plant, now, Time{100'000});
   // Read the drives' status words (REGID 0x40) and touch every gateway's first output slot.
@@ -206,27 +206,26 @@ struct Requests {
 // Modbus at 200 ms; the documents at 2 s show the analyser's counters (illegals 10 / repeats 10
 // at 3; lost 1, repeats 1, syncs 2 at 4), the Modbus line block the same.
 TEST(FacesGolden, LineFaults) {
-  check_documents(
-      "line-1500k", load("config/line-1500k.json"), Time{2'000'000}, true,
-      [first = true](modbus::ProcessImageMap& map, Time now) mutable {
-        Requests q{map, now, {}};
-        if (first) {
-          first = false;
-          q.write(3, 8400, {1, 10, 2, 0});  // corrupt, 10 answers, every 2nd
-          q.write(4, 8401, {2});            // count 2 ...
-          q.write(4, 8400, {2});            // ... silent
-          q.read(3, modbus::Table::HoldingRegisters, 8400, 5);
-          q.write(3, 8400, {7});     // no such kind: 0x03
-          q.write(3, 8402, {0});     // every 0: 0x03
-          q.write(3, 8405, {1});     // outside the block: 0x02
-          return q.out;
-        }
-        for (std::uint8_t unit : {3, 4}) {
-          q.read(unit, modbus::Table::InputRegisters, 8400, 23);
-          q.read(unit, modbus::Table::HoldingRegisters, 8400, 5);
-        }
-        return q.out;
-      });
+  check_documents("line-1500k", load("config/line-1500k.json"), Time{2'000'000}, true,
+                  [first = true](modbus::ProcessImageMap& map, Time now) mutable {
+                    Requests q{map, now, {}};
+                    if (first) {
+                      first = false;
+                      q.write(3, 8400, {1, 10, 2, 0});  // corrupt, 10 answers, every 2nd
+                      q.write(4, 8401, {2});            // count 2 ...
+                      q.write(4, 8400, {2});            // ... silent
+                      q.read(3, modbus::Table::HoldingRegisters, 8400, 5);
+                      q.write(3, 8400, {7});  // no such kind: 0x03
+                      q.write(3, 8402, {0});  // every 0: 0x03
+                      q.write(3, 8405, {1});  // outside the block: 0x02
+                      return q.out;
+                    }
+                    for (std::uint8_t unit : {3, 4}) {
+                      q.read(unit, modbus::Table::InputRegisters, 8400, 23);
+                      q.read(unit, modbus::Table::HoldingRegisters, 8400, 5);
+                    }
+                    return q.out;
+                  });
 }
 
 TEST(FacesGolden, Line122x48) {

@@ -11,7 +11,6 @@
 #include "http/documents.hpp"
 #include "http/live_view.hpp"
 #include "http_plant_support.hpp"
-#include "modbus/plant_faces.hpp"
 #include "plant/plant.hpp"
 
 namespace candp2 {
@@ -101,14 +100,12 @@ struct Face : ::testing::Test {
     ASSERT_TRUE(plant) << error;
     monitors = std::make_unique<http::BusMonitors>(plant->buses().size());
     plant->add_tap(monitors.get());
-    faces = modbus::make_faces(*plant);
-    model = std::make_unique<http::StatusModel>(http::make_sources(*plant, faces, monitors.get()));
+    model = std::make_unique<http::StatusModel>(http::make_sources(*plant, monitors.get()));
     run_until(Time{500'000});  // every gateway in Data_Exch
   }
   void run_until(Time end) { test::run_plant_until(*plant, now, end); }
   config::DaemonConfig cfg;
   std::unique_ptr<plant::Plant> plant;
-  modbus::PlantFaces faces;
   std::unique_ptr<http::BusMonitors> monitors;
   std::unique_ptr<http::StatusModel> model;
   Time now{0};
@@ -126,13 +123,13 @@ TEST_F(Face, TheStatusBuiltInStepsIsTheStatusBuiltAtOnce) {
   EXPECT_EQ(steps, 1 + 2 + 1 + 2 * 2);
 }
 
-// http::make_sources reads the plant: every gateway with its Modbus face, every bus with its
+// http::make_sources reads the plant: every gateway with its status, every bus with its
 // monitor (fed by the tap) at the bit rate its gateway is configured to (manual table 5.1.1).
 TEST_F(Face, TheSourcesComeFromThePlant) {
   const auto& src = model->sources();
   ASSERT_EQ(src.gateways.size(), 2u);
   EXPECT_EQ(src.gateways[1].cfg->name, "gw4");
-  EXPECT_EQ(src.gateways[1].face->dp_address(), 4);
+  EXPECT_EQ(src.gateways[1].status(now).dp_address, 4);
   ASSERT_EQ(src.buses.size(), 2u);
   EXPECT_EQ(src.buses[1].bitrate, 500000u);
   EXPECT_EQ(src.buses[0].monitor, &monitors->at(0));

@@ -11,7 +11,6 @@
 #include "http/documents.hpp"
 #include "http/live_view.hpp"
 #include "http_plant_support.hpp"
-#include "modbus/plant_faces.hpp"
 #include "plant/plant.hpp"
 
 namespace candp2 {
@@ -28,15 +27,13 @@ struct SlaveFace : ::testing::Test {
     std::string error;
     plant = plant::Plant::build(cfg, plant::Options{}, Time{0}, &error);
     ASSERT_TRUE(plant) << error;
-    faces = modbus::make_faces(*plant);
-    model = std::make_unique<http::StatusModel>(http::make_sources(*plant, faces));
+    model = std::make_unique<http::StatusModel>(http::make_sources(*plant));
     run_until(Time{500'000});  // every station in Data_Exch
   }
   void run_until(Time end) { test::run_plant_until(*plant, now, end); }
   plant::SlaveUnit& io(std::size_t k) { return *plant->slaves().at(k); }
   config::DaemonConfig cfg;
   std::unique_ptr<plant::Plant> plant;
-  modbus::PlantFaces faces;
   std::unique_ptr<http::StatusModel> model;
   Time now{0};
 };

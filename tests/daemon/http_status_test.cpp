@@ -120,23 +120,23 @@ TEST(SlotStats, CountsPerConfiguredSlot) {
 TEST(LedCodes, ManualTable331) {
   gw::GatewayStatus g;
   g.dp_state = dp::SlaveState::WaitPrm;
-  auto c = modbus::led::codes(g);
+  auto c = station::led::codes(g);
   EXPECT_EQ(c.e, 3);  // 3 short flashes: waiting for the parameter telegram
-  EXPECT_EQ(c.d, modbus::led::kOff);
-  EXPECT_EQ(c.p, modbus::led::kOn);
-  EXPECT_EQ(c.c, modbus::led::kOn);  // CAN bus OK
+  EXPECT_EQ(c.d, station::led::kOff);
+  EXPECT_EQ(c.p, station::led::kOn);
+  EXPECT_EQ(c.c, station::led::kOn);  // CAN bus OK
   g.dp_state = dp::SlaveState::WaitCfg;
-  EXPECT_EQ(modbus::led::codes(g).e, 4);
+  EXPECT_EQ(station::led::codes(g).e, 4);
   g.dp_state = dp::SlaveState::DataExch;
   g.bus_state = can::BusState::Warning;
-  c = modbus::led::codes(g);
-  EXPECT_EQ(c.d, modbus::led::kOn);
-  EXPECT_EQ(c.e, modbus::led::kOff);
+  c = station::led::codes(g);
+  EXPECT_EQ(c.d, station::led::kOn);
+  EXPECT_EQ(c.e, station::led::kOff);
   EXPECT_EQ(c.c, 0x57);  // Morse 'W' short-long-long
   g.bus_state = can::BusState::ErrorPassive;
-  EXPECT_EQ(modbus::led::codes(g).c, 0x45);  // Morse 'E'
+  EXPECT_EQ(station::led::codes(g).c, 0x45);  // Morse 'E'
   g.bus_state = can::BusState::BusOff;
-  EXPECT_EQ(modbus::led::codes(g).c, 0x4F);  // Morse 'O'
+  EXPECT_EQ(station::led::codes(g).c, 0x4F);  // Morse 'O'
 }
 
 constexpr const char* kConfig = R"({

@@ -76,5 +76,14 @@ TEST(StationTable, TheStatusBlockIsTheRowsInOrder) {
   EXPECT_EQ(modbus::field_value(b, *field("master_cycles_missed")), 0xFFFFFFFFu);
 }
 
+// Only the Modbus face saturates: the other faces read a value as the status holds it.
+TEST(StationTable, TheGettersGiveTheValueAsItIs) {
+  Status s;
+  s.gateway.fifo_level = 0x12345;
+  s.cycles_missed = 0x1'0000'0001ull;
+  EXPECT_EQ(field("fifo_level")->get(s), 0x12345u);
+  EXPECT_EQ(field("master_cycles_missed")->get(s), 0x1'0000'0001ull);
+}
+
 }  // namespace
 }  // namespace candp2::station

@@ -374,5 +374,26 @@ TEST(ReplayRun, LineFaultScenariosAreExactAndRepeatable) {
   }
 }
 
+// docs/replay-format.md "The line in time": the parser gives the plant's LineFault, its kind an enum
+// (noise included), which the control surface takes as it is.
+TEST(ScenarioParse, ALineFaultIsTheEnumFromTheParserOn) {
+  const auto kind_of = [](const char* name) {
+    auto loaded = load_scenario(std::string(CANDP2_SOURCE_DIR) + "/config/scenarios/line-fault-" +
+                                name + ".json");
+    EXPECT_TRUE(std::holds_alternative<Scenario>(loaded)) << name;
+    for (const auto& st : std::get<Scenario>(loaded).steps)
+      if (st.action == Action::LineFault && st.line_fault.kind != plant::LineFaultKind::None)
+        return st.line_fault.kind;
+    return plant::LineFaultKind::None;
+  };
+  EXPECT_EQ(kind_of("noise"), plant::LineFaultKind::Noise);
+  EXPECT_EQ(kind_of("corrupt"), plant::LineFaultKind::Corrupt);
+  EXPECT_EQ(kind_of("double-address"), plant::LineFaultKind::DoubleAddress);
+  for (const auto k :
+       {plant::LineFaultKind::None, plant::LineFaultKind::Late, plant::LineFaultKind::Noise})
+    EXPECT_EQ(plant::line_fault_kind(plant::to_string(k)), k);
+  EXPECT_FALSE(plant::line_fault_kind("noisy"));
+}
+
 }  // namespace
 }  // namespace candp2::replay
