@@ -1,0 +1,98 @@
+// A classic CAN frame on the wire (docs/can-bus.md "Frames on the wire").
+#include "can/frame_bits.hpp"
+
+namespace candp2::can {
+
+void BitStream::push(std::uint32_t value, unsigned width) {
+  for (unsigned i = width; i-- > 0;) bits[size++] = static_cast<std::uint8_t>((value >> i) & 1u);
+}
+
+namespace {
+std::uint16_t crc15_step(std::uint16_t crc, std::uint8_t bit) {
+  const bool feedback = (((crc >> 14) & 1u) ^ bit) != 0;
+  crc = static_cast<std::uint16_t>((crc << 1) & 0x7FFF);
+  return feedback ? static_cast<std::uint16_t>(crc ^ kCrc15Polynomial) : crc;
+}
+}  // namespace
+
+std::uint16_t crc15(std::span<const std::uint8_t> bits) {
+  std::uint16_t crc = 0;
+  for (const auto b : bits) crc = crc15_step(crc, b);
+  return crc;
+}
+
+std::uint16_t crc15_bytes(std::span<const std::uint8_t> bytes) {
+  std::uint16_t crc = 0;
+  for (const auto byte : bytes)
+    for (unsigned i = 8; i-- > 0;)
+      crc = crc15_step(crc, static_cast<std::uint8_t>((byte >> i) & 1));
+  return crc;
+}
+
+BitStream crc_region(const Frame& f) {
+  BitStream s;
+  const std::uint32_t rtr = f.remote ? 1 : 0;
+  s.push(0, 1);  // SOF (dominant)
+  if (f.extended) {
+    s.push(f.id >> 18, 11);  // base identifier
+    s.push(1, 1);            // SRR (recessive)
+    s.push(1, 1);            // IDE (recessive: extended)
+    s.push(f.id & 0x3FFFF, 18);
+    s.push(rtr, 1);
+    s.push(0, 2);  // r1, r0
+  } else {
+    s.push(f.id, 11);
+    s.push(rtr, 1);
+    s.push(0, 2);  // IDE (dominant: base format), r0
+  }
+  s.push(f.dlc, 4);
+  for (const auto byte : f.payload()) s.push(byte, 8);
+  return s;
+}
+
+BitStream stuffed_region(const Frame& f) {
+  BitStream s = crc_region(f);
+  s.push(crc15(s.view()), 15);
+  return s;
+}
+
+std::uint32_t stuff_bits(std::span<const std::uint8_t> bits) {
+  std::uint32_t stuffed = 0;
+  unsigned run = 0;
+  std::uint8_t last = 2;  // no bit yet
+  for (const auto b : bits) {
+    run = b == last ? run + 1 : 1;
+    last = b;
+    if (run == kStuffRun) {  // the complement goes out next and starts a run of its own
+      ++stuffed;
+      last = static_cast<std::uint8_t>(b ^ 1);
+      run = 1;
+    }
+  }
+  return stuffed;
+}
+
+std::uint32_t frame_bits_exact(const Frame& f) {
+  const BitStream s = stuffed_region(f);
+  return static_cast<std::uint32_t>(s.size) + stuff_bits(s.view()) + kTrailerBits;
+}
+
+std::uint32_t frame_bits_worst(bool extended, bool remote, std::uint8_t dlc) {
+  const std::uint32_t g = extended ? 54 : 34;
+  const std::uint32_t data = remote ? 0 : 8u * dlc;
+  return g + data + kTrailerBits + (g + data - 1) / 4;
+}
+
+std::chrono::nanoseconds bits_duration(std::uint64_t bits, std::uint32_t bitrate) {
+  return std::chrono::nanoseconds(bitrate == 0 ? 0 : bits * 1'000'000'000ull / bitrate);
+}
+
+std::uint32_t arbitration_key(const Ident& id, bool remote) {
+  // 32 bits: base ID (11), RTR or SRR, IDE, extended ID (18), RTR of an extended frame.
+  const std::uint32_t rtr = remote ? 1 : 0;
+  if (id.extended)
+    return ((id.id >> 18) & 0x7FF) << 21 | 1u << 20 | 1u << 19 | (id.id & 0x3FFFF) << 1 | rtr;
+  return (id.id & 0x7FF) << 21 | rtr << 20;
+}
+
+}  // namespace candp2::can

@@ -1,0 +1,73 @@
+// A classic CAN frame on the wire (ISO 11898-1; docs/can-bus.md "Frames on the wire"): the bits of
+// SOF..CRC as the controller sends them, the real CRC-15, bit stuffing counted on that stream, the
+// frame's length in bit times and its duration at a bit rate, the worst-case length of the
+// schedulability analysis, and the order bitwise arbitration gives two frames. One arithmetic for
+// the bus load, the timing and `candp2 validate`. Pure: numbers in, numbers out; no sockets, no
+// clock. CAN FD is not modelled.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "can/frame.hpp"
+
+namespace candp2::can {
+
+// ISO 11898-1: CRC delimiter, ACK slot, ACK delimiter (3), end of frame (7) and the intermission
+// (3) between two frames; none of them is stuffed.
+inline constexpr std::uint32_t kTrailerBits = 3 + 7 + 3;
+// CRC-15 generator x^15 + x^14 + x^10 + x^8 + x^7 + x^4 + x^3 + 1, initial value 0.
+inline constexpr std::uint16_t kCrc15Polynomial = 0x4599;
+// A transmitter inserts a complementary bit after this many equal bits (stuff bits count in runs).
+inline constexpr unsigned kStuffRun = 5;
+
+// The bits SOF..CRC before stuffing, in the order they are sent (0 = dominant, 1 = recessive).
+struct BitStream {
+  std::array<std::uint8_t, 128> bits{};  // the longest: 29-bit, 8 bytes = 118 bits
+  std::size_t size = 0;
+  void push(std::uint32_t value, unsigned width);  // `width` bits of `value`, MSB first
+  std::span<const std::uint8_t> view() const { return {bits.data(), size}; }
+};
+
+// CRC-15 of `bits` (MSB-first shift register, no reflection, no final XOR).
+std::uint16_t crc15(std::span<const std::uint8_t> bits);
+// The same over bytes, MSB first (the catalogued "CRC-15/CAN": check value 0x059E over
+// "123456789").
+std::uint16_t crc15_bytes(std::span<const std::uint8_t> bytes);
+
+// SOF..data (what the CRC covers): SOF, identifier (11-bit: ID, RTR, IDE, r0; 29-bit: base ID,
+// SRR, IDE, extended ID, RTR, r1, r0), DLC, data (none in a remote frame).
+BitStream crc_region(const Frame& f);
+// SOF..CRC: crc_region followed by its CRC-15, the part bit stuffing applies to.
+BitStream stuffed_region(const Frame& f);
+// Stuff bits a transmitter inserts into `bits`: after kStuffRun equal bits one complementary bit,
+// which itself starts the next run; one after the last bit too when the last run is complete.
+std::uint32_t stuff_bits(std::span<const std::uint8_t> bits);
+
+// The frame's length in bit times, SOF through intermission, with its real stuff bits.
+std::uint32_t frame_bits_exact(const Frame& f);
+// The longest a frame of this kind and DLC can be (Davis, Burns, Bril, Lukkien 2007, eq. 1):
+// g + 8·DLC + 13 + floor((g + 8·DLC − 1) / 4), g = 34 (11-bit) or 54 (29-bit); no data bits in a
+// remote frame.
+std::uint32_t frame_bits_worst(bool extended, bool remote, std::uint8_t dlc);
+inline std::uint32_t frame_bits_worst(const Frame& f) {
+  return frame_bits_worst(f.extended, f.remote, f.dlc);
+}
+// `bits` bit times at `bitrate` bit/s.
+std::chrono::nanoseconds bits_duration(std::uint64_t bits, std::uint32_t bitrate);
+inline std::chrono::nanoseconds frame_duration(const Frame& f, std::uint32_t bitrate) {
+  return bits_duration(frame_bits_exact(f), bitrate);
+}
+
+// Bitwise arbitration (ISO 11898-1): the arbitration field as one number whose smaller value wins.
+// 11-bit frames and 29-bit frames with the same base identifier meet at RTR against SRR and at IDE,
+// so a base frame beats an extended one, and a data frame beats a remote frame of its identifier.
+std::uint32_t arbitration_key(const Ident& id, bool remote);
+inline std::uint32_t arbitration_key(const Frame& f) {
+  return arbitration_key(ident_of(f), f.remote);
+}
+
+}  // namespace candp2::can
