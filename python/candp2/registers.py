@@ -233,8 +233,8 @@ class RegisterMap:
         self.slaves = tuple(self._slave(s) for s in document["slaves"])
         line = document.get("line") or {}
         self._line_faults(line.get("faults", _LINE_FAULTS_FALLBACK))
-        #: A line station's counters in the daemon's table order (docs/profibus.md "Line
-        #: statistics"); empty where the map has no line block.
+        #: A line station's counters in the daemon's table order, empty where the map has no
+        #: line block (docs/profibus.md "Line statistics").
         self.line_counters: tuple[str, ...] = tuple(str(c["name"])
                                                     for c in line.get("counters", ()))
         self.drives = tuple(DriveMap(d["name"], d["bus"], int(d["rx_id"]), int(d["tx_id"]),
