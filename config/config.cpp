@@ -187,10 +187,10 @@ ProfibusConfig parse_profibus(const json& j, const std::string& path, const std:
                              "or \"pty:PATH\" for a pseudo-terminal)");
   }
   const std::uint64_t baud = as_uint(o.at("baud"), o.path("baud"), 0, 100000000, "baud");
-  if (!serial::is_supported_baud(static_cast<std::uint32_t>(baud)))
+  if (!phy::is_line_rate(static_cast<std::uint32_t>(baud)))
     fail(o.path("baud"), "baud " + std::to_string(baud) +
                              " is not supported; expected one of the PROFIBUS rates " +
-                             serial::supported_bauds_text());
+                             phy::line_rates_text());
   p.baud = static_cast<std::uint32_t>(baud);
   if (!o.has("role")) fail(path, "missing key \"role\" (\"slaves\" or \"master\")");
   p.role =

@@ -119,10 +119,10 @@ struct ProfibusConfig {
   std::string port;  // serial device path or "pty:PATH"
   std::uint32_t baud = 19200;
   ProfibusRole role = ProfibusRole::Slaves;
-  std::optional<std::uint8_t> master_address;  // role slaves: answer only this master
-  std::uint32_t slot_time_bits = 100;          // TSL (docs/profibus.md: typical 100)
-  std::uint8_t retries = 1;                    // max_retry_limit (typical 1)
-  std::uint8_t min_tsdr_bits = 11;             // role slaves: until Set_Prm says otherwise
+  std::optional<std::uint8_t> master_address;      // role slaves: answer only this master
+  std::uint32_t slot_time_bits = 100;              // TSL (docs/profibus.md: typical 100)
+  std::uint8_t retries = 1;                        // max_retry_limit (typical 1)
+  std::uint8_t min_tsdr_bits = phy::kMinTsdrBits;  // role slaves: until Set_Prm says otherwise
   bool rs485 = false;
   bool echo = false;
   std::string json_path = "$.profibus";

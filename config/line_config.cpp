@@ -26,12 +26,6 @@ constexpr Key kKeys[] = {
     {"ttr_bits", &fdl::BusParameters::ttr_bits, nullptr},
 };
 
-std::string rates_text() {
-  std::string s;
-  for (auto r : fdl::kLineRates) s += (s.empty() ? "" : ", ") + std::to_string(r);
-  return s;
-}
-
 // A parameter of role master given here and in $.profibus: one place only.
 void check_twice(const Object& here, const char* key, const DaemonConfig& c,
                  const char* profibus_key, const json* profibus) {
@@ -51,14 +45,16 @@ void parse_line(const Object& master, const json* profibus, DaemonConfig& c) {
                                   ".baud (the line of role master); set it in one place");
   if (!role_master && !master.has("baud"))
     fail(master.path("bus_parameters"), "bus parameters need a line with a baud rate: set " +
-                                            master.path("baud") + " (" + rates_text() + ")");
+                                            master.path("baud") + " (" + phy::line_rates_text() +
+                                            ")");
   const std::uint64_t baud =
       role_master ? c.profibus->baud
                   : as_uint(master.at("baud"), master.path("baud"), 0, 100000000, "bit/s");
   const auto defaults = fdl::default_bus_parameters(static_cast<std::uint32_t>(baud));
   if (!defaults)
     fail(master.path("baud"), "baud " + std::to_string(baud) +
-                                  " is not a PROFIBUS DP rate; expected one of " + rates_text());
+                                  " is not a PROFIBUS DP rate; expected one of " +
+                                  phy::line_rates_text());
   LineConfig line;
   line.baud = static_cast<std::uint32_t>(baud);
   line.params = *defaults;

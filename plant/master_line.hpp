@@ -28,9 +28,6 @@ namespace candp2::plant {
 
 class MasterLine {
  public:
-  // A telegram is preceded by at least 33 bit times of idle (TSYN, docs/profibus.md).
-  static constexpr std::uint64_t kTsynBits = 33;
-
   MasterLine(const config::ProfibusConfig& config, std::uint8_t master_address, LogSink* log);
 
   // The port the telegrams go to. `paced`: the port takes the bytes' wire time (a serial port),
@@ -50,7 +47,7 @@ class MasterLine {
   void add_remote(std::uint8_t address, std::string name);
 
   // The PHY's input, and the timers the driver arms: idle ≥ TSYN after the last character
-  // (on_gap after bit_times(kTsynBits)) and the FDL master's slot time (advance at
+  // (on_gap after bit_times(phy::kTsynBits)) and the FDL master's slot time (advance at
   // next_deadline()).
   void on_bytes(std::span<const std::uint8_t> bytes, Time now);
   void on_bad_char(std::uint8_t byte, Time now);

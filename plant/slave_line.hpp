@@ -33,9 +33,6 @@ class SlaveLine {
  public:
   // A station is "present" while its master sent it a request within this time.
   static constexpr Duration kPresenceTimeout = milliseconds(1000);
-  // A telegram is preceded by at least 33 bit times of idle (TSYN, docs/profibus.md).
-  static constexpr std::uint32_t kTsynBits = 33;
-
   SlaveLine(const config::ProfibusConfig& config, dp::ProcessImage& image, LogSink* log);
 
   // Serves `slave` at its DP address; `params` gives the PLC addresses of its slots.
@@ -46,7 +43,8 @@ class SlaveLine {
   void on_bytes(std::span<const std::uint8_t> bytes, Time now);
   void on_bad_char(std::uint8_t byte, Time now);
   void on_gap(Time now);
-  // A partial telegram is buffered: the driver signals on_gap() after bit_times(kTsynBits) idle.
+  // A partial telegram is buffered: the driver signals on_gap() after bit_times(phy::kTsynBits)
+  // idle.
   bool partial() { return front_.parser().buffered() > 0; }
   Duration bit_times(std::uint32_t bits) const { return front_.bit_times(bits); }
 

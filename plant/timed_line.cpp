@@ -6,6 +6,7 @@
 namespace candp2::plant {
 
 using fdl::kBitsPerChar;
+using fdl::kMinTsdrBits;
 
 class TimedLine::Station final : public dp::SlaveLink {
  public:
@@ -18,15 +19,15 @@ class TimedLine::Station final : public dp::SlaveLink {
     line_.enqueue(Job{this, std::move(req), std::move(done)}, now);
   }
   std::uint32_t tsdr() const {
-    const std::uint32_t t = std::max<std::uint32_t>(min_tsdr_, 11);
+    const std::uint32_t t = std::max<std::uint32_t>(min_tsdr_, kMinTsdrBits);
     return max_tsdr_ ? std::min(t, *max_tsdr_) : t;
   }
 
   dp::SlaveLink& inner_;
   const dp::DpSlave& slave_;
   std::optional<std::uint32_t> max_tsdr_;
-  std::uint32_t min_tsdr_ = 11;  // IEC 61158-6-3: 11 bit times until Set_Prm sets another
-  bool known_ = false;           // FDL_Status answered since the start or the last loss
+  std::uint32_t min_tsdr_ = kMinTsdrBits;  // IEC 61158-6-3: until Set_Prm sets another
+  bool known_ = false;                     // FDL_Status answered since the start or the last loss
   fdl::FcbSequence seq_;
 
   // The fault on cue (docs/faults.md "Line faults") and how far it has gone.
@@ -72,7 +73,7 @@ dp::SlaveLink& TimedLine::add_station(dp::SlaveLink& inner, const dp::DpSlave& s
 void TimedLine::restarted(std::uint8_t address) {
   if (const auto it = stations_.find(address); it != stations_.end()) {
     it->second->known_ = false;
-    it->second->min_tsdr_ = 11;
+    it->second->min_tsdr_ = kMinTsdrBits;
   }
 }
 
@@ -114,7 +115,7 @@ bool TimedLine::noisy(std::uint64_t bit) const {
 
 std::uint32_t TimedLine::tsdr_bits(std::uint8_t address) const {
   const auto it = stations_.find(address);
-  return it == stations_.end() ? 11 : it->second->tsdr();
+  return it == stations_.end() ? kMinTsdrBits : it->second->tsdr();
 }
 
 std::uint64_t TimedLine::start_bit(Time t) const {

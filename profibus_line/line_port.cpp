@@ -2,6 +2,8 @@
 
 #include <filesystem>
 
+#include "common/line_physics.hpp"
+
 namespace candp2::profibus_line {
 
 serial::SerialOptions serial_options(const config::ProfibusConfig& config, LogSink* log) {
@@ -95,7 +97,7 @@ void SlaveLinePort::on_readable() {
   if (gap_timer_) loop_.cancel_timer(gap_timer_);
   gap_timer_ = 0;
   if (line_.partial())
-    gap_timer_ = loop_.add_timer(line_.bit_times(plant::SlaveLine::kTsynBits), [this] {
+    gap_timer_ = loop_.add_timer(line_.bit_times(phy::kTsynBits), [this] {
       gap_timer_ = 0;
       line_.on_gap(loop_.now());
       answer();
@@ -237,7 +239,7 @@ void MasterLinePort::on_readable(bool hangup) {
       [&](std::uint8_t bad) { line_.on_bad_char(bad, now); });
   // Idle ≥ TSYN after the last character ends a partial telegram (docs/profibus.md).
   if (gap_timer_) loop_.cancel_timer(gap_timer_);
-  gap_timer_ = loop_.add_timer(line_.bit_times(plant::MasterLine::kTsynBits), [this] {
+  gap_timer_ = loop_.add_timer(line_.bit_times(phy::kTsynBits), [this] {
     gap_timer_ = 0;
     line_.on_gap(loop_.now());
   });

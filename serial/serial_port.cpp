@@ -56,28 +56,6 @@ bool is_pty_fd(int fd) {
 
 }  // namespace
 
-const std::vector<std::uint32_t>& supported_bauds() {
-  // docs/profibus.md: 9.6k, 19.2k, 45.45k, 93.75k, 187.5k, 500k, 1.5M; the GSD (gsd/CDPS04A4.GSD)
-  // also lists 3M, 6M and 12M.
-  static const std::vector<std::uint32_t> bauds = {9600,   19200,   45450,   93750,   187500,
-                                                   500000, 1500000, 3000000, 6000000, 12000000};
-  return bauds;
-}
-
-bool is_supported_baud(std::uint32_t baud) {
-  const auto& b = supported_bauds();
-  return std::find(b.begin(), b.end(), baud) != b.end();
-}
-
-std::string supported_bauds_text() {
-  std::string s;
-  for (auto b : supported_bauds()) {
-    if (!s.empty()) s += ", ";
-    s += std::to_string(b);
-  }
-  return s;
-}
-
 bool parse_pty_port(std::string_view port, std::string* path) {
   constexpr std::string_view prefix = "pty:";
   if (port.substr(0, prefix.size()) != prefix) return false;
@@ -86,11 +64,8 @@ bool parse_pty_port(std::string_view port, std::string* path) {
 }
 
 Duration char_time(std::uint32_t baud, std::size_t chars) {
-  if (baud == 0) return Duration(1);
-  // docs/profibus.md: 11 bits per character (start, 8 data, even parity, stop).
-  const std::uint64_t bits = 11ull * chars;
-  const std::uint64_t us = (bits * 1000000ull + baud - 1) / baud;
-  return Duration(std::max<std::uint64_t>(us, 1));
+  // docs/profibus.md "The line's physics": 11 bits a character, rounded up.
+  return std::max(phy::char_time(baud, chars), Duration(1));
 }
 
 // ---- ParmrkDecoder

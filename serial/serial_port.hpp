@@ -26,20 +26,18 @@
 #include <string_view>
 #include <vector>
 
+#include "common/line_physics.hpp"
 #include "common/log.hpp"
 #include "common/time.hpp"
 
 namespace candp2::serial {
 
-// docs/profibus.md: 9.6k .. 12M; 45450 is the PROFIBUS "45.45 kbit/s" rate.
-const std::vector<std::uint32_t>& supported_bauds();
-bool is_supported_baud(std::uint32_t baud);
-std::string supported_bauds_text();  // "9600, 19200, 45450, ..." for error messages
+// The rates a port takes are the PROFIBUS rates, phy::kLineRates (common/line_physics.hpp).
 
 // "pty:PATH" -> PATH (true); anything else false.
 bool parse_pty_port(std::string_view port, std::string* path);
 
-// One character time at `baud` for 8E1 (11 bits, docs/profibus.md), rounded up, at least 1 µs.
+// One character time at `baud` for 8E1 (phy::char_time), at least 1 µs.
 Duration char_time(std::uint32_t baud, std::size_t chars = 1);
 
 struct SerialOptions {

@@ -73,10 +73,8 @@ LineReport check_line(const LineInput& in) {
   // retries of an unanswered request before the master comes back.
   for (const auto& s : in.stations) {
     if (s.watchdog_ms == 0) continue;
-    const std::uint64_t retry_bits =
-        in.params.retry_limit *
-        (fdl::data_exchange_request_bits(s.outputs) + in.params.slot_time_bits);
-    const Duration visit = std::max(grid, r.cycle.worst) + fdl::bits_to_time(in.baud, retry_bits);
+    const Duration visit = std::max(grid, r.cycle.worst) +
+                           fdl::bits_to_time(in.baud, fdl::retry_bits(in.params, s.outputs));
     if (milliseconds(s.watchdog_ms) < visit)
       r.problems.push_back({false, s.watchdog_path,
                             "station " + s.name + ": watchdog " + std::to_string(s.watchdog_ms) +

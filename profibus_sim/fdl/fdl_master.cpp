@@ -3,16 +3,13 @@
 #include <algorithm>
 
 #include "common/hex.hpp"
+#include "common/line_physics.hpp"
 #include "profibus_sim/fdl/dp_wire.hpp"
 
 namespace candp2::fdl {
 
-namespace {
-
-// docs/profibus.md: a telegram is preceded by ≥ 33 bit times of idle (TSYN).
-constexpr std::uint32_t kTsynBits = 33;
-
-}  // namespace
+// docs/profibus.md "The line's physics": a telegram is preceded by ≥ TSYN of idle.
+using phy::kTsynBits;
 
 // One remote station: the dp::SlaveLink the DP master uses, and the station's FCB state.
 class FdlMaster::Remote final : public dp::SlaveLink {
@@ -49,8 +46,7 @@ const MasterStationStats* FdlMaster::stats(std::uint8_t address) const {
 }
 
 Duration FdlMaster::bit_times(std::uint64_t bits) const {
-  const std::uint64_t baud = std::max<std::uint32_t>(options_.baud, 1);
-  return Duration(static_cast<std::int64_t>((bits * 1'000'000 + baud - 1) / baud));
+  return phy::bits_to_time(std::max<std::uint32_t>(options_.baud, 1), bits);
 }
 
 // ---------------------------------------------------------------- requests

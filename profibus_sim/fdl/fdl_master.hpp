@@ -54,6 +54,7 @@
 #include <span>
 #include <vector>
 
+#include "common/line_physics.hpp"
 #include "common/log.hpp"
 #include "common/time.hpp"
 #include "profibus_sim/dp/slave_link.hpp"
@@ -120,8 +121,8 @@ class FdlMaster {
 
   // A duration of `bits` bit times at the configured rate (rounded up to the microsecond).
   Duration bit_times(std::uint64_t bits) const;
-  // Wire time of `bytes` characters (11 bits each: start, 8 data, parity, stop).
-  Duration wire_time(std::size_t bytes) const { return bit_times(11u * bytes); }
+  // Wire time of `bytes` characters (docs/profibus.md "The line's physics").
+  Duration wire_time(std::size_t bytes) const { return bit_times(phy::kBitsPerChar * bytes); }
 
   const MasterStationStats* stats(std::uint8_t address) const;
   const ParserStats& line_stats() const { return parser_.stats(); }

@@ -68,9 +68,7 @@ std::uint8_t SlaveFrontEnd::min_tsdr_bits(std::uint8_t address) const {
 }
 
 Duration SlaveFrontEnd::bit_times(std::uint32_t bits) const {
-  const std::uint64_t us =
-      (static_cast<std::uint64_t>(bits) * 1'000'000u + options_.baud - 1) / options_.baud;
-  return Duration(static_cast<Duration::rep>(us));
+  return phy::bits_to_time(options_.baud, bits);
 }
 
 std::optional<Reply> SlaveFrontEnd::on_telegram(const Telegram& t, Time request_end) {

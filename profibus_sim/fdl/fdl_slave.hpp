@@ -13,6 +13,7 @@
 #include <span>
 #include <vector>
 
+#include "common/line_physics.hpp"
 #include "common/log.hpp"
 #include "common/time.hpp"
 #include "profibus_sim/dp/dp_slave.hpp"
@@ -26,7 +27,7 @@ struct SlaveFrontEndOptions {
   // master when unset.
   std::optional<std::uint8_t> master_address;
   // min_TSDR before a station's Set_Prm set one (docs/profibus.md: default 11 bit times).
-  std::uint8_t default_min_tsdr_bits = 11;
+  std::uint8_t default_min_tsdr_bits = phy::kMinTsdrBits;
 };
 
 struct StationStats {
@@ -83,7 +84,7 @@ class SlaveFrontEnd {
   };
   struct Station {
     dp::DpSlave* slave = nullptr;
-    std::uint8_t min_tsdr = 11;
+    std::uint8_t min_tsdr = phy::kMinTsdrBits;
     StationStats stats;
     std::array<Link, 128> links{};  // per master address
     // Per master: the diagnosis it last read with Slave_Diag (docs/decisions.md: "DH").

@@ -22,34 +22,26 @@ std::size_t telegram_chars(Kind kind, std::size_t data_unit) {
 }
 
 namespace {
-struct RateRow {
-  std::uint32_t baud;
-  BusParameters p;
-};
-// The DP default bus parameters per rate (docs/profibus.md "The line in time").
-// slot, min_TSDR, max_TSDR, Tset, Tqui, GAP, HSA, retry limit, TTR.
-constexpr RateRow kDefaults[] = {
-    {9600, {100, 11, 60, 1, 0, 10, 126, 1, 65535}},
-    {19200, {100, 11, 60, 1, 0, 10, 126, 1, 65535}},
-    {45450, {640, 11, 400, 95, 0, 10, 126, 1, 65535}},
-    {93750, {100, 11, 60, 1, 0, 10, 126, 1, 65535}},
-    {187500, {100, 11, 60, 1, 0, 10, 126, 1, 65535}},
-    {500000, {200, 11, 100, 1, 0, 10, 126, 1, 65535}},
-    {1500000, {300, 11, 150, 1, 0, 10, 126, 1, 65535}},
-    {3000000, {400, 11, 250, 4, 3, 10, 126, 2, 65535}},
-    {6000000, {600, 11, 450, 8, 6, 10, 126, 3, 65535}},
-    {12000000, {1000, 11, 800, 16, 9, 10, 126, 4, 65535}},
-};
+// The DP default bus parameters, one row for each of kLineRates in its order (docs/profibus.md
+// "Default bus parameters"): slot, min_TSDR, max_TSDR, Tset, Tqui, GAP, HSA, retry limit, TTR.
+constexpr std::array<BusParameters, kLineRates.size()> kDefaults = {{
+    {100, 11, 60, 1, 0, 10, 126, 1, 65535},     // 9600
+    {100, 11, 60, 1, 0, 10, 126, 1, 65535},     // 19200
+    {640, 11, 400, 95, 0, 10, 126, 1, 65535},   // 45450
+    {100, 11, 60, 1, 0, 10, 126, 1, 65535},     // 93750
+    {100, 11, 60, 1, 0, 10, 126, 1, 65535},     // 187500
+    {200, 11, 100, 1, 0, 10, 126, 1, 65535},    // 500000
+    {300, 11, 150, 1, 0, 10, 126, 1, 65535},    // 1500000
+    {400, 11, 250, 4, 3, 10, 126, 2, 65535},    // 3000000
+    {600, 11, 450, 8, 6, 10, 126, 3, 65535},    // 6000000
+    {1000, 11, 800, 16, 9, 10, 126, 4, 65535},  // 12000000
+}};
 }  // namespace
 
 std::optional<BusParameters> default_bus_parameters(std::uint32_t baud) {
-  for (const auto& r : kDefaults)
-    if (r.baud == baud) return r.p;
+  for (std::size_t i = 0; i < kLineRates.size(); ++i)
+    if (kLineRates[i] == baud) return kDefaults[i];
   return std::nullopt;
-}
-
-bool is_line_rate(std::uint32_t baud) {
-  return default_bus_parameters(baud).has_value();
 }
 
 std::vector<BusParameterProblem> check_bus_parameters(const BusParameters& p) {
@@ -66,9 +58,10 @@ std::vector<BusParameterProblem> check_bus_parameters(const BusParameters& p) {
        "max_TSDR " + std::to_string(p.max_tsdr_bits) +
            " bit times: expected 35 + 2 tset_bits + tqui_bits (" + std::to_string(tsdr_floor) +
            ") .. 1023");
-  rule(p.min_tsdr_bits >= 11 && p.min_tsdr_bits <= p.max_tsdr_bits, "min_tsdr_bits",
-       "min_TSDR " + std::to_string(p.min_tsdr_bits) +
-           " bit times: expected 11 .. max_tsdr_bits (" + std::to_string(p.max_tsdr_bits) + ")");
+  rule(p.min_tsdr_bits >= kMinTsdrBits && p.min_tsdr_bits <= p.max_tsdr_bits, "min_tsdr_bits",
+       "min_TSDR " + std::to_string(p.min_tsdr_bits) + " bit times: expected " +
+           std::to_string(kMinTsdrBits) + " .. max_tsdr_bits (" + std::to_string(p.max_tsdr_bits) +
+           ")");
   rule(p.retry_limit >= 1 && p.retry_limit <= 15, "retry_limit",
        "retry limit " + std::to_string(p.retry_limit) + ": expected 1 .. 15");
   rule(p.gap_factor >= 1 && p.gap_factor <= 100, "gap_factor",
@@ -89,17 +82,6 @@ std::uint32_t tid2_bits(const BusParameters& p) {
   return std::max<std::uint32_t>(kTsynBits + tsm_bits(p), p.max_tsdr_bits);
 }
 
-Duration bits_to_time(std::uint32_t baud, std::uint64_t bits) {
-  if (baud == 0) return Duration(0);
-  return Duration(static_cast<std::int64_t>((bits * 1'000'000ull + baud - 1) / baud));
-}
-
-std::uint64_t time_to_bits(std::uint32_t baud, Duration d) {
-  if (d.count() <= 0) return 0;
-  const auto us = static_cast<std::uint64_t>(d.count());
-  return (us * baud + 999'999ull) / 1'000'000ull;
-}
-
 namespace {
 std::uint64_t data_bits(std::size_t n, Kind empty) {
   if (n == 0) return telegram_bits(empty);
@@ -118,6 +100,10 @@ std::uint64_t data_exchange_response_bits(std::size_t inputs) {
 std::uint64_t message_cycle_bits(const BusParameters& p, const CycleStation& s) {
   return tid1_bits(p) + data_exchange_request_bits(s.outputs) + s.tsdr_bits +
          data_exchange_response_bits(s.inputs);
+}
+
+std::uint64_t retry_bits(const BusParameters& p, std::size_t outputs) {
+  return p.retry_limit * (data_exchange_request_bits(outputs) + p.slot_time_bits);
 }
 
 std::uint64_t token_bits(const BusParameters& p) {

@@ -12,19 +12,21 @@
 #include <string>
 #include <vector>
 
+#include "common/line_physics.hpp"
 #include "common/time.hpp"
 #include "profibus_sim/fdl/fdl.hpp"
 
 namespace candp2::fdl {
 
-// Every character is 11 bits on the wire: start, 8 data, even parity, stop (IEC 61158-2 UART).
-inline constexpr std::uint64_t kBitsPerChar = 11;
-// TSYN: the idle a station must see before it may send a request or a token.
-inline constexpr std::uint64_t kTsynBits = 33;
-
-// The ten DP rates (bit/s), slowest first.
-inline constexpr std::array<std::uint32_t, 10> kLineRates = {
-    9600, 19200, 45450, 93750, 187500, 500000, 1500000, 3000000, 6000000, 12000000};
+// The line's physics (common/line_physics.hpp): 11 bits a character, TSYN, the least min_TSDR,
+// the rates, bit times in microseconds.
+using phy::bits_to_time;
+using phy::is_line_rate;
+using phy::kBitsPerChar;
+using phy::kLineRates;
+using phy::kMinTsdrBits;
+using phy::kTsynBits;
+using phy::time_to_bits;
 
 // The characters a telegram occupies: SD1 6, SD2 9 + `data_unit` (the SAP bytes and data, 1..246),
 // SD3 14, SD4 3, SC 1.
@@ -36,21 +38,20 @@ inline std::uint64_t telegram_bits(Kind kind, std::size_t data_unit = 0) {
 // The bus parameters of a DP line (IEC 61158-4-3 / EN 50170 vol. 2), all times in bit times.
 struct BusParameters {
   std::uint32_t slot_time_bits = 100;  // TSL: how long the master waits for an answer to start
-  std::uint32_t min_tsdr_bits = 11;    // min_TSDR: the earliest a station may answer
-  std::uint32_t max_tsdr_bits = 60;    // max_TSDR: the latest a station may answer
-  std::uint32_t tset_bits = 1;         // Tset: setup time
-  std::uint32_t tqui_bits = 0;         // Tqui: quiet time of a repeater/driver switching
-  std::uint32_t gap_factor = 10;       // G: the GAP is looked after every G token rotations
-  std::uint32_t hsa = 126;             // HSA: the highest station address on the line
-  std::uint32_t retry_limit = 1;       // max_retry_limit
-  std::uint32_t ttr_bits = 65535;      // TTR: target rotation time
+  std::uint32_t min_tsdr_bits = kMinTsdrBits;  // min_TSDR: the earliest a station may answer
+  std::uint32_t max_tsdr_bits = 60;            // max_TSDR: the latest a station may answer
+  std::uint32_t tset_bits = 1;                 // Tset: setup time
+  std::uint32_t tqui_bits = 0;                 // Tqui: quiet time of a repeater/driver switching
+  std::uint32_t gap_factor = 10;               // G: the GAP is looked after every G token rotations
+  std::uint32_t hsa = 126;                     // HSA: the highest station address on the line
+  std::uint32_t retry_limit = 1;               // max_retry_limit
+  std::uint32_t ttr_bits = 65535;              // TTR: target rotation time
   friend bool operator==(const BusParameters&, const BusParameters&) = default;
 };
 
 // The DP default profile at `baud` (docs/profibus.md "The line in time": the default bus parameter
 // table configuration tools use); nullopt for a rate that is not a DP rate.
 std::optional<BusParameters> default_bus_parameters(std::uint32_t baud);
-bool is_line_rate(std::uint32_t baud);
 
 // One broken rule: the parameter's key (as in the configuration) and what is expected.
 struct BusParameterProblem {
@@ -69,16 +70,11 @@ std::uint32_t tsm_bits(const BusParameters& p);
 std::uint32_t tid1_bits(const BusParameters& p);
 std::uint32_t tid2_bits(const BusParameters& p);
 
-// Bit times → microseconds at `baud`, rounded up (a line event happens no earlier than its bit).
-Duration bits_to_time(std::uint32_t baud, std::uint64_t bits);
-// Microseconds → whole bit times at `baud`, rounded up.
-std::uint64_t time_to_bits(std::uint32_t baud, Duration d);
-
 // One station in the cycle: its Data_Exchange's output and input bytes and its TSDR.
 struct CycleStation {
   std::size_t outputs = 0;
   std::size_t inputs = 0;
-  std::uint32_t tsdr_bits = 11;
+  std::uint32_t tsdr_bits = kMinTsdrBits;
 };
 // The Data_Exchange telegrams of one station: the request (SD1 without outputs, else SD3 with 8
 // bytes, else SD2) and the answer (SC without inputs, else SD3/SD2).
@@ -86,6 +82,9 @@ std::uint64_t data_exchange_request_bits(std::size_t outputs);
 std::uint64_t data_exchange_response_bits(std::size_t inputs);
 // The bits of one message cycle: the idle before the request (TID1), request, TSDR, answer.
 std::uint64_t message_cycle_bits(const BusParameters& p, const CycleStation& s);
+// The retries of an unanswered Data_Exchange: retry_limit times the request and the slot time
+// after it, before the master gives the station up and comes back.
+std::uint64_t retry_bits(const BusParameters& p, std::size_t outputs);
 // The token the master passes to itself: TID1 after the last answer is already counted, so the
 // token's own characters and the TID2 after it.
 std::uint64_t token_bits(const BusParameters& p);

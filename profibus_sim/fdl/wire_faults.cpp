@@ -4,15 +4,16 @@
 #include <algorithm>
 #include <bit>
 
+#include "common/line_physics.hpp"
 #include "profibus_sim/fdl/fdl.hpp"
 
 namespace candp2::fdl {
 
 namespace {
 
-constexpr unsigned kCharBits = 11;
+constexpr unsigned kCharBits = phy::kBitsPerChar;
 
-// The 11 bits of one character, bit 0 first on the wire.
+// The bits of one character, bit 0 first on the wire.
 std::uint16_t frame(std::uint8_t b) {
   const unsigned parity = std::popcount(b) & 1u;  // even parity: the bit makes the ones even
   return static_cast<std::uint16_t>((std::uint16_t{b} << 1) | (parity << 9) | (1u << 10));

@@ -80,10 +80,10 @@ std::vector<RxByte> plain(std::initializer_list<std::uint8_t> bytes) {
 TEST(SerialBaud, SupportedRatesOfSpec10) {
   // docs/profibus.md: 9.6k, 19.2k, 45.45k, 93.75k, 187.5k, 500k, 1.5M
   for (std::uint32_t b : {9600u, 19200u, 45450u, 93750u, 187500u, 500000u, 1500000u})
-    EXPECT_TRUE(is_supported_baud(b)) << b;
-  EXPECT_FALSE(is_supported_baud(115200));
-  EXPECT_FALSE(is_supported_baud(0));
-  EXPECT_NE(supported_bauds_text().find("93750"), std::string::npos);
+    EXPECT_TRUE(phy::is_line_rate(b)) << b;
+  EXPECT_FALSE(phy::is_line_rate(115200));
+  EXPECT_FALSE(phy::is_line_rate(0));
+  EXPECT_NE(phy::line_rates_text().find("93750"), std::string::npos);
 }
 
 TEST(SerialBaud, CharTimeIs11Bits) {
@@ -91,6 +91,7 @@ TEST(SerialBaud, CharTimeIs11Bits) {
   EXPECT_EQ(char_time(19200), Duration(573));
   EXPECT_EQ(char_time(1500000, 2), Duration(15));  // 22 bits / 1.5 Mbit/s = 14.7 µs
   EXPECT_EQ(char_time(12000000), Duration(1));
+  EXPECT_EQ(char_time(0), Duration(1));
 }
 
 TEST(SerialPtyPort, ParsesPrefix) {

@@ -35,6 +35,7 @@
 #include "capture/pcapng_read.hpp"
 #include "capture/pcapng_tap.hpp"
 #include "common/hex.hpp"
+#include "common/line_physics.hpp"
 #include "config/capture_config.hpp"
 #include "gateway/slot_config.hpp"
 #include "gateway/user_prm.hpp"
@@ -315,7 +316,8 @@ int sniff_file(const SniffArgs& a, capture::PcapngTap* capture) {
   Sniffer sniffer(
       a, capture,
       [baud = a.baud](const fdl::ParserEvent& ev) {
-        return Time(static_cast<std::int64_t>(ev.offset * 11 * 1'000'000 / baud));
+        // Time stamps of what was captured round down (docs/profibus.md "The line's physics").
+        return phy::bits_to_timestamp(baud, phy::kBitsPerChar * ev.offset);
       },
       st ? std::function<void(const fdl::ParserEvent&)>(
                [&](const fdl::ParserEvent& ev) { st->event(ev, Time(0)); })
@@ -431,9 +433,8 @@ int sniff_port(const SniffArgs& a, capture::PcapngTap* capture) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   auto now = [&] { return std::chrono::duration_cast<Time>(Clock::now() - start); };
-  // docs/profibus.md: idle ≥ TSYN (33 bit times) ends a telegram.
-  const auto tsyn = std::chrono::microseconds(
-      static_cast<long long>(std::ceil(33.0 * 1e6 / static_cast<double>(a.baud))));
+  // docs/profibus.md: idle ≥ TSYN ends a telegram; a timer, so rounded up.
+  const Duration tsyn = phy::bits_to_time(a.baud, phy::kTsynBits);
   fdl::StreamParser parser;
   Time event_time{0};  // when the bytes that completed the current events arrived
   std::optional<Time> first;
@@ -557,10 +558,10 @@ void add_sniff(CLI::App& app, int& exit_code) {
   cmd->add_option("--baud", args->baud, "bit rate of a serial line (default 19200)")
       ->check([](const std::string& v) -> std::string {
         try {
-          if (serial::is_supported_baud(static_cast<std::uint32_t>(std::stoul(v)))) return {};
+          if (phy::is_line_rate(static_cast<std::uint32_t>(std::stoul(v)))) return {};
         } catch (...) {
         }
-        return "supported: " + serial::supported_bauds_text();
+        return "supported: " + phy::line_rates_text();
       });
   cmd->add_flag("--errors", args->errors,
                 "also print parser errors (FCS, LE, ED, parity) and the line statistics");
