@@ -91,6 +91,9 @@ launcher=()
 if command -v ccache >/dev/null; then
   launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
   export CCACHE_BASEDIR="$here"
+  # The -g builds (ASan, fuzz) hash the build folder unless told not to; without it a clone in
+  # another folder never hits the cache for them (their debug info then names the first folder).
+  export CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-1}
 fi
 
 configure_build() {  # DIR [cmake args...]
