@@ -77,10 +77,13 @@ std::uint32_t frame_bits_exact(const Frame& f) {
   return static_cast<std::uint32_t>(s.size) + stuff_bits(s.view()) + kTrailerBits;
 }
 
+std::uint32_t frame_bits_unstuffed(bool extended, bool remote, std::uint8_t dlc) {
+  return (extended ? 54u : 34u) + (remote ? 0u : 8u * dlc) + kTrailerBits;
+}
+
 std::uint32_t frame_bits_worst(bool extended, bool remote, std::uint8_t dlc) {
-  const std::uint32_t g = extended ? 54 : 34;
-  const std::uint32_t data = remote ? 0 : 8u * dlc;
-  return g + data + kTrailerBits + (g + data - 1) / 4;
+  const std::uint32_t stuffed = frame_bits_unstuffed(extended, remote, dlc) - kTrailerBits;
+  return stuffed + kTrailerBits + (stuffed - 1) / 4;
 }
 
 std::chrono::nanoseconds bits_duration(std::uint64_t bits, std::uint32_t bitrate) {

@@ -49,6 +49,12 @@ std::uint32_t stuff_bits(std::span<const std::uint8_t> bits);
 
 // The frame's length in bit times, SOF through intermission, with its real stuff bits.
 std::uint32_t frame_bits_exact(const Frame& f);
+// The frame's length without stuff bits, SOF through intermission: 34 (11-bit) or 54 (29-bit) +
+// 8·DLC + 13 (no data bits in a remote frame).
+std::uint32_t frame_bits_unstuffed(bool extended, bool remote, std::uint8_t dlc);
+inline std::uint32_t frame_bits_unstuffed(const Frame& f) {
+  return frame_bits_unstuffed(f.extended, f.remote, f.dlc);
+}
 // The longest a frame of this kind and DLC can be (Davis, Burns, Bril, Lukkien 2007, eq. 1):
 // g + 8·DLC + 13 + floor((g + 8·DLC − 1) / 4), g = 34 (11-bit) or 54 (29-bit); no data bits in a
 // remote frame.

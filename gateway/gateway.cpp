@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "can/frame_bits.hpp"
 #include "common/hex.hpp"
 
 namespace candp2::gw {
@@ -64,9 +65,8 @@ std::string log_name(const GatewayOptions& o) {
 }  // namespace
 
 std::uint32_t frame_bits(const can::Frame& f) {
-  // SOF..EOF without stuff bits plus 3 bits intermission: 47 (11-bit) or 67 (29-bit) + 8 per byte.
-  const std::uint32_t overhead = f.extended ? 67 : 47;
-  return overhead + (f.remote ? 0u : 8u * f.dlc);
+  // SOF..EOF without stuff bits plus 3 bits intermission (docs/can-bus.md "Frames on the wire").
+  return can::frame_bits_unstuffed(f);
 }
 
 Gateway::Gateway(GatewayOptions options, can::FrameSink& can_tx, Time power_on)

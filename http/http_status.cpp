@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "can/frame_bits.hpp"
 #include "common/hex.hpp"
 #include "drive_sim/unitek_drive.hpp"
 #include "http/documents.hpp"
@@ -68,11 +69,8 @@ std::string fault_text(const station::Status& s) {
 }  // namespace
 
 std::uint32_t frame_bits_stuffed(const can::Frame& f) {
-  // Stuffed region SOF..CRC: 34 (11-bit) / 54 (29-bit) bits + data; worst case one stuff bit per
-  // four bits after the first (ISO 11898-1 bit stuffing after five equal bits, alternating runs).
-  const std::uint32_t data = f.remote ? 0u : 8u * f.dlc;
-  const std::uint32_t stuffed = (f.extended ? 54u : 34u) + data;
-  return gw::frame_bits(f) + (stuffed - 1) / 4;
+  // The worst-case stuffing of docs/can-bus.md "Frames on the wire".
+  return can::frame_bits_worst(f);
 }
 
 void BusMonitor::on_frame(const can::Frame& f, Time now) {
