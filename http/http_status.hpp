@@ -37,9 +37,7 @@ class DriveUnit;
 namespace candp2::http {
 
 // Bits a classic CAN data or remote frame occupies on the bus, stuff bits estimated by their upper
-// bound (docs/daemon.md "Bus load"): gw::frame_bits(f) (SOF..EOF + 3 bit intermission) plus
-// floor((n - 1) / 4) stuff bits, n = the stuffed part SOF..CRC = 34 + 8 * DLC (11-bit identifier)
-// or 54 + 8 * DLC (29-bit); remote frames carry no data bytes.
+// bound (docs/daemon.md "Bus load"): can::frame_bits_worst(f).
 std::uint32_t frame_bits_stuffed(const can::Frame& f);
 
 // Every frame on one bus, counted and kept for the live trace. Fed exactly once per frame by the
