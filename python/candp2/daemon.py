@@ -18,6 +18,7 @@ import subprocess
 import tempfile
 import time
 import weakref
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -35,6 +36,16 @@ DRIVE_UNITS = range(254, 124, -1)
 
 #: Every Daemon not stopped yet (the pytest plugin reports them when a test fails).
 _running: "weakref.WeakSet[Daemon]" = weakref.WeakSet()
+
+
+@dataclass(frozen=True)
+class HostStalls:
+    """The host stalls the daemon kept from its simulated world (docs/daemon.md "Host stalls"):
+    loop wakes later than `master.host_stall_ms` (SIGSTOP, a loaded host, a VM's steal time)."""
+
+    count: int
+    total_ms: float
+    longest_ms: float
 
 
 def running_daemons() -> list[Daemon]:
@@ -188,6 +199,12 @@ class Daemon(Connection):
     def status_line(self) -> str | None:
         """The last STATUS= the daemon sent ("1 gateway, 1 in Data_Exch, 1 Modbus client")."""
         return self._notify.last("STATUS") if self._notify else None
+
+    @property
+    def host_stalls(self) -> HostStalls:
+        """The host stalls so far, from GET /api/v1/status "host_stalls"."""
+        h = self.http_status()["host_stalls"]
+        return HostStalls(int(h["count"]), float(h["total_ms"]), float(h["longest_ms"]))
 
     # ---- the process ---------------------------------------------------------------------
 
