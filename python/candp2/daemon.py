@@ -25,7 +25,7 @@ from typing import Any, Mapping
 from ._notify import NotifySocket, parse_socketcand
 from .binary import find_binary
 from .connection import Connection
-from .errors import ConfigError, DaemonError, ModbusError
+from .errors import Candp2Error, ConfigError, DaemonError, ModbusError
 from .registers import RegisterMap
 
 #: Where every listener goes: loopback, a port the kernel picks.
@@ -318,6 +318,12 @@ class Daemon(Connection):
         status = "running" if rc is None else "exited with status %d" % rc
         parts = ["candp2d %s (%s, pid %s)" % (status, self.config_path, self.pid)]
         if rc is None:
+            try:  # docs/daemon.md "Host stalls": a stall the test's world did not see
+                h = self.host_stalls
+                parts.append("host stalls: %d, %.1f ms in all, the longest %.1f ms"
+                             % (h.count, h.total_ms, h.longest_ms))
+            except (Candp2Error, OSError, KeyError) as e:
+                parts.append("host stalls: unavailable (%s)" % e)
             parts.append(super().report())
         parts.append("log (last lines):\n" + log_tail(self.log))
         return "\n".join(parts)

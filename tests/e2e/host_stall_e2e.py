@@ -87,6 +87,7 @@ def test_stalls_do_not_reach_the_world(candp2d, baud):
     assert metric(daemon, "candp2_host_stall_longest_seconds") == pytest.approx(
         stalls.longest_ms / 1000, abs=1e-6)
     assert "host stall: the loop woke" in daemon.log
+    assert "host stalls: %d, %.1f ms in all" % (stalls.count, stalls.total_ms) in daemon.report()
     if baud is not None:
         station = daemon.line.station(UNIT)
         assert (station.lost, station.syncs) == (0, 1), station.describe()
