@@ -249,10 +249,11 @@ void parse_settings(const Object& top, const std::string& file, DaemonConfig& c)
   }
   if (const json* m = top.find("master")) {
     const Object o(*m, top.path("master"),
-                   {"address", "cycle_ms", "retry_ms", "baud", "bus_parameters"});
+                   {"address", "cycle_ms", "retry_ms", "baud", "bus_parameters", "host_stall_ms"});
     c.master_address = get_uint<std::uint8_t>(o, "address", 1, 0, 125, "(DP master address)");
     c.cycle_ms = get_uint<std::uint32_t>(o, "cycle_ms", 10, 1, 60000, "ms");
     c.retry_ms = get_uint<std::uint32_t>(o, "retry_ms", 1000, 1, 600000, "ms");
+    c.host_stall_ms = get_uint<std::uint32_t>(o, "host_stall_ms", 50, 0, 60000, "ms");
     parse_line(o, top.find("profibus"), c);  // config/line_config.cpp
   }
   if (const json* l = top.find("log")) {

@@ -146,7 +146,10 @@ struct DaemonConfig {
   std::uint32_t modbus_idle_timeout_s = 60;  // close clients silent this long; 0 = never
   std::uint8_t master_address = 1;
   std::uint32_t cycle_ms = 10;
-  std::uint32_t retry_ms = 1000;   // between parameterization attempts after a fault
+  std::uint32_t retry_ms = 1000;  // between parameterization attempts after a fault
+  // docs/daemon.md "Host stalls": a loop this late is a host stall, which the simulated world
+  // does not see; 0 = off (host lateness reaches the world).
+  std::uint32_t host_stall_ms = 50;
   std::optional<LineConfig> line;  // $.master.baud; none: the ideal (infinitely fast) line
   std::vector<BusConfig> buses;    // sorted by name
   std::vector<GatewayConfig> gateways;

@@ -10,6 +10,8 @@
 #include "can/socketcand.hpp"
 #include "capture/can_log.hpp"
 #include "capture/pcapng_tap.hpp"
+#include "common/log_throttle.hpp"
+#include "daemon/sim_clock.hpp"
 #include "daemon/state_file.hpp"
 #include "drive_sim/file_parameter_store.hpp"
 #include "event_loop/deadline_timer.hpp"
@@ -55,13 +57,17 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
         loop_(loop),
         log_sink_(log),
         log_(log, "daemon"),
-        can_log_tap_(can_log_, [] { return EventLoop::wall_now(); }) {}
+        can_log_tap_(can_log_, [] { return EventLoop::wall_now(); }),
+        // docs/daemon.md "Host stalls": not with a PROFIBUS line, whose foreign side runs on.
+        clock_(config.profibus ? Duration(0) : milliseconds(config.host_stall_ms)),
+        stall_log_(log_) {}
 
   ~DaemonImpl() override {
     // Unregister everything from the loop before the parts go away.
     http_.reset();
     if (deferred_) loop_.remove_deferred(deferred_);
     plant_timer_.reset();
+    stall_flush_.reset();
     for (auto& w : watched_) w.timer.reset();
     for (auto& e : exports_) e->timer.reset();
     for (int fd : fds_) loop_.remove_fd(fd);
@@ -123,6 +129,9 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   void rearm_export(Export& e);
   void rearm_link(Watched& w);
   void after_cycle(Time now);
+  // The simulated clock now (docs/daemon.md "Host stalls"): every plant call and every timer
+  // armed from a plant deadline takes its time from here; finds and logs host stalls.
+  Time sim_now();
   void check_stored();
   std::optional<modbus::BitrateStatus> bitrate(std::size_t gateway) const;
 
@@ -150,6 +159,10 @@ class DaemonImpl final : public Daemon, private plant::Environment, private plan
   std::vector<int> fds_;
   EventLoop::DeferredId deferred_ = 0;
   std::unique_ptr<DeadlineTimer> plant_timer_;
+  SimClock clock_;
+  std::optional<Time> due_;  // the simulated time plant_timer_ wakes the loop at
+  LogThrottle stall_log_;
+  std::unique_ptr<DeadlineTimer> stall_flush_;   // stall_log_'s summary, on the loop's clock
   std::unique_ptr<http::BusMonitors> monitors_;  // the HTTP face's tap: per bus counts and trace
   std::unique_ptr<http::StatusModel> status_model_;  // declared last: destroyed first
   std::unique_ptr<http::HttpServer> http_;
@@ -243,7 +256,11 @@ bool DaemonImpl::start(std::string* error) {
   o.line_step = milliseconds(1);
   plant_ = plant::Plant::build(config_, std::move(o), loop_.now(), error);
   if (!plant_) return false;
-  plant_timer_ = std::make_unique<DeadlineTimer>(loop_, [this] { plant_->advance(loop_.now()); });
+  plant_timer_ = std::make_unique<DeadlineTimer>(loop_, [this] { plant_->advance(sim_now()); });
+  stall_flush_ = std::make_unique<DeadlineTimer>(loop_, [this] {
+    stall_log_.flush(loop_.now());
+    stall_flush_->arm(stall_log_.next_flush(), loop_.now());
+  });
   links_.resize(plant_->gateways().size());
   for (auto& g : plant_->gateways())
     if (const auto it = link_of_.find(g->name()); it != link_of_.end())
@@ -263,14 +280,14 @@ bool DaemonImpl::start(std::string* error) {
     if (w.link)
       w.timer = std::make_unique<DeadlineTimer>(loop_, [this, k] {
         watched_[k].link->advance(loop_.now());
-        plant_->receive(watched_[k].gateway, loop_.now());  // shows the state
+        plant_->receive(watched_[k].gateway, sim_now());  // shows the state
         rearm_link(watched_[k]);
       });
     watched_.push_back(std::move(w));
     if (!watch(
             fd,
             [this, k] {
-              plant_->receive(watched_[k].gateway, loop_.now());
+              plant_->receive(watched_[k].gateway, sim_now());
               rearm_link(watched_[k]);
             },
             error))
@@ -340,7 +357,7 @@ bool DaemonImpl::start_exports(std::string* error) {
               fd,
               [this, ep, fd] {
                 // Frames the clients send enter the bus now (plant/plant.hpp set_now).
-                plant_->set_now(loop_.now());
+                plant_->set_now(sim_now());
                 ep->server->on_readable(fd, EventLoop::wall_now());
                 rearm_export(*ep);
               },
@@ -381,7 +398,8 @@ bool DaemonImpl::start_modbus(std::string* error) {
   modbus_ = modbus::ModbusServer::listen({.host = config_.modbus_listen.host,
                                           .port = config_.modbus_listen.port,
                                           .max_clients = config_.modbus_max_clients,
-                                          .idle_timeout = seconds(config_.modbus_idle_timeout_s)},
+                                          .idle_timeout = seconds(config_.modbus_idle_timeout_s),
+                                          .now = [this] { return sim_now(); }},
                                          loop_, *map_, log_sink_, &e);
   if (!modbus_) {
     *error = "Modbus/TCP ($.modbus.listen): " + e;
@@ -405,9 +423,13 @@ bool DaemonImpl::start_http(std::string* error) {
       return http::ModbusFigures{st.requests, st.exceptions, m->client_count(),
                                  st.clients_accepted};
     };
-  status_model_ = std::make_unique<http::StatusModel>(
-      http::make_sources(*plant_, monitors_.get(), std::move(modbus_figures),
-                         [this](std::size_t g) { return bitrate(g); }));
+  auto sources = http::make_sources(*plant_, monitors_.get(), std::move(modbus_figures),
+                                    [this](std::size_t g) { return bitrate(g); });
+  sources.host_stalls = [this] {
+    const auto& st = clock_.stalls();
+    return http::HostStallFigures{st.count, st.total, st.longest};
+  };
+  status_model_ = std::make_unique<http::StatusModel>(std::move(sources));
   std::string e;
   http_ = http::HttpServer::listen(
       {.host = at.host,
@@ -415,7 +437,8 @@ bool DaemonImpl::start_http(std::string* error) {
        .max_clients = config_.http_max_clients,
        .idle_timeout = seconds(config_.http_idle_timeout_s),
        .cycle = milliseconds(config_.cycle_ms),
-       .next_cycle = [this]() -> std::optional<Time> { return plant_->next_cycle(); }},
+       .next_cycle = [this]() -> std::optional<Time> { return plant_->next_cycle(); },
+       .now = [this] { return sim_now(); }},
       loop_, *status_model_, log_sink_, &e);
   if (!http_) {
     *error = "HTTP ($.http.listen): " + e;
@@ -428,7 +451,7 @@ bool DaemonImpl::start_http(std::string* error) {
 
 // After every dispatched event: frames between in-process endpoints, then the plant's timer.
 bool DaemonImpl::after_dispatch() {
-  const bool work = plant_->deliver(loop_.now());
+  const bool work = plant_->deliver(sim_now());
   // The export endpoints only send (frames for clients come through the tap): discard their
   // queues.
   for (auto& e : exports_)
@@ -439,7 +462,26 @@ bool DaemonImpl::after_dispatch() {
 }
 
 void DaemonImpl::rearm_plant() {
-  plant_timer_->arm(plant_->next_deadline(), loop_.now());
+  const Time now = sim_now();
+  due_ = plant_->next_deadline();
+  if (due_) due_ = std::max(*due_, now);
+  plant_timer_->arm(due_, now);
+}
+
+Time DaemonImpl::sim_now() {
+  const Time loop_now = loop_.now();
+  Duration stall{0};
+  const Time now = clock_.now(loop_now, due_, &stall);
+  if (stall > Duration(0)) {
+    const auto& st = clock_.stalls();
+    auto ms = [](Duration d) { return std::to_string(d.count() / 1000); };
+    stall_log_.log(loop_now, "stall", LogLevel::Warn,
+                   "host stall: the loop woke " + ms(stall) + " ms late (master.host_stall_ms " +
+                       ms(clock_.tolerance()) + "); the simulated world did not see it (" +
+                       std::to_string(st.count) + " stall(s), " + ms(st.total) + " ms in all)");
+    stall_flush_->arm(stall_log_.next_flush(), loop_now);
+  }
+  return now;
 }
 
 // The socketcand export's idle timeouts run on the wall clock its on_readable() is given.
@@ -459,7 +501,7 @@ void DaemonImpl::after_cycle(Time now) {
     if (!link) continue;
     const auto& prm = std::as_const(*g).gateway().user_prm();
     link->supervisor->update(link->member, prm ? gw::bitrate_bps(prm->bitrate_index) : std::nullopt,
-                             now);
+                             clock_.to_loop(now));  // the interface's real edge
   }
   if (http_) http_->after_cycle(now);
   check_stored();

@@ -219,6 +219,22 @@ void MetricsBuild::tail() {
     family("candp2_modbus_clients", "gauge", "Modbus/TCP clients connected");
     one("candp2_modbus_clients", "", m.clients);
   }
+  {  // docs/daemon.md "Host stalls"
+    const HostStallFigures st = src.host_stalls ? src.host_stalls() : HostStallFigures{};
+    auto sec = [](Duration d) { return static_cast<double>(d.count()) / 1e6; };
+    family(
+        "candp2_host_stalls_total", "counter",
+        "host stalls: loop wakes later than master.host_stall_ms, kept from the simulated world");
+    one("candp2_host_stalls_total", "", st.count);
+    family("candp2_host_stall_seconds_total", "counter", "the host stalls' time in all");
+    out_ += "candp2_host_stall_seconds_total ";
+    put(out_, sec(st.total));
+    out_ += '\n';
+    family("candp2_host_stall_longest_seconds", "gauge", "the longest host stall");
+    out_ += "candp2_host_stall_longest_seconds ";
+    put(out_, sec(st.longest));
+    out_ += '\n';
+  }
   const auto& h = model_.http_counters();
   family("candp2_http_connections", "gauge", "HTTP connections open");
   one("candp2_http_connections", "", h.connections);

@@ -572,17 +572,21 @@ class HttpServerImpl final : public HttpServer {
   }
 
   // Steps of the live view's round and of the documents in turn, for one budget.
+  // The documents' time (Options::now).
+  Time model_now() const { return options_.now ? options_.now() : loop_.now(); }
+
   void pump() {
     const Time t0 = EventLoop::monotonic_now();
+    const Time m = model_now();
     Time t = t0;
     do {
       turn_ = (turn_ + 1) % 3;
       if (turn_ == 0 && view_.round_active()) {
-        if (view_.step(t)) wake_streams();
+        if (view_.step(m)) wake_streams();
       } else if (turn_ == 1 && status_.job) {
-        if (status_.job->step(t)) built(status_);
+        if (status_.job->step(m)) built(status_);
       } else if (turn_ == 2 && metrics_.job) {
-        if (metrics_.job->step(t)) built(metrics_);
+        if (metrics_.job->step(m)) built(metrics_);
       } else {
         continue;  // nothing of this kind: the next one
       }
@@ -600,7 +604,7 @@ class HttpServerImpl final : public HttpServer {
     if (work_timer_) return;
     work_timer_ = loop_.add_timer(Duration(0), [this] {
       work_timer_ = 0;
-      const Time now = loop_.now();
+      const Time now = model_now();
       if (options_.next_cycle)
         if (const auto next = options_.next_cycle(); next && *next - now < 2 * budget_) return;
       maybe_start_round(now);

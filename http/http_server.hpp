@@ -49,6 +49,9 @@ class HttpServer {
     // When the next master cycle is due; snapshot work outside after_cycle() runs only when it is
     // at least two budgets away. Empty: no cycle to protect.
     std::function<std::optional<Time>()> next_cycle;
+    // The clock of the documents (the plant's time: candp2d's simulated clock, docs/daemon.md
+    // "Host stalls"). Empty: the loop's.
+    std::function<Time()> now = {};
   };
 
   // nullptr and *error ("cannot listen on 127.0.0.1:8080") on failure.

@@ -323,6 +323,12 @@ json StatusModel::http_json() const {
           {"work_us_max", http_.work_us_max}};
 }
 
+json StatusModel::host_stalls_json() const {
+  const HostStallFigures h = src_.host_stalls ? src_.host_stalls() : HostStallFigures{};
+  auto ms = [](Duration d) { return static_cast<double>(d.count()) / 1000.0; };
+  return {{"count", h.count}, {"total_ms", ms(h.total)}, {"longest_ms", ms(h.longest)}};
+}
+
 json StatusModel::trace_frame(const BusMonitor::Traced& t) const {
   return {{"seq", t.seq},
           {"t_ms", static_cast<double>(t.time.count()) / 1000.0},
@@ -378,6 +384,7 @@ json StatusModel::status_head(Time now, bool parts) {
   if (src_.line || src_.line_stats) j["line"] = line_json();
   if (src_.modbus) j["modbus"] = modbus_json();
   j["http"] = http_json();
+  j["host_stalls"] = host_stalls_json();
   if (!parts) return j;
   json buses = json::array();
   for (std::size_t i = 0; i < src_.buses.size(); ++i) buses.push_back(bus_json(i, now, true));

@@ -109,6 +109,13 @@ struct ModbusFigures {
   std::uint64_t clients_accepted = 0;
 };
 
+// The host stalls candp2d's simulated clock took out (docs/daemon.md "Host stalls").
+struct HostStallFigures {
+  std::uint64_t count = 0;
+  Duration total{0};
+  Duration longest{0};
+};
+
 struct StatusSources {
   const dp::DpMaster* master = nullptr;
   std::uint32_t cycle_ms = 10;
@@ -119,8 +126,9 @@ struct StatusSources {
   // What an analyser counts on the line (docs/profibus.md "Line statistics"): the timed line's or
   // in role master the FDL master's; null otherwise.
   const fdl::LineStatistics* line_stats = nullptr;
-  std::uint32_t line_baud = 0;            // of the line the statistics are counted on
-  std::function<ModbusFigures()> modbus;  // empty: no Modbus face
+  std::uint32_t line_baud = 0;                    // of the line the statistics are counted on
+  std::function<ModbusFigures()> modbus;          // empty: no Modbus face
+  std::function<HostStallFigures()> host_stalls;  // empty: a world that never stalls (0)
   std::vector<GatewaySource> gateways;
   std::vector<SlaveSource> slaves;
   std::vector<BusSource> buses;
@@ -160,6 +168,8 @@ class StatusModel {
   nlohmann::json line_json() const;
   nlohmann::json modbus_json() const;
   nlohmann::json http_json() const;
+  // {"count", "total_ms", "longest_ms"}: the host stalls (docs/daemon.md "Host stalls").
+  nlohmann::json host_stalls_json() const;
   nlohmann::json bus_json(std::size_t bus, Time now, bool trace);
   nlohmann::json trace_frame(const BusMonitor::Traced& t) const;
   nlohmann::json drive_json(std::size_t drive) const;

@@ -201,7 +201,7 @@ class Server final : public ModbusServer {
 
   // Returns false when the client was closed.
   bool answer(Client& c, std::span<const std::uint8_t> adu) {
-    const Time now = loop_.now();
+    const Time now = options_.now ? options_.now() : loop_.now();
     if (log_.enabled(LogLevel::Trace)) log_.log(LogLevel::Trace, c.name + " > " + hex_bytes(adu));
     auto decoded = decode_request(adu);
     std::optional<DecodeFailure> failure;

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -36,6 +37,9 @@ class ModbusServer {
     // A client without a request for this long is closed; 0 = never.
     Duration idle_timeout = seconds(60);
     int backlog = 128;  // connection bursts queue instead of retrying SYNs after 1 s
+    // The time requests are handled at (the plant's: candp2d's simulated clock, docs/daemon.md
+    // "Host stalls"). Empty: the loop's.
+    std::function<Time()> now = {};
   };
   struct Stats {
     std::uint64_t requests = 0;    // answered normally

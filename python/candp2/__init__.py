@@ -16,7 +16,7 @@ It knows no register number: it reads them from `candp2d --print-modbus-map --js
 from .binary import example, find_binary, find_example, find_tool
 from .bus import Bus, Recorder, candump_line, frame_text
 from .connection import Connection, connect
-from .daemon import Daemon, running_daemons
+from .daemon import Daemon, HostStalls, running_daemons
 from .drive import Drive, DriveState
 from .errors import (Candp2Error, ConfigError, DaemonError, FrameNotSeen, ModbusError,
                      NoLine, UnexpectedFrame, WaitTimeout)
@@ -32,7 +32,7 @@ __version__ = "0.1.0"
 __all__ = [
     "Bus", "BusCycle", "Candp2Error", "CfgFault", "ConfigError", "Connection", "Counters", "Daemon",
     "DaemonError", "DiagBlock", "Diagnosis", "Drive", "DriveState", "FieldImage", "FrameNotSeen",
-    "Gateway", "Image", "Led", "Leds", "Line", "LineFault", "LineStation", "LiveList",
+    "Gateway", "HostStalls", "Image", "Led", "Leds", "Line", "LineFault", "LineStation", "LiveList",
     "ModbusError", "NoLine", "PrmFault", "Recorder", "RegisterMap", "ReplayResult", "ReplayStep",
     "Slave", "SlaveDiagnosis", "SlaveFaults", "Slot", "Station", "UnexpectedFrame", "WaitTimeout",
     "candump_line", "connect", "example", "find_binary", "find_example", "find_tool", "frame_text",

@@ -18,13 +18,14 @@ import subprocess
 import tempfile
 import time
 import weakref
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
 
 from ._notify import NotifySocket, parse_socketcand
 from .binary import find_binary
 from .connection import Connection
-from .errors import ConfigError, DaemonError, ModbusError
+from .errors import Candp2Error, ConfigError, DaemonError, ModbusError
 from .registers import RegisterMap
 
 #: Where every listener goes: loopback, a port the kernel picks.
@@ -35,6 +36,16 @@ DRIVE_UNITS = range(254, 124, -1)
 
 #: Every Daemon not stopped yet (the pytest plugin reports them when a test fails).
 _running: "weakref.WeakSet[Daemon]" = weakref.WeakSet()
+
+
+@dataclass(frozen=True)
+class HostStalls:
+    """The host stalls the daemon kept from its simulated world (docs/daemon.md "Host stalls"):
+    loop wakes later than `master.host_stall_ms` (SIGSTOP, a loaded host, a VM's steal time)."""
+
+    count: int
+    total_ms: float
+    longest_ms: float
 
 
 def running_daemons() -> list[Daemon]:
@@ -189,6 +200,12 @@ class Daemon(Connection):
         """The last STATUS= the daemon sent ("1 gateway, 1 in Data_Exch, 1 Modbus client")."""
         return self._notify.last("STATUS") if self._notify else None
 
+    @property
+    def host_stalls(self) -> HostStalls:
+        """The host stalls so far, from GET /api/v1/status "host_stalls"."""
+        h = self.http_status()["host_stalls"]
+        return HostStalls(int(h["count"]), float(h["total_ms"]), float(h["longest_ms"]))
+
     # ---- the process ---------------------------------------------------------------------
 
     @property
@@ -301,6 +318,12 @@ class Daemon(Connection):
         status = "running" if rc is None else "exited with status %d" % rc
         parts = ["candp2d %s (%s, pid %s)" % (status, self.config_path, self.pid)]
         if rc is None:
+            try:  # docs/daemon.md "Host stalls": a stall the test's world did not see
+                h = self.host_stalls
+                parts.append("host stalls: %d, %.1f ms in all, the longest %.1f ms"
+                             % (h.count, h.total_ms, h.longest_ms))
+            except (Candp2Error, OSError, KeyError) as e:
+                parts.append("host stalls: unavailable (%s)" % e)
             parts.append(super().report())
         parts.append("log (last lines):\n" + log_tail(self.log))
         return "\n".join(parts)

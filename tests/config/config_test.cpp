@@ -100,6 +100,7 @@ TEST(Config, Defaults) {
   EXPECT_EQ(c.modbus_listen.to_string(), "127.0.0.1:1502");  // Default listen address
   EXPECT_EQ(c.master_address, 1);
   EXPECT_EQ(c.cycle_ms, 10u);
+  EXPECT_EQ(c.host_stall_ms, 50u);  // docs/configuration.md "master"
   EXPECT_EQ(c.log_level, "info");
   EXPECT_EQ(c.gateways[0].name, "gw5");
   EXPECT_TRUE(c.gateways[0].slots[0].consistent);
@@ -509,6 +510,14 @@ TEST(ConfigWarnings, WatchdogShorterThanTwoMasterCycles) {
   EXPECT_EQ(c.warnings[0].json_path, "$.gateways[0].parameters.watchdog_ms");
   j["master"]["cycle_ms"] = 15;
   EXPECT_TRUE(ok(j).warnings.empty());
+}
+
+TEST(Config, HostStallTolerance) {  // docs/daemon.md "Host stalls"
+  json j = base();
+  j["master"]["host_stall_ms"] = 0;
+  EXPECT_EQ(ok(j).host_stall_ms, 0u);
+  j["master"]["host_stall_ms"] = 60001;
+  EXPECT_EQ(bad(j).json_path, "$.master.host_stall_ms");
 }
 
 TEST(ParseGateway, StandaloneForTheReplayRunner) {
