@@ -100,10 +100,12 @@ BusConfig parse_bus(const json& j, const std::string& path, const std::string& n
   if (!type) fail(path, "missing key \"type\" (\"virtual\", \"socketcan\" or \"socketcand\")");
   const std::string t = type->is_string() ? type->get<std::string>() : "";
   if (t == "virtual") {
-    const Object o(
-        j, path,
-        {"type", "socketcand", "channel", "socketcand_max_clients", "socketcand_idle_timeout_s"});
+    const Object o(j, path,
+                   {"type", "socketcand", "channel", "socketcand_max_clients",
+                    "socketcand_idle_timeout_s", "bitrate"});
     b.type = BusType::Virtual;
+    if (const json* r = o.find("bitrate"))
+      b.timed_bitrate = gw::kBitrates[parse_bitrate(*r, o.path("bitrate"))];
     if (const json* l = o.find("socketcand"))
       b.socketcand_listen = get_endpoint(*l, o.path("socketcand"));
     b.socketcand_max_clients = get_uint<std::uint32_t>(o, "socketcand_max_clients", 32, 1, 10000);

@@ -54,6 +54,10 @@ struct BusConfig {
   std::optional<Endpoint> socketcand_listen;     // virtual: export the bus over socketcand
   std::uint32_t socketcand_max_clients = 32;     // export: at the limit the idlest is evicted
   std::uint32_t socketcand_idle_timeout_s = 60;  // export: close silent clients; 0 = never
+  // virtual: the bus's bit rate in bit/s ("bitrate", a rate of manual table 5.1.1 written as
+  // can_bitrate is) for the bus in time (docs/can-bus.md); the daemon does
+  // not time the bus yet. none: an ideal bus.
+  std::optional<std::uint32_t> timed_bitrate;
   std::string json_path;
 };
 

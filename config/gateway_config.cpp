@@ -13,7 +13,6 @@
 namespace candp2::config {
 
 namespace detail {
-namespace {
 
 // ------------------------------------------------------------------------------ parameters
 
@@ -39,6 +38,8 @@ std::uint8_t parse_bitrate(const json& j, const std::string& path) {
     if (gw::kBitrates[i] == v) return i;
   fail(path, expected + ", got " + std::to_string(v));
 }
+
+namespace {
 
 void parse_parameters(const json& j, const std::string& path, GatewayConfig& g) {
   const Object o(j, path,

@@ -55,6 +55,10 @@ inline std::string resolve(const std::string& file, const std::string& p) {
   return relative_to(file, p);
 }
 
+// A CAN bit rate of manual table 5.1.1 as `can_bitrate` takes it ("500k", "125 kbit/s", 500000):
+// its index in gw::kBitrates (config/gateway_config.cpp); throws Failure.
+std::uint8_t parse_bitrate(const json& j, const std::string& path);
+
 // A gateway entry (config/gateway_config.cpp); throws Failure.
 GatewayConfig parse_gateway_or_throw(const json& j, const std::string& file,
                                      const std::string& path);

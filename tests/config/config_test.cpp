@@ -326,6 +326,35 @@ TEST(ConfigErrors, WrongType) {
   EXPECT_EQ(bad(j).json_path, "$.gateways[0].slots[0].length");
 }
 
+// docs/can-bus.md "The bus's bit rate": a virtual bus's "bitrate" is a rate of manual table 5.1.1
+// written as can_bitrate is; without it the bus is ideal.
+TEST(Config, VirtualBusBitrate) {
+  json j = base();
+  EXPECT_FALSE(ok(j).bus("can0")->timed_bitrate);
+  j["buses"]["can0"]["bitrate"] = "500k";
+  EXPECT_EQ(ok(j).bus("can0")->timed_bitrate, 500000u);
+  j["buses"]["can0"]["bitrate"] = "666.6k";
+  EXPECT_EQ(ok(j).bus("can0")->timed_bitrate, 666600u);
+  j["buses"]["can0"]["bitrate"] = 1000000;
+  EXPECT_EQ(ok(j).bus("can0")->timed_bitrate, 1000000u);
+  j["buses"]["can0"]["bitrate"] = "125 kbit/s";
+  EXPECT_EQ(ok(j).bus("can0")->timed_bitrate, 125000u);
+}
+
+TEST(ConfigErrors, VirtualBusBitrate) {
+  json j = base();
+  j["buses"]["can0"]["bitrate"] = "400k";
+  auto e = bad(j);
+  EXPECT_EQ(e.file, "test.json");
+  EXPECT_EQ(e.json_path, "$.buses.can0.bitrate");
+  EXPECT_NE(e.message.find("expected a CAN bit rate of manual table 5.1.1"), std::string::npos)
+      << e.message;
+  j["buses"]["can0"]["bitrate"] = 400000;
+  EXPECT_EQ(bad(j).json_path, "$.buses.can0.bitrate");
+  j["buses"]["can0"]["bitrate"] = "check";  // the socketcan buses' mode is no rate
+  EXPECT_EQ(bad(j).json_path, "$.buses.can0.bitrate");
+}
+
 TEST(ConfigErrors, UnknownBus) {
   const auto e = bad(with_gateway({{"bus", "can9"}}));
   EXPECT_EQ(e.to_string(),
