@@ -16,6 +16,7 @@
 #include "common/hex.hpp"
 #include "config/json_reader.hpp"
 #include "config/parse_helpers.hpp"
+#include "config/watchdog_check.hpp"
 #include "gateway/gateway.hpp"
 #include "gateway/slot_config.hpp"
 #include "serial/serial_port.hpp"
@@ -358,21 +359,15 @@ void check_drive(const DriveConfig& drive, const std::string& path, const Daemon
                                       " (the gateway's Modbus unit ID)");
 }
 
-// Warnings about the whole: watchdogs shorter than two cycles, bit rates, overlapping slots.
+// Warnings about the whole: watchdogs against the watchdog rule, bit rates, overlapping slots.
 void collect_warnings(const std::string& file, DaemonConfig& c) {
-  for (auto& g : c.gateways) {
-    // docs/dp-slave.md: a Data_Exchange gap longer than the watchdog time drops the slave to
-    // Wait_Prm; with a watchdog below two master cycles one late cycle is enough.
-    // (Role slaves: an external master's cycle, unknown here.)
-    const bool external_master = c.profibus && c.profibus->role == ProfibusRole::Slaves;
-    if (!external_master && g.watchdog_ms != 0 && g.watchdog_ms < 2 * c.cycle_ms)
-      g.warnings.push_back({file, g.json_path + ".parameters.watchdog_ms",
-                            "watchdog " + std::to_string(g.watchdog_ms) +
-                                " ms is shorter than two master cycles ($.master.cycle_ms = " +
-                                std::to_string(c.cycle_ms) +
-                                "): the gateway will drop out of Data_Exch"});
+  for (auto& g : c.gateways)
     c.warnings.insert(c.warnings.end(), g.warnings.begin(), g.warnings.end());
-  }
+  // docs/validate.md "The watchdog rule": the words `candp2 validate` uses too.
+  for (auto& w : check_watchdogs(c))
+    c.warnings.push_back({file, w.json_path, std::move(w.message),
+                          w.verdict == fdl::WatchdogVerdict::NeverHolds ? WarningKind::Unholdable
+                                                                        : WarningKind::Watchdog});
   check_shared_bitrates(c);
   std::vector<GatewayConfig*> all;
   for (auto& g : c.gateways) all.push_back(&g);

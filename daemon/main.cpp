@@ -45,27 +45,35 @@ std::string prefix(const char* priority) {
 }
 
 // Writes the configuration's warnings to stderr, at most kWarningsPerKind of a kind and then one
-// line with the count of the rest; with `rejected_are_errors` a station's rejection is an error
-// line. Returns how many warnings are rejections.
-std::size_t print_warnings(const candp2::config::DaemonConfig& config, bool rejected_are_errors) {
+// line with the count of the rest; with `invalid_are_errors` a warning that makes the
+// configuration invalid (a station's rejection, a watchdog that can never hold) is an error line.
+// Returns how many of each kind there are.
+std::map<candp2::config::WarningKind, std::size_t> print_warnings(
+    const candp2::config::DaemonConfig& config, bool invalid_are_errors) {
   using candp2::config::WarningKind;
   std::map<WarningKind, std::size_t> count;
-  std::size_t rejected = 0;
   for (const auto& w : config.warnings) {
-    const bool error = rejected_are_errors && w.kind == WarningKind::Rejected;
-    rejected += w.kind == WarningKind::Rejected;
-    if (w.kind != WarningKind::Other && ++count[w.kind] > kWarningsPerKind && !error) continue;
+    const bool error = invalid_are_errors && candp2::config::makes_invalid(w.kind);
+    if (++count[w.kind] > kWarningsPerKind && w.kind != WarningKind::Other && !error) continue;
     std::cerr << prefix(error ? SD_ERR : SD_WARNING)
               << "candp2d: " << (error ? "error: " : "warning: ") << w.to_string() << "\n";
   }
+  static constexpr auto what = [](WarningKind k) {
+    switch (k) {
+      case WarningKind::Overlap:
+        return "overlapping PLC addresses";
+      case WarningKind::Rejected:
+        return "rejected stations";
+      default:
+        return "watchdogs too short";
+    }
+  };
   for (const auto& [kind, n] : count)
-    if (n > kWarningsPerKind)
+    if (n > kWarningsPerKind && kind != WarningKind::Other)
       std::cerr << prefix(SD_WARNING) << "candp2d: warning: " << config.file << ": "
-                << n - kWarningsPerKind << " more warnings like these ("
-                << (kind == WarningKind::Overlap ? "overlapping PLC addresses"
-                                                 : "rejected stations")
+                << n - kWarningsPerKind << " more warnings like these (" << what(kind)
                 << "); candp2 validate " << config.file << " lists them all\n";
-  return rejected;
+  return count;
 }
 
 int run(const candp2::config::DaemonConfig& config, candp2::LogLevel level) {
@@ -159,10 +167,12 @@ int main(int argc, char** argv) {
     return kExitUsage;
   }
   const auto& config = std::get<candp2::config::DaemonConfig>(loaded);
-  // With --check a configuration a gateway or slave rejects is an error, the verdict of `candp2
-  // validate` (docs/validate.md "One verdict"); running, it is a warning: a test may configure a
-  // rejected station on purpose.
-  const auto rejected = print_warnings(config, check);
+  // With --check a configuration a gateway or slave rejects, or with a watchdog that can never
+  // hold, is an error, the verdict of `candp2 validate` (docs/validate.md "One verdict"); running,
+  // it is a warning: a test may configure a rejected station or a watchdog expiry on purpose.
+  auto counts = print_warnings(config, check);
+  const std::size_t rejected = counts[candp2::config::WarningKind::Rejected];
+  const std::size_t unholdable = counts[candp2::config::WarningKind::Unholdable];
 
   const std::string level_name = level_override.empty() ? config.log_level : level_override;
   const auto level = candp2::logsink::parse_level(level_name);
@@ -172,10 +182,13 @@ int main(int argc, char** argv) {
               << level_name << "\"\n";
     return kExitUsage;
   }
-  if (check && rejected) {
-    std::cout << config.file << ": configuration invalid (" << rejected
-              << " station(s) would reject their parameters or configuration, as candp2 validate "
-                 "says)\n";
+  if (check && (rejected || unholdable)) {
+    std::cout << config.file << ": configuration invalid (";
+    if (rejected)
+      std::cout << rejected << " station(s) would reject their parameters or configuration"
+                << (unholdable ? ", " : "");
+    if (unholdable) std::cout << unholdable << " watchdog(s) can never hold";
+    std::cout << ", as candp2 validate says)\n";
     return kExitStart;
   }
   if (check) {

@@ -25,7 +25,7 @@ std::string ms_text(Duration d) {
 
 LineReport check_line(const LineInput& in) {
   LineReport r;
-  r.baud = in.baud;
+  if (in.baud != 0) r.baud = in.baud;
   r.params = in.params;
   r.cycle_ms = in.cycle_ms;
   std::vector<fdl::CycleStation> st;
@@ -69,27 +69,14 @@ LineReport check_line(const LineInput& in) {
                               ms_text(r.cycle.mean) + " (at most " + ms_text(r.cycle.worst) +
                               "), and grid points are missed",
                           ""});
-  // A watchdog must outlast the time between two visits: the cycle (at least cycle_ms) and the
-  // retries of an unanswered request before the master comes back.
-  for (const auto& s : in.stations) {
-    if (s.watchdog_ms == 0) continue;
-    const Duration visit = std::max(grid, r.cycle.worst) +
-                           fdl::bits_to_time(in.baud, fdl::retry_bits(in.params, s.outputs));
-    if (milliseconds(s.watchdog_ms) < visit)
-      r.problems.push_back({false, s.watchdog_path,
-                            "station " + s.name + ": watchdog " + std::to_string(s.watchdog_ms) +
-                                " ms is shorter than the bus cycle with its retries (" +
-                                ms_text(visit) + "): it will expire",
-                            s.json_path});
-  }
   return r;
 }
 
 std::vector<Warning> station_warnings(const LineReport& r, const std::string& station_path) {
   std::vector<Warning> w;
   for (const auto& p : r.problems)
-    if (!p.error && p.station == station_path)
-      w.push_back({WarningKind::Line, p.json_path, p.message});
+    if (p.station == station_path)
+      w.push_back({WarningKind::Line, p.json_path, p.message, p.error});
   return w;
 }
 

@@ -1,8 +1,9 @@
 // The line in time for `candp2 validate` (docs/validate.md "The line", docs/profibus.md "The line
 // in time"): the bus cycle a configuration will get, predicted from the same arithmetic the plant's
 // timed line runs (profibus_sim/fdl/line_timing.hpp), and the line's checks: every station's GSD
-// supports the baud rate and its MaxTsdr fits max_tsdr_bits, cycle_ms against the predicted cycle,
-// each watchdog against the cycle with its retries. Pure: no files.
+// supports the baud rate and its MaxTsdr fits max_tsdr_bits, cycle_ms against the predicted cycle.
+// The watchdogs' problems (the watchdog rule, profibus_sim/fdl/watchdog_rule.hpp) are added by the
+// caller, which knows the daemon configuration, on the ideal line too. Pure: no files.
 #pragma once
 
 #include <cstdint>
@@ -21,14 +22,11 @@ struct LineStation {
   std::string json_path;  // "$.gateways[0]"
   std::uint8_t address = 0;
   std::size_t outputs = 0, inputs = 0;  // Data_Exchange bytes (the Chk_Cfg)
-  std::uint32_t watchdog_ms = 0;        // 0: off
   const gsd::Model* gsd = nullptr;      // its GSD, when known
   std::string gsd_name;                 // for messages: "the GSD x.gsd"
   // Without a GSD: the latest it answers at the line's rate, when known otherwise (a CAN-DP/2's
   // own, gateway/line_limits.hpp).
   std::optional<std::uint32_t> max_tsdr_bits;
-  // Where its watchdog is set ("$.gateways[0].parameters.watchdog_ms", "$.slaves[0].watchdog_ms").
-  std::string watchdog_path;
 };
 
 struct LineProblem {
@@ -39,7 +37,7 @@ struct LineProblem {
 };
 
 struct LineReport {
-  std::optional<std::uint32_t> baud;  // none: the ideal line
+  std::optional<std::uint32_t> baud;  // none: the ideal line (its problems: the watchdogs')
   fdl::BusParameters params;
   std::uint32_t cycle_ms = 0;
   fdl::CyclePrediction cycle;
@@ -61,7 +59,8 @@ struct LineInput {
 
 LineReport check_line(const LineInput& in);
 
-// The line's warnings about the station at `station_path`, as the station's block lists them too.
+// The line's problems about the station at `station_path`, as the station's block lists them too
+// (an error with Warning::error).
 std::vector<Warning> station_warnings(const LineReport& r, const std::string& station_path);
 
 }  // namespace candp2::validate

@@ -283,9 +283,15 @@ void format_line(std::ostringstream& os, const LineReport& l) {
 json line_json(const LineReport& l) {
   json o;
   o["ideal"] = !l.baud;
+  json problems = json::array();
+  for (const auto& x : l.problems)
+    problems.push_back({{"severity", x.error ? "error" : "warning"},
+                        {"json_path", x.json_path},
+                        {"message", x.message}});
   if (!l.baud) {
     o["baud"] = nullptr;
     o["bus_cycle_us"] = nullptr;
+    if (!problems.empty()) o["problems"] = problems;  // the watchdogs' (docs/validate.md)
     return o;
   }
   const auto& p = l.params;
@@ -303,11 +309,6 @@ json line_json(const LineReport& l) {
                          {"hsa", p.hsa},
                          {"retry_limit", p.retry_limit},
                          {"ttr_bits", p.ttr_bits}};
-  json problems = json::array();
-  for (const auto& x : l.problems)
-    problems.push_back({{"severity", x.error ? "error" : "warning"},
-                        {"json_path", x.json_path},
-                        {"message", x.message}});
   o["problems"] = problems;
   return o;
 }
@@ -355,11 +356,16 @@ std::string format_text(const Report& r) {
   // "1 gateway" or, with generic slaves, "1 gateway, 2 slaves".
   std::string stations = plural(r.gateways.size(), "gateway");
   if (!r.slaves.empty()) stations += ", " + plural(r.slaves.size(), "slave");
-  if (!r.line.valid()) ++invalid;
-  if (invalid == 0)
+  // The line's errors (a rate a GSD does not support, a watchdog that can never hold) apart.
+  const std::size_t line_errors = r.line.problems.size() - r.line.warnings();
+  const std::string errors = line_errors ? plural(line_errors, "line error") + ", " : "";
+  if (invalid == 0 && line_errors == 0)
     os << "result: valid (" << stations << ", " << plural(r.warning_count(), "warning") << ")\n";
+  else if (invalid == 0)
+    os << "result: invalid (" << stations << ", " << errors << plural(r.warning_count(), "warning")
+       << ")\n";
   else
-    os << "result: invalid (rejected by " << invalid << " of " << stations << ", "
+    os << "result: invalid (rejected by " << invalid << " of " << stations << ", " << errors
        << plural(r.warning_count(), "warning") << ")\n";
   return os.str();
 }

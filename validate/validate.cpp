@@ -36,7 +36,8 @@ void format_warnings(std::ostream& os, const std::vector<Warning>& own,
   if (own.empty() && line.empty()) os << " none";
   os << "\n";
   for (const auto* list : {&own, &line})
-    for (const auto& w : *list) os << "    " << w.json_path << ": " << w.message << "\n";
+    for (const auto& w : *list)
+      os << "    " << (w.error ? "error: " : "") << w.json_path << ": " << w.message << "\n";
 }
 
 nlohmann::ordered_json warnings_json(const std::vector<Warning>& own,
@@ -44,8 +45,9 @@ nlohmann::ordered_json warnings_json(const std::vector<Warning>& own,
   auto w = nlohmann::ordered_json::array();
   for (const auto* list : {&own, &line})
     for (const auto& x : *list)
-      w.push_back(
-          {{"kind", to_string(x.kind)}, {"json_path", x.json_path}, {"message", x.message}});
+      if (!x.error)
+        w.push_back(
+            {{"kind", to_string(x.kind)}, {"json_path", x.json_path}, {"message", x.message}});
   return w;
 }
 

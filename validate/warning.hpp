@@ -26,10 +26,12 @@ struct Warning {
   WarningKind kind;
   std::string json_path;  // where in the configuration ("$.gateways[0].slots[2]")
   std::string message;
+  bool error = false;  // a line error about the station (docs/validate.md "The watchdog rule")
 };
 
 // A station's warnings as its block lists them (text and --json): its own, then the line's
-// about it (`line`, WarningKind::Line).
+// about it (`line`, WarningKind::Line); the line's errors about it in the text only ("error: "),
+// the JSON has them in the line's `problems`.
 void format_warnings(std::ostream& os, const std::vector<Warning>& own,
                      const std::vector<Warning>& line);
 nlohmann::ordered_json warnings_json(const std::vector<Warning>& own,

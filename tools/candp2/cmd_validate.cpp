@@ -15,6 +15,7 @@
 
 #include "common/hex.hpp"
 #include "config/config.hpp"
+#include "config/watchdog_check.hpp"
 #include "gateway/line_limits.hpp"
 #include "gsd/gsd.hpp"
 #include "tools/candp2/commands.hpp"
@@ -70,26 +71,23 @@ validate::LineInput line_input(const config::DaemonConfig& cfg, const gsd::Model
   in.params = cfg.line->params;
   in.master_address = cfg.master_address;
   in.cycle_ms = cfg.cycle_ms;
-  // A gateway's watchdog is one of its parameters, a generic slave's a key of its own.
   auto add = [&](const std::string& name, const std::string& path, std::uint8_t address,
-                 const dp::SlaveParameters& params, std::uint32_t watchdog_ms,
-                 const std::string& watchdog_path, const gsd::Model* model,
+                 const dp::SlaveParameters& params, const gsd::Model* model,
                  const std::string& gsd_name) {
     const dp::ImageMap map = dp::map_image(params);
-    in.stations.push_back({name, path, address, map.out_len, map.in_len, watchdog_ms, model,
-                           "the GSD " + gsd_name, std::nullopt, watchdog_path});
+    in.stations.push_back(
+        {name, path, address, map.out_len, map.in_len, model, "the GSD " + gsd_name, std::nullopt});
   };
   for (const auto& g : cfg.gateways) {
-    add(g.name, g.json_path, g.dp_address(), config::slave_parameters(g), g.watchdog_ms,
-        g.json_path + ".parameters.watchdog_ms", gateway_gsd, gateway_gsd_name);
+    add(g.name, g.json_path, g.dp_address(), config::slave_parameters(g), gateway_gsd,
+        gateway_gsd_name);
     if (!gateway_gsd) {  // its own GSD's values, built in (as the plant answers)
       in.stations.back().max_tsdr_bits = gw::max_tsdr_bits(in.baud);
       in.stations.back().gsd_name = "the CAN-DP/2's GSD";
     }
   }
   for (const auto& s : cfg.slaves)
-    add(s.name, s.json_path, s.address, config::slave_parameters(s), s.watchdog_ms,
-        s.json_path + ".watchdog_ms", s.model.get(), s.gsd);
+    add(s.name, s.json_path, s.address, config::slave_parameters(s), s.model.get(), s.gsd);
   return in;
 }
 
@@ -228,19 +226,20 @@ int run_validate(const ValidateArgs& a) {
                        : has_key(doc, "slaves", i, "parameters") ? ".parameters"
                                                                  : " (no parameters: "
                                                                    "the GSD's defaults)");
-    in.cfg_source = s.json_path + (s.cfg_hex                              ? ".cfg_hex"
-                                   : listed                               ? ".modules"
-                                                                          : ".gsd");
+    in.cfg_source = s.json_path + (s.cfg_hex ? ".cfg_hex" : listed ? ".modules" : ".gsd");
     in.field_unit = s.field_unit;
     for (const auto& n : s.notes) in.notes.push_back({n.json_path, n.message});
     report.slaves.push_back(validate::check_slave(std::move(in)));
   }
   validate::check_slave_overlaps(report.gateways, report.slaves);
-  if (cfg.line) {
+  if (cfg.line)
     report.line =
         validate::check_line(line_input(cfg, gsd_file ? &gsd_file->model : nullptr, a.gsd));
-    for (auto& p : report.line.problems) p.json_path = existing_path(doc, p.json_path);
-  }
+  // docs/validate.md "The watchdog rule": the words candp2d warns with, on the ideal line too.
+  for (auto& w : config::check_watchdogs(cfg))
+    report.line.problems.push_back({w.verdict == fdl::WatchdogVerdict::NeverHolds, w.json_path,
+                                    std::move(w.message), w.station});
+  for (auto& p : report.line.problems) p.json_path = existing_path(doc, p.json_path);
 
   const int rc = validate::exit_code(report, a.strict);
   if (a.json)
