@@ -1,7 +1,7 @@
 // The in-process line in time (docs/profibus.md "The line in time"), in virtual time: TSYN, TSDR,
 // TID1/TID2 and the slot time to the bit, retries and a lost station when the slot time says, a
 // watchdog that expires when the cycle outgrows it, a repeat with the same bytes, a gateway capped
-// at its MaxTsdr, and the bus cycle as the prediction has it.
+// at its MaxTsdr, the bus cycle as the prediction has it, and the watchdog rule held to the plant.
 // Expected times come from the bus parameters and the telegrams' lengths, not from the output.
 #include "plant/timed_line.hpp"
 
@@ -12,10 +12,12 @@
 #include <variant>
 
 #include "config/config.hpp"
+#include "config/watchdog_check.hpp"
 #include "gateway/line_limits.hpp"
 #include "plant/plant.hpp"
 #include "profibus_sim/fdl/dp_wire.hpp"
 #include "profibus_sim/fdl/line_timing.hpp"
+#include "profibus_sim/fdl/watchdog_rule.hpp"
 
 namespace candp2 {
 namespace {
@@ -308,6 +310,50 @@ TEST(TimedLine, PredictionAgreesWithTheSimulation) {
       std::printf("| %zu | %u | %.0f | %.0f | %+.2f %% |\n", n, baud, want, measured,
                   100.0 * (measured - want) / want);
     }
+  }
+}
+
+// The watchdog rule (docs/validate.md "The watchdog rule") against the plant that runs the line:
+// the first rotation, which parameterizes every station, is the rule's parameterizing rotation
+// (with or without its GAP request); a watchdog the rule lets hold never expires, one it calls
+// shorter than the cycle itself expires.
+TEST(TimedLine, TheWatchdogRuleHoldsInThePlant) {
+  for (const auto& [baud, cycle_ms] : {std::pair{9600u, 10u}, std::pair{1500000u, 30u}}) {
+    SCOPED_TRACE(baud);
+    const std::string master = R"({ "cycle_ms": )" + std::to_string(cycle_ms) +
+                               R"(, "host_stall_ms": 0, "baud": )" + std::to_string(baud) + " }";
+    const auto watchdog = [&](std::uint32_t ms) {
+      return R"(, "watchdog_ms": )" + std::to_string(ms);
+    };
+    Rig probe(config_text(4, master));
+    ASSERT_TRUE(probe.plant);
+    const auto line = config::watchdog_line(probe.cfg);
+    const auto b = fdl::watchdog_bounds(line);
+    const auto p = line.params;
+    const auto startup = fdl::startup_rotation_bits(p, line.stations, true);
+    const std::uint32_t holds =
+        static_cast<std::uint32_t>((b.needed().count() + 9999) / 10000 * 10);
+    const std::uint32_t never = static_cast<std::uint32_t>((b.cycle.count() / 1000 - 1) / 10 * 10);
+    ASSERT_EQ(fdl::judge_watchdog(b, holds).verdict, fdl::WatchdogVerdict::Holds);
+    ASSERT_EQ(fdl::judge_watchdog(b, never).verdict, fdl::WatchdogVerdict::NeverHolds);
+
+    Rig ok(config_text(4, master, watchdog(holds)));
+    ASSERT_TRUE(ok.plant);
+    ok.run_until(Time{5'000'000});
+    const auto first = ok.line().bus_cycle().max;  // the start-up rotation is the longest
+    // Stamps are whole microseconds: 2 µs either way.
+    EXPECT_GE(first + microseconds(2), fdl::bits_to_time(baud, startup - fdl::gap_poll_bits(p)));
+    EXPECT_LE(first, fdl::bits_to_time(baud, startup) + microseconds(2));
+    for (const auto& v : ok.plant->master().slaves()) {
+      EXPECT_EQ(v.parameterizations, 1u) << "watchdog " << holds << " ms expired";
+      EXPECT_EQ(v.state, dp::MasterSlaveState::DataExch);
+    }
+
+    Rig short_wd(config_text(4, master, watchdog(never)));
+    ASSERT_TRUE(short_wd.plant);
+    short_wd.run_until(Time{5'000'000});
+    for (const auto& v : short_wd.plant->master().slaves())
+      EXPECT_GT(v.parameterizations, 1u) << "watchdog " << never << " ms held";
   }
 }
 
