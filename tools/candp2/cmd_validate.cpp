@@ -182,6 +182,7 @@ int run_validate(const ValidateArgs& a) {
     in.bus = g.bus;
     in.address = g.address;
     in.master_address = cfg.master_address;
+    in.stored_sync_ms = g.stored_sync_ms;
     in.params = config::slave_parameters(g);
     // config: one Chk_Cfg entry per slot (cfg_hex holds exactly one entry).
     for (const auto& s : g.slots) in.entry_paths.push_back(s.json_path);
@@ -228,9 +229,7 @@ int run_validate(const ValidateArgs& a) {
                        : has_key(doc, "slaves", i, "parameters") ? ".parameters"
                                                                  : " (no parameters: "
                                                                    "the GSD's defaults)");
-    in.cfg_source = s.json_path + (s.cfg_hex                              ? ".cfg_hex"
-                                   : listed                               ? ".modules"
-                                                                          : ".gsd");
+    in.cfg_source = s.json_path + (s.cfg_hex ? ".cfg_hex" : listed ? ".modules" : ".gsd");
     in.field_unit = s.field_unit;
     for (const auto& n : s.notes) in.notes.push_back({n.json_path, n.message});
     report.slaves.push_back(validate::check_slave(std::move(in)));
@@ -240,6 +239,19 @@ int run_validate(const ValidateArgs& a) {
     report.line =
         validate::check_line(line_input(cfg, gsd_file ? &gsd_file->model : nullptr, a.gsd));
     for (auto& p : report.line.problems) p.json_path = existing_path(doc, p.json_path);
+  }
+
+  // docs/validate.md "CAN buses": every timed bus, with the gateways and drives on it.
+  std::vector<validate::DriveInput> drives;
+  for (const auto& d : cfg.drives) drives.push_back({d.name, d.json_path, d.bus, d.rx_id, d.tx_id});
+  for (const auto& b : cfg.buses) {
+    if (!b.timed_bitrate) continue;
+    report.buses.push_back(validate::check_bus({.name = b.name,
+                                                .json_path = b.json_path + ".bitrate",
+                                                .bitrate = *b.timed_bitrate,
+                                                .cycle_ms = cfg.cycle_ms},
+                                               report.gateways, drives));
+    for (auto& p : report.buses.back().problems) p.json_path = existing_path(doc, p.json_path);
   }
 
   const int rc = validate::exit_code(report, a.strict);
