@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
+
+#include "can/frame_bits.hpp"
 #include "common/hex.hpp"
 #include "gateway/gateway.hpp"
 #include "validate/buses.hpp"
@@ -288,6 +291,53 @@ TEST(Buses, TxSlotsAtTheMasterCycleAndTheirOwnCycle) {
   EXPECT_NEAR(b.load_pct, 5.55, 1e-9);
   for (const auto& a : b.analysis.messages) EXPECT_EQ(a.response, microseconds(690));
   EXPECT_TRUE(b.problems.empty());
+}
+
+// The prediction's rules against the gateway itself: a real gw::Gateway run for one second of
+// virtual time, its outputs changed at every Data_Exchange (every 10 ms), sends per identifier
+// as many frames as the predicted messages of that identifier make in a second (once-only frames
+// once), within one frame per message for the edges of the second (it sends 199 SYNCs of the
+// predicted 200, 149 frames 0x201 of 150).
+TEST(Buses, TheGatewaysOwnTrafficMatchesThePrediction) {
+  gw::UserPrm p = at_500k();
+  p.canopen_master = true;
+  p.start_frame = true;
+  p.sync_ms = 5;
+  const GatewayInput in = make({{false, 8, {0x02, 0x01, 0x00, 0x00, 0x14}, 0},
+                                {false, 2, {0x03, 0x00, 0x00}, 8},
+                                {true, 6, {0x01, 0x81, 0x00}, 0}},
+                               p);
+  const BusReport b = bus_of({in}, 500'000);
+  std::map<std::uint32_t, double> predicted;  // arbitration key -> frames in 1 s
+  std::map<std::uint32_t, int> messages;
+  for (const auto& m : b.messages) {
+    const auto key = can::arbitration_key(m.message.id, m.message.remote);
+    predicted[key] += m.once ? 1.0 : 1e9 / static_cast<double>(m.message.period.count());
+    ++messages[key];
+  }
+  ASSERT_EQ(predicted.size(), 5u);  // 0x000 start, 0x080 SYNC, 0x181 remote, 0x201, 0x300
+  ASSERT_EQ(b.messages.size(), 6u);
+
+  struct Count final : can::FrameSink {
+    std::map<std::uint32_t, int> frames;
+    void send(const can::Frame& f) override { ++frames[can::arbitration_key(f)]; }
+  } sink;
+  Time now{0};
+  gw::Gateway g({.address = in.address}, sink, now);
+  ASSERT_TRUE(g.dp().set_prm(in.master_address, in.params.prm, now));
+  ASSERT_TRUE(g.dp().chk_cfg(in.master_address, in.params.cfg, now));
+  std::vector<std::uint8_t> outputs(10);
+  for (int ms = 0; ms < 1000; ++ms) {
+    now = Time{0} + milliseconds(ms);
+    g.advance(now);
+    if (ms % 10 == 0) {
+      std::fill(outputs.begin(), outputs.end(), static_cast<std::uint8_t>(ms / 10));
+      ASSERT_TRUE(g.dp().data_exchange(in.master_address, outputs, now).has_value());
+    }
+  }
+  for (const auto& [key, n] : predicted)
+    EXPECT_NEAR(sink.frames[key], n, messages[key]) << "arbitration key " << key;
+  EXPECT_EQ(sink.frames.size(), predicted.size());
 }
 
 // A gateway whose Set_Prm bit rate is not the bus's sends nothing the others can receive.
