@@ -304,11 +304,7 @@ void Gateway::update_release(Time now) {
 void Gateway::release(Time now, std::string_view why) {
   released_ = true;
   log_.info("CAN transmission released: " + std::string(why));
-  if (role() == CanopenRole::Master && prm_->start_frame) {
-    // docs/canopen.md: NMT start-all, ID 0, DLC 2, 01 00 (manual §9).
-    const std::uint8_t start[] = {kNmtStart, 0x00};
-    transmit(can::Frame::std_data(kNmtId, start));
-  }
+  if (const auto start = start_frame(*prm_)) transmit(*start);
   // Then every Tx slot once (docs/canopen.md).
   if (cfg_->page_mode)
     page_.on_release(now, *this);
@@ -317,8 +313,8 @@ void Gateway::release(Time now, std::string_view why) {
   // manual table 5.1.2: RTR-Frames only with a CANopen role (ignored in layer-2 mode). They follow
   // the Tx slots (docs/canopen.md "CANopen master"): a Tx slot still without data sends with the
   // first Data_Exchange's outputs, and the remote frames wait for it.
-  if (role() != CanopenRole::None && prm_->send_rtr) {
-    if (!cfg_->page_mode && slots_.tx_waiting_for_data())
+  if (sends_rtr_frames(*prm_, *cfg_)) {
+    if (slots_.tx_waiting_for_data())
       rtr_pending_ = true;
     else
       send_rtr_frames();
@@ -327,12 +323,28 @@ void Gateway::release(Time now, std::string_view why) {
 }
 
 void Gateway::send_rtr_frames() {
+  for (const auto& f : rtr_frames(*cfg_)) transmit(f);
+}
+
+std::optional<can::Frame> start_frame(const UserPrm& prm) {
+  if (prm.role() != CanopenRole::Master || !prm.start_frame) return std::nullopt;
+  // docs/canopen.md: NMT start-all, ID 0, DLC 2, 01 00 (manual §9).
+  const std::uint8_t start[] = {kNmtStart, 0x00};
+  return can::Frame::std_data(kNmtId, start);
+}
+
+bool sends_rtr_frames(const UserPrm& prm, const SlotConfig& cfg) {
+  // manual table 5.1.2: RTR-Frames only with a CANopen role (ignored in layer-2 mode); Page-Mode
+  // never combines with a CANopen role, so only slots have Rx identifiers.
+  return prm.role() != CanopenRole::None && prm.send_rtr && !cfg.page_mode;
+}
+
+std::vector<can::Frame> rtr_frames(const SlotConfig& cfg) {
   // manual table 5.1.2 "RTR-Frames auf RxId senden": one remote frame per Rx identifier, in slot
   // order. DLC = the data length the slot expects (CiA 301: a remote frame carries the DLC of the
   // requested data frame); with one identifier on two slots the later slot wins (manual §5.2.1).
-  // Page-Mode never combines with a CANopen role (table 5.1.2), so only slots have Rx identifiers.
   std::vector<std::pair<can::Ident, std::uint8_t>> rtr;
-  for (const Slot& s : cfg_->slots) {
+  for (const Slot& s : cfg.slots) {
     if (s.kind != SlotKind::Rx || !s.id) continue;
     const auto dlc = static_cast<std::uint8_t>(s.data_len);
     auto it = std::find_if(rtr.begin(), rtr.end(), [&](const auto& e) { return e.first == *s.id; });
@@ -341,7 +353,9 @@ void Gateway::send_rtr_frames() {
     else
       rtr.emplace_back(*s.id, dlc);
   }
-  for (const auto& [id, dlc] : rtr) transmit(can::Frame::rtr(id.id, id.extended, dlc));
+  std::vector<can::Frame> frames;
+  for (const auto& [id, dlc] : rtr) frames.push_back(can::Frame::rtr(id.id, id.extended, dlc));
+  return frames;
 }
 
 void Gateway::halt(std::string_view why) {

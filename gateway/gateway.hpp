@@ -164,6 +164,13 @@ class Gateway final : private dp::SlaveApplication, private CwHost {
   std::uint32_t data_exchanges_ = 0;
 };
 
+// What a release sends besides the Tx slots (docs/canopen.md), for the gateway and for `candp2
+// validate`'s bus prediction: the CANopen master's NMT start frame when Start-Frame is on; whether
+// RTR-Frames applies, and the remote frames, one per distinct Rx identifier in slot order.
+std::optional<can::Frame> start_frame(const UserPrm& prm);
+bool sends_rtr_frames(const UserPrm& prm, const SlotConfig& cfg);
+std::vector<can::Frame> rtr_frames(const SlotConfig& cfg);
+
 // Bits a classic CAN frame occupies on the bus without stuff bits (incl. 3 bit intermission):
 // used to model how long a Data_Exchange burst keeps the bus busy (SYNC deferral, manual §5.3.3).
 std::uint32_t frame_bits(const can::Frame& f);

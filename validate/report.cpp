@@ -1,8 +1,11 @@
 #include "validate/report.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <sstream>
 
+#include "can/frame_bits.hpp"
 #include "common/hex.hpp"
 #include "gateway/slot_config.hpp"
 #include "validate/text.hpp"
@@ -313,6 +316,107 @@ json line_json(const LineReport& l) {
   return o;
 }
 
+// Microseconds with up to three decimals, trailing zeros dropped: "135", "168.75".
+std::string us_text(std::chrono::nanoseconds d) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3f", static_cast<double>(d.count()) / 1000.0);
+  std::string t = b;
+  while (t.back() == '0') t.pop_back();
+  if (t.back() == '.') t.pop_back();
+  return t;
+}
+
+double us_value(std::chrono::nanoseconds d) {
+  return static_cast<double>(d.count()) / 1000.0;
+}
+
+// The messages of a bus, highest priority first (bitwise arbitration), then in configuration
+// order.
+std::vector<std::size_t> priority_order(const BusReport& b) {
+  std::vector<std::size_t> order(b.messages.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    const auto& a = b.messages[x].message;
+    const auto& c = b.messages[y].message;
+    return can::arbitration_key(a.id, a.remote) < can::arbitration_key(c.id, c.remote);
+  });
+  return order;
+}
+
+std::string pct_text(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.1f %%", v);
+  return b;
+}
+
+// docs/validate.md "CAN buses": the bus's load and one row per message.
+void format_bus(std::ostringstream& os, const BusReport& b) {
+  os << "\nbus " << b.name << ": " << b.bitrate << " bit/s, predicted load " << pct_text(b.load_pct)
+     << " (worst-case frame lengths, outputs sent every master cycle of " << b.cycle_ms
+     << " ms), limit " << pct_text(kBusLoadLimitPct) << "\n";
+  os << "  identifiers (highest priority first; times in us; deadline = period):";
+  if (b.messages.empty()) os << " none";
+  os << "\n";
+  if (!b.messages.empty()) {
+    std::vector<std::vector<std::string>> rows = {
+        {"CAN ID", "frame", "period", "bits", "C", "B", "R", "R<=T", "sender", "source", "from"}};
+    for (const auto i : priority_order(b)) {
+      const BusMessage& m = b.messages[i];
+      const can::RtaResult& a = b.analysis.messages[i];
+      rows.push_back(
+          {"0x" + can::ident_text(m.message.id),
+           std::string(m.message.remote ? "rtr " : "data ") + std::to_string(m.message.dlc),
+           m.once ? "once" : us_text(m.message.period), std::to_string(a.frame_bits),
+           us_text(a.transmission), us_text(a.blocking), a.response ? us_text(*a.response) : "-",
+           m.once ? "-" : (a.schedulable ? "yes" : "no"), m.sender,
+           std::string(to_string(m.source)), m.json_path});
+    }
+    os << table(rows, "    ", {false, false, true, true, true, true, true});
+  }
+  os << "  problems:";
+  if (b.problems.empty()) os << " none";
+  os << "\n";
+  for (const auto& p : b.problems) os << "    " << p.json_path << ": " << p.message << "\n";
+}
+
+json bus_json(const BusReport& b) {
+  json o;
+  o["bitrate"] = b.bitrate;
+  o["load_pct"] = std::round(b.load_pct * 100.0) / 100.0;
+  o["load_limit_pct"] = kBusLoadLimitPct;
+  o["cycle_ms"] = b.cycle_ms;
+  json ids = json::array();
+  for (const auto i : priority_order(b)) {
+    const BusMessage& m = b.messages[i];
+    const can::RtaResult& a = b.analysis.messages[i];
+    json x;
+    x["can_id"] = "0x" + can::ident_text(m.message.id);
+    x["extended"] = m.message.id.extended;
+    x["remote"] = m.message.remote;
+    x["dlc"] = m.message.dlc;
+    x["sender"] = m.sender;
+    x["source"] = to_string(m.source);
+    x["json_path"] = m.json_path;
+    x["period_us"] = m.once ? json(nullptr) : json(us_value(m.message.period));
+    x["jitter_us"] = us_value(m.message.jitter);
+    x["frame_bits"] = a.frame_bits;
+    x["transmission_us"] = us_value(a.transmission);
+    x["blocking_us"] = us_value(a.blocking);
+    x["busy_period_us"] = a.busy_period ? json(us_value(*a.busy_period)) : json(nullptr);
+    x["instances"] = a.instances;
+    x["response_us"] = a.response ? json(us_value(*a.response)) : json(nullptr);
+    x["meets_period"] = m.once ? json(nullptr) : json(a.schedulable);
+    ids.push_back(x);
+  }
+  o["identifiers"] = ids;
+  json problems = json::array();
+  for (const auto& p : b.problems)
+    problems.push_back(
+        {{"severity", "warning"}, {"json_path", p.json_path}, {"message", p.message}});
+  o["problems"] = problems;
+  return o;
+}
+
 }  // namespace
 
 std::string format_text(const Report& r) {
@@ -352,6 +456,7 @@ std::string format_text(const Report& r) {
     format_slave(os, s, station_warnings(r.line, s.input.json_path));
   }
   if (r.line.baud) format_line(os, r.line);
+  for (const auto& b : r.buses) format_bus(os, b);
   os << "\n";
   // "1 gateway" or, with generic slaves, "1 gateway, 2 slaves".
   std::string stations = plural(r.gateways.size(), "gateway");
@@ -435,6 +540,12 @@ json to_json(const Report& r, int exit_code) {
     j["slaves"] = slaves;
   }
   j["line"] = line_json(r.line);
+  // Only with timed CAN buses in the configuration (docs/validate.md "--json").
+  if (!r.buses.empty()) {
+    json buses = json::object();
+    for (const auto& b : r.buses) buses[b.name] = bus_json(b);
+    j["buses"] = buses;
+  }
   return j;
 }
 

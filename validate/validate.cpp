@@ -131,7 +131,7 @@ GatewayReport check_gateway(GatewayInput input) {
     void send(const can::Frame&) override {}
   } discard;
   const Time t0{0};
-  gw::Gateway gateway({.address = in.address}, discard, t0);
+  gw::Gateway gateway({.address = in.address, .stored_sync_ms = in.stored_sync_ms}, discard, t0);
   r.dp_address = gateway.address();
   if (r.dp_address != in.address)
     r.warnings.push_back({WarningKind::AddressClamped, in.json_path + ".address",
@@ -151,6 +151,7 @@ GatewayReport check_gateway(GatewayInput input) {
   r.diag = slave.slave_diag(t0);
   r.state = slave.state();
   r.not_supported = (r.diag[0] & dp::kDiag1NotSupported) != 0;
+  r.sync_ms = gateway.status().sync_ms;
 
   const gsd::CfgDecode decoded = gsd::decode_config(in.params.cfg);
   r.cfg_decode_error = decoded.error;
@@ -256,6 +257,7 @@ std::size_t Report::warning_count() const {
   std::size_t n = 0;
   for (const auto& g : gateways) n += g.warnings.size();
   for (const auto& s : slaves) n += s.warnings.size();
+  for (const auto& b : buses) n += b.problems.size();
   return n + line.warnings();
 }
 

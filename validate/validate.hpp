@@ -19,6 +19,7 @@
 #include "gateway/user_prm.hpp"
 #include "profibus_sim/dp/dp_slave.hpp"
 #include "profibus_sim/master/dp_master.hpp"
+#include "validate/buses.hpp"
 #include "validate/line.hpp"
 #include "validate/slaves.hpp"
 #include "validate/warning.hpp"
@@ -31,6 +32,7 @@ struct GatewayInput {
   std::string bus;
   std::uint8_t address = 3;              // as configured (the gateway clamps to 3..124)
   std::uint8_t master_address = 1;       // the DP master sending Set_Prm
+  std::uint16_t stored_sync_ms = 0;      // the gateway's stored SYNC time at power-on
   dp::SlaveParameters params;            // Set_Prm, Chk_Cfg, PLC address per Chk_Cfg entry
   std::vector<std::string> entry_paths;  // JSON path per Chk_Cfg entry
   std::string prm_source;                // "$.gateways[0].parameters (built-in encoding)", ...
@@ -65,6 +67,7 @@ struct GatewayReport {
   std::optional<std::string> cfg_decode_error;  // Chk_Cfg bytes truncated
   std::vector<SlotRow> slots;
   std::vector<Warning> warnings;
+  std::uint16_t sync_ms = 0;  // the effective SYNC time after Chk_Cfg (0: no SYNC)
 
   bool valid() const { return prm_accepted && cfg_accepted; }
 };
@@ -88,6 +91,7 @@ struct Report {
   std::vector<GatewayReport> gateways;
   std::vector<SlaveReport> slaves;  // generic DP-V0 slaves (validate/slaves.hpp)
   LineReport line;                  // the line in time (validate/line.hpp); no baud: ideal
+  std::vector<BusReport> buses;     // the timed CAN buses (validate/buses.hpp), by name
 
   bool valid() const;
   std::size_t warning_count() const;

@@ -4,8 +4,12 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
+
+#include "can/frame_bits.hpp"
 #include "common/hex.hpp"
 #include "gateway/gateway.hpp"
+#include "validate/buses.hpp"
 #include "validate/report.hpp"
 
 namespace candp2::validate {
@@ -238,6 +242,203 @@ TEST(Validate, ReportsInTextAndJsonAgree) {
   EXPECT_EQ(j["gateways"][0]["slots"][0]["gateway"]["can_id"], "0x289");
   EXPECT_EQ(j["gateways"][1]["diagnosis"]["cfg_fault"]["code"], 3);
   EXPECT_EQ(j["gateways"][1]["diagnosis"]["bytes"], hex_bytes(r.gateways[1].diag));
+}
+
+// docs/validate.md "CAN buses": the messages come from the gateway's own slot table, analysed by
+// can/response_time (Davis et al. 2007). Times in us; at 500 kbit/s a bit is 2 us. Worst-case
+// frame lengths (docs/can-bus.md): 11-bit DLC 8 135 bits, DLC 6 115, DLC 3 85, DLC 2 75, DLC 0 55.
+
+BusReport bus_of(const std::vector<GatewayInput>& gateways, std::uint32_t bitrate,
+                 const std::vector<DriveInput>& drives = {}) {
+  std::vector<GatewayReport> reports;
+  for (auto in : gateways) {
+    in.bus = "can0";
+    reports.push_back(check_gateway(std::move(in)));
+  }
+  return check_bus(
+      {.name = "can0", .json_path = "$.buses.can0.bitrate", .bitrate = bitrate, .cycle_ms = 10},
+      reports, drives);
+}
+
+gw::UserPrm at_500k() {
+  gw::UserPrm p;
+  p.bitrate_index = 2;  // manual table 5.1.1: 500 kbit/s
+  return p;
+}
+
+using std::chrono::microseconds;
+
+// A Tx slot sends on change (every master cycle at worst) and every `cycle`: two messages of one
+// identifier, each counted as the other's higher priority. 0x201 DLC 8 with cycle 20 ms (270 us),
+// 0x300 DLC 2 (150 us); the input slot sends nothing.
+//   load: 270/10000 + 270/20000 + 150/10000 = 5.55 %.
+//   0x201 (either): B = 150, hp = the other 0x201: w = 150 -> 150 + 270 = 420 -> 420, R = 690.
+//   0x300: B = 0, w = 0 -> 270 + 270 = 540 -> 540, R = 540 + 150 = 690.
+TEST(Buses, TxSlotsAtTheMasterCycleAndTheirOwnCycle) {
+  const BusReport b = bus_of({make({{false, 8, {0x02, 0x01, 0x00, 0x00, 0x14}, 0},
+                                    {false, 2, {0x03, 0x00, 0x00}, 8},
+                                    {true, 6, {0x01, 0x81, 0x00}, 0}},
+                                   at_500k())},
+                             500'000);
+  ASSERT_EQ(b.messages.size(), 3u);
+  EXPECT_EQ(b.messages[0].source, BusSource::Outputs);
+  EXPECT_EQ(b.messages[0].message.period, microseconds(10000));
+  EXPECT_EQ(b.messages[0].json_path, "$.gateways[0].slots[0]");
+  EXPECT_EQ(b.messages[1].source, BusSource::Cycle);
+  EXPECT_EQ(b.messages[1].message.period, microseconds(20000));
+  EXPECT_EQ(b.messages[2].message.id, (can::Ident{0x300, false}));
+  EXPECT_EQ(b.messages[2].message.dlc, 2);
+  EXPECT_NEAR(b.load_pct, 5.55, 1e-9);
+  for (const auto& a : b.analysis.messages) EXPECT_EQ(a.response, microseconds(690));
+  EXPECT_TRUE(b.problems.empty());
+}
+
+// The prediction's rules against the gateway itself: a real gw::Gateway run for one second of
+// virtual time, its outputs changed at every Data_Exchange (every 10 ms), sends per identifier
+// as many frames as the predicted messages of that identifier make in a second (once-only frames
+// once), within one frame per message for the edges of the second (it sends 199 SYNCs of the
+// predicted 200, 149 frames 0x201 of 150).
+TEST(Buses, TheGatewaysOwnTrafficMatchesThePrediction) {
+  gw::UserPrm p = at_500k();
+  p.canopen_master = true;
+  p.start_frame = true;
+  p.sync_ms = 5;
+  const GatewayInput in = make({{false, 8, {0x02, 0x01, 0x00, 0x00, 0x14}, 0},
+                                {false, 2, {0x03, 0x00, 0x00}, 8},
+                                {true, 6, {0x01, 0x81, 0x00}, 0}},
+                               p);
+  const BusReport b = bus_of({in}, 500'000);
+  std::map<std::uint32_t, double> predicted;  // arbitration key -> frames in 1 s
+  std::map<std::uint32_t, int> messages;
+  for (const auto& m : b.messages) {
+    const auto key = can::arbitration_key(m.message.id, m.message.remote);
+    predicted[key] += m.once ? 1.0 : 1e9 / static_cast<double>(m.message.period.count());
+    ++messages[key];
+  }
+  ASSERT_EQ(predicted.size(), 5u);  // 0x000 start, 0x080 SYNC, 0x181 remote, 0x201, 0x300
+  ASSERT_EQ(b.messages.size(), 6u);
+
+  struct Count final : can::FrameSink {
+    std::map<std::uint32_t, int> frames;
+    void send(const can::Frame& f) override { ++frames[can::arbitration_key(f)]; }
+  } sink;
+  Time now{0};
+  gw::Gateway g({.address = in.address}, sink, now);
+  ASSERT_TRUE(g.dp().set_prm(in.master_address, in.params.prm, now));
+  ASSERT_TRUE(g.dp().chk_cfg(in.master_address, in.params.cfg, now));
+  std::vector<std::uint8_t> outputs(10);
+  for (int ms = 0; ms < 1000; ++ms) {
+    now = Time{0} + milliseconds(ms);
+    g.advance(now);
+    if (ms % 10 == 0) {
+      std::fill(outputs.begin(), outputs.end(), static_cast<std::uint8_t>(ms / 10));
+      ASSERT_TRUE(g.dp().data_exchange(in.master_address, outputs, now).has_value());
+    }
+  }
+  for (const auto& [key, n] : predicted)
+    EXPECT_NEAR(sink.frames[key], n, messages[key]) << "arbitration key " << key;
+  EXPECT_EQ(sink.frames.size(), predicted.size());
+}
+
+// A gateway whose Set_Prm bit rate is not the bus's sends nothing the others can receive.
+TEST(Buses, AGatewayAtAnotherBitRateIsNotCounted) {
+  const BusReport b = bus_of({make({{false, 8, {0x02, 0x01, 0x00}, 0}}, at_500k())}, 250'000);
+  EXPECT_TRUE(b.messages.empty());
+  EXPECT_EQ(b.load_pct, 0);
+  ASSERT_EQ(b.problems.size(), 1u);
+  EXPECT_EQ(b.problems[0].json_path, "$.gateways[0].parameters.can_bitrate");
+  EXPECT_NE(b.problems[0].message.find("500 kbit/s"), std::string::npos) << b.problems[0].message;
+}
+
+// A drive answers each command frame its decoder takes (DLC 3 here; DLC 2 is no command,
+// docs/drive-simulator.md) with one reply of DLC 6, released when the command has been received:
+// jitter = the command's R - C.
+//   0x201 DLC 3 (170 us): B = 150 (0x202), hp = the reply 0x181 (230 us):
+//     w = 150 -> 150 + 230 = 380 -> 380, R = 550; so the reply's J = 550 - 170 = 380 (stable).
+//   0x181: B = 170, no hp: w = 170, R = 380 + 170 + 230 = 780.
+TEST(Buses, DriveRepliesFollowTheirCommands) {
+  const BusReport b = bus_of(
+      {make({{false, 3, {0x02, 0x01, 0x00}, 0}, {false, 2, {0x02, 0x02, 0x00}, 3}}, at_500k())},
+      500'000,
+      {{"axis1", "$.drives[0]", "can0", 0x201, 0x181},
+       {"axis2", "$.drives[1]", "can0", 0x202, 0x182}});
+  ASSERT_EQ(b.messages.size(), 3u);
+  const BusMessage& reply = b.messages[2];
+  EXPECT_EQ(reply.source, BusSource::Reply);
+  EXPECT_EQ(reply.sender, "drive axis1");
+  EXPECT_EQ(reply.message.id, (can::Ident{0x181, false}));
+  EXPECT_EQ(reply.message.dlc, 6);
+  EXPECT_EQ(reply.reply_to, 0u);
+  EXPECT_EQ(b.analysis.messages[0].response, microseconds(550));
+  EXPECT_EQ(reply.message.jitter, microseconds(380));
+  EXPECT_EQ(b.analysis.messages[2].response, microseconds(780));
+}
+
+// A CANopen master adds its SYNC (released up to one Data_Exchange burst late, manual §5.3.3) and,
+// once at the release, the start frame and one remote frame per Rx identifier (docs/canopen.md).
+//   burst: 0x201 DLC 3 = 85 bits = 170 us: the SYNC's jitter. load: 170/10000 + 110/5000 = 3.9 %.
+TEST(Buses, CanopenMasterSyncAndReleaseFrames) {
+  gw::UserPrm p = at_500k();
+  p.canopen_master = true;
+  p.start_frame = true;
+  p.sync_ms = 5;
+  const BusReport b = bus_of(
+      {make({{false, 3, {0x02, 0x01, 0x00}, 0}, {true, 6, {0x01, 0x81, 0x00}, 0}}, p)}, 500'000);
+  ASSERT_EQ(b.messages.size(), 4u);
+  EXPECT_EQ(b.messages[1].source, BusSource::Sync);
+  EXPECT_EQ(b.messages[1].message.id, (can::Ident{0x080, false}));
+  EXPECT_EQ(b.messages[1].message.period, microseconds(5000));
+  EXPECT_EQ(b.messages[1].message.jitter, microseconds(170));
+  EXPECT_EQ(b.messages[2].source, BusSource::Start);
+  EXPECT_TRUE(b.messages[2].once);
+  EXPECT_EQ(b.messages[3].source, BusSource::Rtr);
+  EXPECT_TRUE(b.messages[3].message.remote);
+  EXPECT_EQ(b.messages[3].message.dlc, 6);
+  EXPECT_EQ(b.messages[3].json_path, "$.gateways[0].slots[1]");
+  EXPECT_NEAR(b.load_pct, 3.9, 1e-9);
+}
+
+// Nine 8-byte outputs every 10 ms at 125 kbit/s (1080 us each): 97.2 %, above the design limit,
+// and every frame still in time (the last after 9 x 1080 = 9720 us). Eleven: 118.8 %, overloaded;
+// the ninth's R = 9 x 1080 + 1080 blocking = 10800 > 10000, the last two have no bound.
+TEST(Buses, LoadAboveTheLimitAndOverload) {
+  auto outputs = [](int n) {
+    std::vector<Slot> s;
+    for (int i = 0; i < n; ++i)
+      s.push_back({false,
+                   8,
+                   {0x01, static_cast<std::uint8_t>(i + 1), 0x00},
+                   static_cast<std::uint16_t>(8 * i)});
+    return s;
+  };
+  const BusReport nine = bus_of({make(outputs(9))}, 125'000);
+  EXPECT_NEAR(nine.load_pct, 97.2, 1e-9);
+  EXPECT_EQ(nine.analysis.messages[8].response, microseconds(9720));
+  ASSERT_EQ(nine.problems.size(), 1u);
+  EXPECT_EQ(nine.problems[0].json_path, "$.buses.can0.bitrate");
+  EXPECT_NE(nine.problems[0].message.find("design limit of 80 %"), std::string::npos);
+
+  const BusReport eleven = bus_of({make(outputs(11))}, 125'000);
+  ASSERT_EQ(eleven.problems.size(), 4u);
+  EXPECT_NE(eleven.problems[0].message.find("overloaded"), std::string::npos);
+  EXPECT_EQ(eleven.problems[1].json_path, "$.gateways[0].slots[8]");
+  EXPECT_NE(eleven.problems[1].message.find("10.800 ms is longer than its period 10.000 ms"),
+            std::string::npos)
+      << eleven.problems[1].message;
+  EXPECT_FALSE(eleven.analysis.messages[10].response);
+
+  // Counted as warnings, in the text and --json reports.
+  Report r;
+  r.file = "x.json";
+  r.buses.push_back(eleven);
+  EXPECT_EQ(r.warning_count(), 4u);
+  EXPECT_EQ(exit_code(r, true), 1);
+  EXPECT_NE(format_text(r).find("bus can0: 125000 bit/s, predicted load 118.8 %"),
+            std::string::npos);
+  const auto j = to_json(r, 0);
+  EXPECT_EQ(j["buses"]["can0"]["load_pct"], 118.8);
+  EXPECT_EQ(j["buses"]["can0"]["identifiers"][8]["response_us"], 10800.0);
+  EXPECT_EQ(j["buses"]["can0"]["identifiers"][10]["response_us"], nullptr);
 }
 
 TEST(Validate, NamesOfSetPrmBytes) {

@@ -180,6 +180,7 @@ int run_validate(const ValidateArgs& a) {
     in.bus = g.bus;
     in.address = g.address;
     in.master_address = cfg.master_address;
+    in.stored_sync_ms = g.stored_sync_ms;
     in.params = config::slave_parameters(g);
     // config: one Chk_Cfg entry per slot (cfg_hex holds exactly one entry).
     for (const auto& s : g.slots) in.entry_paths.push_back(s.json_path);
@@ -240,6 +241,19 @@ int run_validate(const ValidateArgs& a) {
     report.line.problems.push_back({w.verdict == fdl::WatchdogVerdict::NeverHolds, w.json_path,
                                     std::move(w.message), w.station});
   for (auto& p : report.line.problems) p.json_path = existing_path(doc, p.json_path);
+
+  // docs/validate.md "CAN buses": every timed bus, with the gateways and drives on it.
+  std::vector<validate::DriveInput> drives;
+  for (const auto& d : cfg.drives) drives.push_back({d.name, d.json_path, d.bus, d.rx_id, d.tx_id});
+  for (const auto& b : cfg.buses) {
+    if (!b.timed_bitrate) continue;
+    report.buses.push_back(validate::check_bus({.name = b.name,
+                                                .json_path = b.json_path + ".bitrate",
+                                                .bitrate = *b.timed_bitrate,
+                                                .cycle_ms = cfg.cycle_ms},
+                                               report.gateways, drives));
+    for (auto& p : report.buses.back().problems) p.json_path = existing_path(doc, p.json_path);
+  }
 
   const int rc = validate::exit_code(report, a.strict);
   if (a.json)
