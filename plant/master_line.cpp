@@ -19,8 +19,8 @@ MasterLine::MasterLine(const config::ProfibusConfig& config, std::uint8_t master
       fdl_(
           fdl::MasterStationOptions{.address = master_address,
                                     .baud = config.baud,
-                                    .slot_time_bits = config.slot_time_bits,
-                                    .retries = config.retries},
+                                    .slot_time_bits = config.bus.slot_time_bits,
+                                    .retries = static_cast<std::uint8_t>(config.bus.retry_limit)},
           [this](std::span<const std::uint8_t> bytes, Time now) { transmit(bytes, now); }, log) {
   fdl_.set_observer([this](std::span<const std::uint8_t> raw, Time now) {
     statistics_.observe(raw, received_start(raw.size(), now));

@@ -270,16 +270,16 @@ TEST_F(MasterLineFixture, StationThatStopsAnsweringIsRepeatedPerRetryLimitThenLo
   // telegram to the station is another one.
   ASSERT_TRUE(loop.run_until([&] { return stats3().lost > 0; }, milliseconds(2000)));
   EXPECT_EQ(stats3().lost, 1u);
-  EXPECT_EQ(stats3().repeats, cfg.profibus->retries);
-  EXPECT_EQ(stats3().repeats_max, cfg.profibus->retries);
+  EXPECT_EQ(stats3().repeats, cfg.profibus->bus.retry_limit);
+  EXPECT_EQ(stats3().repeats_max, cfg.profibus->bus.retry_limit);
   EXPECT_EQ(line.live(3), fdl::Live::Missing);
   EXPECT_EQ(stats3().illegals, 0u);
   // While it stays missing its FDL_Status is repeated too: repeats grow, it is not lost again,
   // and without a token on the line repeats_max is the most repeats of one request.
-  const std::uint64_t later = cfg.profibus->retries + 2;
+  const std::uint64_t later = cfg.profibus->bus.retry_limit + 2;
   ASSERT_TRUE(loop.run_until([&] { return stats3().repeats >= later; }, milliseconds(3000)));
   EXPECT_EQ(stats3().lost, 1u);
-  EXPECT_EQ(stats3().repeats_max, cfg.profibus->retries);
+  EXPECT_EQ(stats3().repeats_max, cfg.profibus->bus.retry_limit);
 }
 
 }  // namespace
