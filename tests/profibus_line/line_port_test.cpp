@@ -202,6 +202,7 @@ TEST_F(MasterLineFixture, SilentStationIsAskedTwiceThenShowsStationNonExistent) 
   EXPECT_EQ(plant->master_line()->statistics().live(3), fdl::Live::Missing);
   EXPECT_EQ(stats3().lost, 0u);
   EXPECT_GE(stats3().repeats, 1u);
+  EXPECT_EQ(st.retries, stats3().repeats);  // one count: station_retries shows the repeats
   EXPECT_EQ(stats3().syncs, 0u);
   // The Modbus face shows the master's Station_Non_Existent (diag byte 0 bit 0), DP state 0.
   modbus::RemoteStationFace face(*plant, 3, "gw3");
@@ -246,6 +247,7 @@ TEST_F(MasterLineFixture, CorruptedAnswerIsNoAnswerAndIsRepeated) {
   // The dropped answer is the station's illegal telegram, the second FDL_Status its repeat.
   EXPECT_EQ(stats3().illegals, 1u);
   EXPECT_EQ(stats3().repeats, 1u);
+  EXPECT_EQ(status().retries, 1u);  // the same repeat, counted once
   EXPECT_EQ(plant->master_line()->statistics().illegals_unattributed(), 0u);
 }
 
