@@ -207,10 +207,8 @@ ProfibusConfig parse_profibus(const json& j, const std::string& path, const std:
     // DP master addresses 0..125 (127 is broadcast, 126 the default address of new slaves).
     p.master_address = get_uint<std::uint8_t>(o, "master_address", 1, 0, 125, "(DP address)");
   }
-  // IEC 61158-4-3: TSL 37..16383 bit times; max_retry_limit 0..7; min_TSDR 11..255.
-  p.slot_time_bits = get_uint<std::uint32_t>(o, "slot_time_bits", 100, 37, 16383, "bit times");
-  p.retries = get_uint<std::uint8_t>(o, "retries", 1, 0, 7);
-  p.min_tsdr_bits = get_uint<std::uint8_t>(o, "min_tsdr_bits", 11, 11, 255, "bit times");
+  // The rules are checked once $.master is read too (check_profibus_bus_parameters).
+  p.bus = read_profibus_bus_parameters(o, p.baud);  // config/line_config.cpp
   p.rs485 = get_bool(o, "rs485", false);
   p.echo = get_bool(o, "echo", false);
   return p;
@@ -383,6 +381,7 @@ DaemonConfig parse_daemon_or_throw(const json& root, const std::string& file) {
   if (const json* p = top.find("profibus"))
     c.profibus = parse_profibus(*p, top.path("profibus"), file);
   parse_settings(top, file, c);
+  if (c.profibus) check_profibus_bus_parameters(top, c);  // config/line_config.cpp
   // docs/configuration.md: a line of generic slaves alone needs no gateway (and then no bus);
   // a configuration without either has nothing to emulate.
   static const json kNone = json::array();

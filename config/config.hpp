@@ -123,10 +123,13 @@ struct ProfibusConfig {
   std::string port;  // serial device path or "pty:PATH"
   std::uint32_t baud = 19200;
   ProfibusRole role = ProfibusRole::Slaves;
-  std::optional<std::uint8_t> master_address;      // role slaves: answer only this master
-  std::uint32_t slot_time_bits = 100;              // TSL (docs/profibus.md: typical 100)
-  std::uint8_t retries = 1;                        // max_retry_limit (typical 1)
-  std::uint8_t min_tsdr_bits = phy::kMinTsdrBits;  // role slaves: until Set_Prm says otherwise
+  std::optional<std::uint8_t> master_address;  // role slaves: answer only this master
+  // The line's bus parameters (docs/profibus.md "Bus parameters"): the DP default profile of
+  // `baud` with the keys slot_time_bits, retries (retry_limit), min_tsdr_bits and, in role
+  // master, $.master.bus_parameters over it; checked by the rules of fdl::check_bus_parameters.
+  // Role master waits the slot time and repeats up to the retry limit; role slaves answers after
+  // min_TSDR until a Set_Prm says otherwise.
+  fdl::BusParameters bus;
   bool rs485 = false;
   bool echo = false;
   std::string json_path = "$.profibus";

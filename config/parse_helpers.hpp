@@ -33,6 +33,13 @@ E get_enum(const Object& o, const std::string& key, E fallback,
 // $.master.baud and $.master.bus_parameters (config/line_config.cpp; docs/profibus.md "The line in
 // time"); after $.profibus was read, whose keys of role master must not say the same again.
 void parse_line(const Object& master, const json* profibus, DaemonConfig& c);
+// The serial line's bus parameters: the DP default profile of `baud` (a DP rate) with
+// $.profibus's slot_time_bits, retries and min_tsdr_bits over it (docs/profibus.md "Bus
+// parameters"); the rules are not checked yet.
+fdl::BusParameters read_profibus_bus_parameters(const Object& profibus, std::uint32_t baud);
+// After $.profibus and $.master: the serial line's bus parameters against the one rule set
+// (fdl::check_bus_parameters); an error names the key that set the parameter.
+void check_profibus_bus_parameters(const Object& top, const DaemonConfig& c);
 
 inline Endpoint get_endpoint(const json& j, const std::string& path) {
   const std::string text = as_string(j, path, "\"HOST:PORT\"");

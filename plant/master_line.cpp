@@ -19,8 +19,8 @@ MasterLine::MasterLine(const config::ProfibusConfig& config, std::uint8_t master
       fdl_(
           fdl::MasterStationOptions{.address = master_address,
                                     .baud = config.baud,
-                                    .slot_time_bits = config.slot_time_bits,
-                                    .retries = config.retries},
+                                    .slot_time_bits = config.bus.slot_time_bits,
+                                    .retries = static_cast<std::uint8_t>(config.bus.retry_limit)},
           [this](std::span<const std::uint8_t> bytes, Time now) { transmit(bytes, now); }, log) {
   fdl_.set_observer([this](std::span<const std::uint8_t> raw, Time now) {
     statistics_.observe(raw, received_start(raw.size(), now));
@@ -50,13 +50,13 @@ void MasterLine::transmit(std::span<const std::uint8_t> bytes, Time now) {
   else if (bytes.size() >= 9 && bytes[0] == fdl::kSD2)
     to = static_cast<std::uint8_t>(bytes[4] & fdl::kAddrMask);
   const fdl::MasterStationStats* st = to ? fdl_.stats(*to) : nullptr;
-  // The FDL master raised the station's retries before sending a repeat; anything else is a new
-  // request (docs/profibus.md "Line statistics in role master"). Counted even without a port: the
-  // master sent it and waits in vain, so the live list agrees with its Station_Non_Existent.
-  if (!st || to != sent_to_ || st->retries == retries_before_) statistics_.new_request();
+  // The FDL master says when it repeats; anything else is a new request (docs/profibus.md "Line
+  // statistics in role master"), and the statistics count the repeat: the one count of it,
+  // `repeats` and `station_retries`. Counted even without a port: the master sent it and waits
+  // in vain, so the live list agrees with its Station_Non_Existent.
+  if (!st || to != sent_to_ || !fdl_.repeating()) statistics_.new_request();
   statistics_.observe(bytes, now);
   sent_to_ = to;
-  retries_before_ = st ? st->retries : 0;
   answers_before_ = st ? st->responses : 0;
   if (tap_) tap_(bytes, true, now);
   if (!write_) return;  // no port: the telegram is lost on the wire; the slot time expires
@@ -116,7 +116,9 @@ LineStatus MasterLine::status(std::uint8_t address, const dp::DpMaster& master) 
   l.other_errors = clamp32(p.framing_errors + p.parity_errors);
   if (const fdl::MasterStationStats* s = fdl_.stats(address)) {
     l.requests = clamp32(s->telegrams_sent);
-    l.retries = clamp32(s->retries);
+    // The repeats the line statistics counted (one count, docs/profibus.md "Line statistics in
+    // role master").
+    l.retries = clamp32(statistics_.station(address).repeats);
   }
   // The last / highest response time (request's last character → answer complete).
   if (const auto it = times_.find(address); it != times_.end()) {

@@ -87,7 +87,6 @@ class MasterLine {
   };
   std::map<std::uint8_t, Times> times_;
   std::optional<std::uint8_t> sent_to_;  // station of the telegram on the line
-  std::uint64_t retries_before_ = 0;     // its retries when it was sent (a retry raises them)
   Time request_end_{0};
   std::uint64_t answers_before_ = 0;  // the station's valid answers before this telegram
 };

@@ -12,7 +12,8 @@ SlaveLine::SlaveLine(const config::ProfibusConfig& config, dp::ProcessImage& ima
       log_(log, "profibus"),
       front_(fdl::SlaveFrontEndOptions{.baud = config.baud,
                                        .master_address = config.master_address,
-                                       .default_min_tsdr_bits = config.min_tsdr_bits},
+                                       .default_min_tsdr_bits =
+                                           static_cast<std::uint8_t>(config.bus.min_tsdr_bits)},
              log) {}
 
 void SlaveLine::set_tap(

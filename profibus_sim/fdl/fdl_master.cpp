@@ -245,7 +245,6 @@ void FdlMaster::expire(Time now) {
   if (o.attempt < options_.retries) {
     // docs/profibus.md: repeat up to max_retry_limit times, with the SAME FCB.
     ++o.attempt;
-    ++st.stats.retries;
     log_.debug("station " + std::to_string(st.address()) +
                ": no answer within the slot time, retry " + std::to_string(o.attempt) + " of " +
                std::to_string(options_.retries));

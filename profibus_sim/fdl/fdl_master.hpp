@@ -81,7 +81,6 @@ inline constexpr std::array<std::int64_t, 7> kResponseBuckets = {100,  200,  500
 struct MasterStationStats {
   std::uint64_t telegrams_sent = 0;  // requests put on the line (FDL_Status and retries included)
   std::uint64_t responses = 0;       // valid answers
-  std::uint64_t retries = 0;         // repetitions after a missing/invalid answer
   std::uint64_t timeouts = 0;        // slot times that expired without a valid answer
   std::uint64_t invalid = 0;         // answers not taken: wrong station/SAPs, unexpected kind
   std::uint64_t lost = 0;            // times the station was given up (retries exhausted)
@@ -125,6 +124,10 @@ class FdlMaster {
   Duration wire_time(std::size_t bytes) const { return bit_times(phy::kBitsPerChar * bytes); }
 
   const MasterStationStats* stats(std::uint8_t address) const;
+  // The telegram being sent repeats one that got no valid answer (the same FCB): true inside the
+  // send callback of a repeat. The repeats themselves are counted once, by whoever watches the
+  // line (fdl::LineStatistics' `repeats`, docs/profibus.md "Line statistics in role master").
+  bool repeating() const { return current_ && current_->attempt > 0; }
   const ParserStats& line_stats() const { return parser_.stats(); }
   const MasterStationOptions& options() const { return options_; }
   // What the PHY adds to the slot time; known once the port is open (a pty, a USB adapter).

@@ -58,12 +58,21 @@ std::vector<BusParameterProblem> check_bus_parameters(const BusParameters& p) {
        "max_TSDR " + std::to_string(p.max_tsdr_bits) +
            " bit times: expected 35 + 2 tset_bits + tqui_bits (" + std::to_string(tsdr_floor) +
            ") .. 1023");
-  rule(p.min_tsdr_bits >= kMinTsdrBits && p.min_tsdr_bits <= p.max_tsdr_bits, "min_tsdr_bits",
+  // Set_Prm byte 3 carries min_TSDR to the stations: one byte.
+  const bool tsdr_byte = p.max_tsdr_bits > kMaxMinTsdrBits;
+  rule(p.min_tsdr_bits >= kMinTsdrBits && p.min_tsdr_bits <= p.max_tsdr_bits &&
+           p.min_tsdr_bits <= kMaxMinTsdrBits,
+       "min_tsdr_bits",
        "min_TSDR " + std::to_string(p.min_tsdr_bits) + " bit times: expected " +
-           std::to_string(kMinTsdrBits) + " .. max_tsdr_bits (" + std::to_string(p.max_tsdr_bits) +
-           ")");
-  rule(p.retry_limit >= 1 && p.retry_limit <= 15, "retry_limit",
-       "retry limit " + std::to_string(p.retry_limit) + ": expected 1 .. 15");
+           std::to_string(kMinTsdrBits) + " .. " +
+           (tsdr_byte ? std::to_string(kMaxMinTsdrBits) + " (Set_Prm byte 3)"
+                      : "max_tsdr_bits (" + std::to_string(p.max_tsdr_bits) + ")"));
+  rule(p.retry_limit >= 1 && p.retry_limit <= kMaxRetryLimit, "retry_limit",
+       "retry limit " + std::to_string(p.retry_limit) + ": expected 1 .. " +
+           std::to_string(kMaxRetryLimit) +
+           (p.retry_limit == 0 ? " (a master repeats an unanswered request at least once: write 1 "
+                                 "for the fewest repeats)"
+                               : ""));
   rule(p.gap_factor >= 1 && p.gap_factor <= 100, "gap_factor",
        "GAP factor " + std::to_string(p.gap_factor) + ": expected 1 .. 100");
   rule(p.hsa >= 1 && p.hsa <= 126, "hsa", "HSA " + std::to_string(p.hsa) + ": expected 1 .. 126");

@@ -58,9 +58,14 @@ struct BusParameterProblem {
   std::string key;
   std::string message;
 };
-// The rules configuration tools apply: max_TSDR + 15 <= TSL <= 16383; 35 + 2 Tset + Tqui <=
-// max_TSDR <= 1023; 11 <= min_TSDR <= max_TSDR; retry limit 1..15; GAP factor 1..100; HSA 1..126;
-// TTR 256..16776960.
+// The one rule set of a line's bus parameters (docs/profibus.md "Bus parameters"), for the line
+// in time ($.master.bus_parameters) and the serial line ($.profibus) alike, as IEC 61158-4-3 and
+// the configuration tools give them: max_TSDR + 15 <= TSL <= 16383; 35 + 2 Tset + Tqui <=
+// max_TSDR <= 1023; 11 <= min_TSDR <= max_TSDR and <= 255 (Set_Prm byte 3); retry limit 1..15;
+// GAP factor 1..100; HSA 1..126; TTR 256..16776960. One problem per broken rule, its text the
+// same wherever the parameter was given.
+inline constexpr std::uint32_t kMaxMinTsdrBits = 255;  // Set_Prm byte 3
+inline constexpr std::uint32_t kMaxRetryLimit = 15;
 std::vector<BusParameterProblem> check_bus_parameters(const BusParameters& p);
 
 // TSM = 2 + 2 Tset + Tqui (safety margin); TID1 = max(TSYN + TSM, min_TSDR): the idle after a

@@ -630,10 +630,12 @@ TEST(ConfigProfibus, RoleSlavesOnAPtyWithDefaults) {
   EXPECT_EQ(c.profibus->baud, 19200u);
   EXPECT_EQ(c.profibus->role, ProfibusRole::Slaves);
   EXPECT_FALSE(c.profibus->master_address);
-  // docs/profibus.md: min_TSDR default 11, slot time typical 100, retries typical 1.
-  EXPECT_EQ(c.profibus->min_tsdr_bits, 11);
-  EXPECT_EQ(c.profibus->slot_time_bits, 100u);
-  EXPECT_EQ(c.profibus->retries, 1);
+  // docs/profibus.md "Bus parameters": the DP default profile of the rate (19200: min_TSDR 11,
+  // slot time 100, retry limit 1).
+  EXPECT_EQ(c.profibus->bus, *fdl::default_bus_parameters(19200));
+  EXPECT_EQ(c.profibus->bus.min_tsdr_bits, 11u);
+  EXPECT_EQ(c.profibus->bus.slot_time_bits, 100u);
+  EXPECT_EQ(c.profibus->bus.retry_limit, 1u);
   EXPECT_FALSE(c.profibus->rs485);
   EXPECT_FALSE(c.profibus->echo);
   EXPECT_FALSE(c.remote_gateways());
@@ -652,9 +654,9 @@ TEST(ConfigProfibus, EveryOptionalKey) {
   ASSERT_TRUE(c.profibus);
   EXPECT_EQ(c.profibus->baud, 93750u);
   EXPECT_EQ(c.profibus->master_address, 2);
-  EXPECT_EQ(c.profibus->slot_time_bits, 300u);
-  EXPECT_EQ(c.profibus->retries, 3);
-  EXPECT_EQ(c.profibus->min_tsdr_bits, 22);
+  EXPECT_EQ(c.profibus->bus.slot_time_bits, 300u);
+  EXPECT_EQ(c.profibus->bus.retry_limit, 3u);
+  EXPECT_EQ(c.profibus->bus.min_tsdr_bits, 22u);
   EXPECT_TRUE(c.profibus->rs485);
   EXPECT_TRUE(c.profibus->echo);
 }
@@ -757,6 +759,75 @@ TEST(ConfigProfibusErrors, MasterAddress) {
   EXPECT_NE(e.message.find("$.profibus.master_address"), std::string::npos) << e.message;
 }
 
+// docs/profibus.md "Bus parameters": one rule set and one text for the serial line ($.profibus)
+// and the line in time ($.master.bus_parameters); the path names the key as given.
+TEST(ConfigBusParameters, OneBadParameterOneTextOnEitherLine) {
+  auto serial = [](const char* key, json v) {
+    json p = {{"port", "pty:/tmp/pb"}, {"baud", 19200}, {"role", "slaves"}};
+    p[key] = v;
+    return bad(with_profibus(p));
+  };
+  auto in_time = [](const char* key, json v) {
+    json j = base();
+    j["master"]["baud"] = 19200;
+    j["master"]["bus_parameters"] = {{key, v}};
+    return bad(j);
+  };
+  // Slot time below max_TSDR (60 at 19200) + 15.
+  auto a = serial("slot_time_bits", 74), b = in_time("slot_time_bits", 74);
+  EXPECT_EQ(a.json_path, "$.profibus.slot_time_bits");
+  EXPECT_EQ(b.json_path, "$.master.bus_parameters.slot_time_bits");
+  EXPECT_EQ(a.message, b.message);
+  EXPECT_NE(a.message.find("slot time 74 bit times: expected max_tsdr_bits + 15 (75) .. 16383"),
+            std::string::npos)
+      << a.message;
+  // The retry limit: "retries" on the serial line, "retry_limit" in bus_parameters; 0 is refused
+  // with what to write instead.
+  a = serial("retries", 0), b = in_time("retry_limit", 0);
+  EXPECT_EQ(a.json_path, "$.profibus.retries");
+  EXPECT_EQ(b.json_path, "$.master.bus_parameters.retry_limit");
+  EXPECT_EQ(a.message, b.message);
+  EXPECT_NE(a.message.find("retry limit 0: expected 1 .. 15"), std::string::npos) << a.message;
+  EXPECT_NE(a.message.find("write 1"), std::string::npos) << a.message;
+  a = serial("min_tsdr_bits", 61), b = in_time("min_tsdr_bits", 61);
+  EXPECT_EQ(a.json_path, "$.profibus.min_tsdr_bits");
+  EXPECT_EQ(b.json_path, "$.master.bus_parameters.min_tsdr_bits");
+  EXPECT_EQ(a.message, b.message);
+  EXPECT_NE(a.message.find("expected 11 .. max_tsdr_bits (60)"), std::string::npos) << a.message;
+}
+
+// Role master: $.profibus and $.master.bus_parameters set one line's parameters, checked together;
+// each rate's defaults load (12 Mbit/s: slot time 1000 over max_TSDR 800).
+TEST(ConfigBusParameters, RoleMasterOneLineFromBothSections) {
+  auto j = remote_master();
+  j["profibus"]["baud"] = 12000000;
+  auto c = ok(j);
+  EXPECT_EQ(c.profibus->bus, *fdl::default_bus_parameters(12000000));
+  j["profibus"]["baud"] = 19200;
+  j["profibus"]["slot_time_bits"] = 300;
+  j["master"]["bus_parameters"] = {{"max_tsdr_bits", 250}, {"retry_limit", 2}};
+  c = ok(j);
+  EXPECT_EQ(c.profibus->bus.slot_time_bits, 300u);
+  EXPECT_EQ(c.profibus->bus.max_tsdr_bits, 250u);
+  EXPECT_EQ(c.profibus->bus.retry_limit, 2u);
+  EXPECT_FALSE(c.line);                                  // the line is the serial one
+  j["master"]["bus_parameters"]["max_tsdr_bits"] = 290;  // 290 + 15 > 300
+  auto e = bad(j);
+  EXPECT_EQ(e.json_path, "$.profibus.slot_time_bits");
+  EXPECT_NE(e.message.find("expected max_tsdr_bits + 15 (305)"), std::string::npos) << e.message;
+  j["master"]["bus_parameters"]["slot_time_bits"] = 400;
+  EXPECT_EQ(bad(j).json_path, "$.master.bus_parameters.slot_time_bits");  // given twice
+  j["profibus"].erase("slot_time_bits");
+  j["master"]["bus_parameters"] = {{"max_tsdr_bits", 400}};  // the default slot time 100
+  EXPECT_EQ(bad(j).json_path, "$.master.bus_parameters");
+  // min_TSDR travels in Set_Prm byte 3: at most 255 even where max_TSDR is higher.
+  auto s = with_profibus({{"port", "pty:/tmp/pb"}, {"baud", 12000000}, {"role", "slaves"}});
+  s["profibus"]["min_tsdr_bits"] = 256;
+  e = bad(s);
+  EXPECT_EQ(e.json_path, "$.profibus.min_tsdr_bits");
+  EXPECT_NE(e.message.find("11 .. 255 (Set_Prm byte 3)"), std::string::npos) << e.message;
+}
+
 TEST(ConfigProfibusErrors, TimingRangesAndUnknownKeys) {
   json p = {{"port", "pty:/tmp/pb"}, {"baud", 19200}, {"role", "slaves"}};
   auto with = [&](const char* key, json v) {
@@ -766,7 +837,7 @@ TEST(ConfigProfibusErrors, TimingRangesAndUnknownKeys) {
   };
   EXPECT_EQ(with("slot_time_bits", 36).json_path, "$.profibus.slot_time_bits");
   EXPECT_EQ(with("slot_time_bits", 16384).json_path, "$.profibus.slot_time_bits");
-  EXPECT_EQ(with("retries", 8).json_path, "$.profibus.retries");
+  EXPECT_EQ(with("retries", 16).json_path, "$.profibus.retries");
   EXPECT_EQ(with("min_tsdr_bits", 10).json_path, "$.profibus.min_tsdr_bits");
   EXPECT_EQ(with("rs485", "yes").json_path, "$.profibus.rs485");
   const auto e = with("bauds", 19200);

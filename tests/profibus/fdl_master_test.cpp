@@ -80,7 +80,7 @@ TEST_F(LoneMaster, SlotTimeRunsFromTheRequestsLastCharacterAndARetryRepeatsTheFc
   run_to(deadline);
   ASSERT_EQ(sent.size(), 3u);
   EXPECT_EQ(sent.back(), kCapSlaveDiag1);  // the same FCB (docs/profibus.md)
-  EXPECT_EQ(line.stats(3)->retries, 1u);
+  EXPECT_TRUE(line.repeating());           // the repeat is on the line
   EXPECT_EQ(line.stats(3)->timeouts, 1u);
   run_to(now + milliseconds(20));  // max_retry_limit 1: the station is lost
   ASSERT_EQ(done.size(), 1u);
@@ -153,7 +153,8 @@ TEST(FdlMasterCapture, FirstTelegramsMatchTheCapture) {
   EXPECT_EQ(H(rig.sent[5]), kCapDataExch1);
   EXPECT_EQ(H(rig.sent[6]), kCapDataExch2);
   EXPECT_EQ(master.slave(3)->state, dp::MasterSlaveState::DataExch);
-  EXPECT_EQ(rig.line.stats(3)->retries, 0u);
+  EXPECT_EQ(rig.line.stats(3)->timeouts, 0u);  // nothing repeated
+  EXPECT_FALSE(rig.line.repeating());
 }
 
 // A lossy line: every 5th telegram is corrupted; retries keep the station in Data_Exch.
@@ -182,7 +183,8 @@ TEST(FdlMasterCapture, CorruptedTelegramsAreRetriedAndTheCycleGoesOn) {
     }
   }
   EXPECT_EQ(master.slave(3)->state, dp::MasterSlaveState::DataExch);
-  EXPECT_GT(rig.line.stats(3)->retries, 5u);
+  EXPECT_GT(rig.line.stats(3)->timeouts, 5u);  // each repeated: the station was never lost
+  EXPECT_EQ(rig.line.stats(3)->lost, 0u);
   EXPECT_EQ(master.slave(3)->station_lost, 0u);
   EXPECT_GT(rig.line.line_stats().fcs_errors + rig.front.line_stats().fcs_errors, 0u);
 }

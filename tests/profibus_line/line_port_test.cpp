@@ -202,6 +202,7 @@ TEST_F(MasterLineFixture, SilentStationIsAskedTwiceThenShowsStationNonExistent) 
   EXPECT_EQ(plant->master_line()->statistics().live(3), fdl::Live::Missing);
   EXPECT_EQ(stats3().lost, 0u);
   EXPECT_GE(stats3().repeats, 1u);
+  EXPECT_EQ(st.retries, stats3().repeats);  // one count: station_retries shows the repeats
   EXPECT_EQ(stats3().syncs, 0u);
   // The Modbus face shows the master's Station_Non_Existent (diag byte 0 bit 0), DP state 0.
   modbus::RemoteStationFace face(*plant, 3, "gw3");
@@ -246,6 +247,7 @@ TEST_F(MasterLineFixture, CorruptedAnswerIsNoAnswerAndIsRepeated) {
   // The dropped answer is the station's illegal telegram, the second FDL_Status its repeat.
   EXPECT_EQ(stats3().illegals, 1u);
   EXPECT_EQ(stats3().repeats, 1u);
+  EXPECT_EQ(status().retries, 1u);  // the same repeat, counted once
   EXPECT_EQ(plant->master_line()->statistics().illegals_unattributed(), 0u);
 }
 
@@ -270,16 +272,16 @@ TEST_F(MasterLineFixture, StationThatStopsAnsweringIsRepeatedPerRetryLimitThenLo
   // telegram to the station is another one.
   ASSERT_TRUE(loop.run_until([&] { return stats3().lost > 0; }, milliseconds(2000)));
   EXPECT_EQ(stats3().lost, 1u);
-  EXPECT_EQ(stats3().repeats, cfg.profibus->retries);
-  EXPECT_EQ(stats3().repeats_max, cfg.profibus->retries);
+  EXPECT_EQ(stats3().repeats, cfg.profibus->bus.retry_limit);
+  EXPECT_EQ(stats3().repeats_max, cfg.profibus->bus.retry_limit);
   EXPECT_EQ(line.live(3), fdl::Live::Missing);
   EXPECT_EQ(stats3().illegals, 0u);
   // While it stays missing its FDL_Status is repeated too: repeats grow, it is not lost again,
   // and without a token on the line repeats_max is the most repeats of one request.
-  const std::uint64_t later = cfg.profibus->retries + 2;
+  const std::uint64_t later = cfg.profibus->bus.retry_limit + 2;
   ASSERT_TRUE(loop.run_until([&] { return stats3().repeats >= later; }, milliseconds(3000)));
   EXPECT_EQ(stats3().lost, 1u);
-  EXPECT_EQ(stats3().repeats_max, cfg.profibus->retries);
+  EXPECT_EQ(stats3().repeats_max, cfg.profibus->bus.retry_limit);
 }
 
 }  // namespace
