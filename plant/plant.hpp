@@ -322,6 +322,8 @@ class Plant final : public ControlSurface {
   bool add_remote_stations(std::string* error);
   void run_timers(Time now);
   void run_cycle(Time now);
+  // The time the master cycle due by now_ starts at (docs/profibus.md "The line in time"), if any.
+  std::optional<Time> cycle_due() const;
   void log_misses(Time due, Time now, std::uint64_t missed);
   void tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender, Time time);
   // The emulated gateway or drive whose endpoint is named `sender`, or SenderKind::Outside.
