@@ -115,7 +115,8 @@ void Plant::advance(Time now) {
 
 std::optional<Time> Plant::cycle_due() const {
   if (now_ < next_cycle_) return std::nullopt;
-  if (!timed_line_) return now_;
+  // The first cycle anchors the grid where it runs (run_cycle()): when the driver first turns.
+  if (!timed_line_ || !grid_started_) return now_;
   if (timed_line_->rotating()) return std::nullopt;
   // Its grid point, or the end of the last rotation (the TID2 after its token) if that is later.
   const Time at = std::max(next_cycle_, timed_line_->free_time());
