@@ -120,7 +120,9 @@ std::optional<Time> Plant::cycle_due() const {
   if (timed_line_->rotating()) return std::nullopt;
   // Its grid point, or the end of the last rotation (the TID2 after its token) if that is later.
   const Time at = std::max(next_cycle_, timed_line_->free_time());
-  return at <= now_ ? std::optional<Time>(at) : std::nullopt;
+  if (at > now_) return std::nullopt;
+  const Duration limit = options_.line_catch_up;
+  return limit > Duration(0) && now_ - at > limit ? now_ : at;
 }
 
 void Plant::run_cycle(Time now) {

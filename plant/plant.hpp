@@ -92,6 +92,11 @@ struct Options {
   // (docs/profibus.md "The line in time": candp2d handles the line in steps of 1 ms; replay and
   // the tests, 0, at every telegram's own bit).
   Duration line_step{0};
+  // The line in time: a master cycle due within a step starts at its own time (its grid point or
+  // the end of the last rotation) when the plant wakes at most this much after that time; later,
+  // the host kept the plant from running (candp2d with master.host_stall_ms 0): the cycle starts
+  // when the plant woke, and the lateness reaches the world. 0: no limit (replay, the tests).
+  Duration line_catch_up{0};
 };
 
 // One CAN bus of the configuration.

@@ -39,7 +39,8 @@ std::string config_text(std::size_t n, std::string master, std::string parameter
 }
 
 struct Rig {
-  explicit Rig(const std::string& text, Duration line_step = Duration(0)) {
+  explicit Rig(const std::string& text, Duration line_step = Duration(0),
+               Duration line_catch_up = Duration(0)) {
     auto parsed = config::parse_daemon(text, "line.json");
     if (auto* e = std::get_if<config::ConfigError>(&parsed)) {
       ADD_FAILURE() << e->message;
@@ -51,6 +52,7 @@ struct Rig {
     o.log = &log;
     o.first_cycle_at_start = true;
     o.line_step = line_step;
+    o.line_catch_up = line_catch_up;
     plant = plant::Plant::build(cfg, std::move(o), Time{0}, &error);
     EXPECT_TRUE(plant) << error;
   }
@@ -355,6 +357,29 @@ TEST(TimedLine, TheLineStepMovesNoTelegram) {
     }
     EXPECT_GT(tokens, 10u);
   }
+}
+
+// A plant held back longer than its catch-up limit (candp2d with master.host_stall_ms 0 and the
+// host stopped for 300 ms) does not run the line of the stall in the past: the next rotation
+// starts when the plant woke and the grid points in between are missed.
+TEST(TimedLine, AStallBeyondTheCatchUpIsLateness) {
+  Rig rig(config_text(2, R"({ "cycle_ms": 5, "baud": 1500000 })"), milliseconds(1),
+          milliseconds(51));
+  ASSERT_TRUE(rig.plant);
+  rig.line().set_record(true);
+  rig.run_until(Time{100'000});
+  const auto missed = rig.plant->cycle_stats().missed();
+  const Time woke{400'000};
+  rig.plant->advance(woke);
+  // The rotation on the line at 100 ms ends at its bits; no other starts before the plant woke.
+  std::size_t later = 0;
+  for (const auto& t : rig.line().record()) {
+    const Time start = rig.line().time_of(t.start_bit);
+    EXPECT_TRUE(start < Time{101'000} || start >= woke) << start.count() << " µs";
+    if (start >= woke) ++later;
+  }
+  EXPECT_GT(later, 0u);
+  EXPECT_GE(rig.plant->cycle_stats().missed(), missed + 50);
 }
 
 }  // namespace
