@@ -103,10 +103,26 @@ void Plant::advance(Time now) {
   deliver(now_);
   // docs/profibus.md "The line in time": a cycle starts when the line's last rotation has ended;
   // when that is later than its grid point the cycles run back to back (missed grid points count).
-  if (now_ >= next_cycle_ && !(timed_line_ && timed_line_->rotating())) {
-    run_cycle(now_);
+  // On the timed line a cycle starts at its own time, not when the line step woke the plant: the
+  // rest of the step's batch (its rotation, perhaps more of them) follows at the line's bits.
+  while (const auto at = cycle_due()) {
+    run_cycle(*at);
+    if (timed_line_) timed_line_->advance(now_);
     deliver(now_);
+    if (!timed_line_) break;
   }
+}
+
+std::optional<Time> Plant::cycle_due() const {
+  if (now_ < next_cycle_) return std::nullopt;
+  // The first cycle anchors the grid where it runs (run_cycle()): when the driver first turns.
+  if (!timed_line_ || !grid_started_) return now_;
+  if (timed_line_->rotating()) return std::nullopt;
+  // Its grid point, or the end of the last rotation (the TID2 after its token) if that is later.
+  const Time at = std::max(next_cycle_, timed_line_->free_time());
+  if (at > now_) return std::nullopt;
+  const Duration limit = options_.line_catch_up;
+  return limit > Duration(0) && now_ - at > limit ? now_ : at;
 }
 
 void Plant::run_cycle(Time now) {

@@ -92,6 +92,11 @@ struct Options {
   // (docs/profibus.md "The line in time": candp2d handles the line in steps of 1 ms; replay and
   // the tests, 0, at every telegram's own bit).
   Duration line_step{0};
+  // The line in time: a master cycle due within a step starts at its own time (its grid point or
+  // the end of the last rotation) when the plant wakes at most this much after that time; later,
+  // the host kept the plant from running (candp2d with master.host_stall_ms 0): the cycle starts
+  // when the plant woke, and the lateness reaches the world. 0: no limit (replay, the tests).
+  Duration line_catch_up{0};
 };
 
 // One CAN bus of the configuration.
@@ -322,6 +327,8 @@ class Plant final : public ControlSurface {
   bool add_remote_stations(std::string* error);
   void run_timers(Time now);
   void run_cycle(Time now);
+  // The time the master cycle due by now_ starts at (docs/profibus.md "The line in time"), if any.
+  std::optional<Time> cycle_due() const;
   void log_misses(Time due, Time now, std::uint64_t missed);
   void tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender, Time time);
   // The emulated gateway or drive whose endpoint is named `sender`, or SenderKind::Outside.

@@ -89,6 +89,9 @@ class TimedLine {
   // The bit a request that is ready at `t` starts at: the line's free bit when `t` is the time
   // stamp of that bit (cycles back to back), else the first whole bit at or after `t`.
   std::uint64_t start_bit(Time t) const;
+  // The time of the earliest bit the next request may start at (after a rotation: the end of
+  // the TID2 after its token).
+  Time free_time() const { return time_of(free_bit_); }
   // The station's answer delay (min_TSDR of its last Set_Prm, at most its MaxTsdr).
   std::uint32_t tsdr_bits(std::uint8_t address) const;
 

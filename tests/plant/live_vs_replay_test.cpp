@@ -48,6 +48,9 @@ const std::vector<Write> kWrites = {
     {0, {0x3D, 0x8F, 0x00, 0x00, 0x00}, "201#3D8F000000", true},
 };
 
+// The frames the two output slots send with the first Data_Exchange (outputs 0), before any write.
+const std::vector<std::string> kReleaseFrames = {"201#0000000000", "202#0000000000"};
+
 std::string hex(const std::vector<std::uint8_t>& b) {
   std::string s;
   char buf[4];
@@ -101,6 +104,15 @@ void live_and_replay(std::optional<std::uint32_t> baud) {
       auto r = plc.read_input(modbus::kStatusBase, 1);
       return std::holds_alternative<std::vector<std::uint16_t>>(r) && std::get<0>(r)[0] == 2;
     }));
+    // The slots' first frames (the first Data_Exchange's outputs, all 0) before the first write,
+    // as in the replay below: a write racing them would put the order in the client's hands.
+    for (const std::string& release : kReleaseFrames) {
+      std::optional<std::string> f;
+      do {
+        f = observer.frame();
+      } while (f && *f != release);
+      ASSERT_EQ(f, release);
+    }
     for (const auto& w : kWrites) {
       std::vector<std::uint16_t> regs;
       auto b = w.bytes;
@@ -125,6 +137,8 @@ void live_and_replay(std::optional<std::uint32_t> baud) {
 
   // Replay: the same configuration file, the same writes.
   json steps = json::array({{{"expect_dp_state", "data_exch"}, {"within_ms", 1000}}});
+  for (const std::string& release : kReleaseFrames)
+    steps.push_back({{"expect_frame", release}, {"within_ms", 1000}});
   for (const auto& w : kWrites) {
     steps.push_back({{"write", {{"address", w.q}, {"bytes", hex(w.bytes)}}}});
     steps.push_back({{"expect_frame", w.frame}, {"within_ms", 100}});

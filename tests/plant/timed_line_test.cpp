@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <tuple>
 #include <variant>
 
 #include "config/config.hpp"
@@ -40,7 +41,8 @@ std::string config_text(std::size_t n, std::string master, std::string parameter
 }
 
 struct Rig {
-  explicit Rig(const std::string& text) {
+  explicit Rig(const std::string& text, Duration line_step = Duration(0),
+               Duration line_catch_up = Duration(0)) {
     auto parsed = config::parse_daemon(text, "line.json");
     if (auto* e = std::get_if<config::ConfigError>(&parsed)) {
       ADD_FAILURE() << e->message;
@@ -51,6 +53,8 @@ struct Rig {
     plant::Options o;
     o.log = &log;
     o.first_cycle_at_start = true;
+    o.line_step = line_step;
+    o.line_catch_up = line_catch_up;
     plant = plant::Plant::build(cfg, std::move(o), Time{0}, &error);
     EXPECT_TRUE(plant) << error;
   }
@@ -355,6 +359,73 @@ TEST(TimedLine, TheWatchdogRuleHoldsInThePlant) {
     for (const auto& v : short_wd.plant->master().slaves())
       EXPECT_GT(v.parameterizations, 1u) << "watchdog " << never << " ms held";
   }
+}
+
+// candp2d's line step (docs/profibus.md "The line in time"): the plant woken at most once a
+// millisecond, and later than asked (a loop's jitter), puts every telegram on the same bit as the
+// line driven at every event's own bit (replay): back-to-back rotations follow their token after
+// TID2, cycles on their grid start at their grid point.
+TEST(TimedLine, TheLineStepMovesNoTelegram) {
+  for (const auto& [n, baud, cycle_ms] :
+       {std::tuple{4u, 187500u, 1}, std::tuple{3u, 12000000u, 1}, std::tuple{3u, 1500000u, 2}}) {
+    SCOPED_TRACE(std::to_string(n) + " stations at " + std::to_string(baud));
+    const std::string text = config_text(n, R"({ "cycle_ms": )" + std::to_string(cycle_ms) +
+                                                R"(, "baud": )" + std::to_string(baud) + " }");
+    Rig exact(text), stepped(text, milliseconds(1));
+    ASSERT_TRUE(exact.plant && stepped.plant);
+    exact.line().set_record(true);
+    stepped.line().set_record(true);
+    const Time end{300'000};
+    exact.run_until(end);
+    stepped.plant->advance(Time{0});  // the first cycle anchors the grid where it runs
+    std::uint32_t jitter = 1;         // then 0..399 µs late, the same sequence every run
+    while (const auto next = stepped.plant->next_deadline()) {
+      jitter = jitter * 1103515245u + 12345u;
+      const Time at = *next + Duration((jitter >> 16) % 400);
+      if (at > end + milliseconds(20)) break;  // past `end`: its last step is done
+      stepped.plant->advance(at);
+    }
+    const auto& a = exact.line().record();
+    const auto& b = stepped.line().record();
+    ASSERT_GT(a.size(), 100u);
+    ASSERT_GE(b.size(), a.size());
+    std::size_t tokens = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      ASSERT_EQ(a[i].start_bit, b[i].start_bit) << "telegram " << i;
+      ASSERT_EQ(a[i].bytes, b[i].bytes) << "telegram " << i;
+      if (i + 1 < a.size() && decoded(a[i]).kind == fdl::Kind::SD4) {
+        // The token to itself, then the next rotation's first request: TID2 when back to back.
+        if (cycle_ms == 1 && baud == 187500u) {
+          EXPECT_EQ(b[i + 1].start_bit - b[i].end_bit, fdl::tid2_bits(stepped.line().parameters()));
+        }
+        ++tokens;
+      }
+    }
+    EXPECT_GT(tokens, 10u);
+  }
+}
+
+// A plant held back longer than its catch-up limit (candp2d with master.host_stall_ms 0 and the
+// host stopped for 300 ms) does not run the line of the stall in the past: the next rotation
+// starts when the plant woke and the grid points in between are missed.
+TEST(TimedLine, AStallBeyondTheCatchUpIsLateness) {
+  Rig rig(config_text(2, R"({ "cycle_ms": 5, "baud": 1500000 })"), milliseconds(1),
+          milliseconds(51));
+  ASSERT_TRUE(rig.plant);
+  rig.line().set_record(true);
+  rig.run_until(Time{100'000});
+  const auto missed = rig.plant->cycle_stats().missed();
+  const Time woke{400'000};
+  rig.plant->advance(woke);
+  // The rotation on the line at 100 ms ends at its bits; no other starts before the plant woke.
+  std::size_t later = 0;
+  for (const auto& t : rig.line().record()) {
+    const Time start = rig.line().time_of(t.start_bit);
+    EXPECT_TRUE(start < Time{101'000} || start >= woke) << start.count() << " µs";
+    if (start >= woke) ++later;
+  }
+  EXPECT_GT(later, 0u);
+  EXPECT_GE(rig.plant->cycle_stats().missed(), missed + 50);
 }
 
 }  // namespace
