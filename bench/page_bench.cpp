@@ -9,8 +9,8 @@
 
 #include "gateway/gateway.hpp"
 #include "gateway/page_mode.hpp"
+#include "plc/page_driver.hpp"
 #include "profibus_sim/master/dp_master.hpp"
-#include "profibus_sim/plc/page_driver.hpp"
 
 using namespace candp2;
 namespace page = gw::page;

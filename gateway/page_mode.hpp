@@ -5,7 +5,7 @@
 // Rx configuration pages 151..250, data pages 251.. with force 0-4 and count_in, the
 // sequence-number acknowledge, torn pages ignored, status codes in input byte 3. Pure: frames out
 // through a TxPort, time passed in, no I/O. The page wire format itself is
-// profibus_sim/page/page_format.hpp (gw::page).
+// gateway/page/page_format.hpp (gw::page).
 #pragma once
 
 #include <array>
@@ -19,13 +19,13 @@
 #include "can/frame.hpp"
 #include "common/log.hpp"
 #include "common/time.hpp"
+#include "gateway/page/page_format.hpp"
 #include "gateway/slot_config.hpp"
 #include "gateway/tx_port.hpp"
-#include "profibus_sim/page/page_format.hpp"
 
 namespace candp2::gw {
 
-// The page wire format lives one layer down (profibus_sim/page/page_format.hpp); gw::page names it.
+// The page wire format lives one layer down (gateway/page/page_format.hpp); gw::page names it.
 namespace page = ::candp2::page;
 
 // The gateway's Page-Mode engine (docs/page-mode.md).

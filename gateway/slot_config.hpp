@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "can/frame.hpp"
+#include "gateway/page/page_format.hpp"
 #include "gateway/user_prm.hpp"
 #include "profibus_sim/dp/dp_telegram.hpp"
-#include "profibus_sim/page/page_format.hpp"
 
 namespace candp2::gw {
 

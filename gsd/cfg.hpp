@@ -46,7 +46,7 @@ CfgDecode decode_config(std::span<const std::uint8_t> config);
 std::string describe(const CfgEntry& e);
 
 // One device's own reading of its module entries, for the device the caller knows (the CAN-DP/2's
-// slot rules: validate/gsd_reading.hpp). The GSD library knows no device: check() and summary()
+// slot rules: tools/candp2/gsd_reading.hpp). The GSD library knows no device: check() and summary()
 // apply the reader to every module entry of a GSD whose Ident_Number is `ident`.
 struct EntryVerdict {
   std::string text;                    // the device's reading, shown by summary()

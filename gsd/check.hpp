@@ -14,8 +14,8 @@ namespace candp2::gsd {
 // User_Prm_Data_Len / Max_User_Prm_Data_Len, malformed module configuration bytes, limits
 // exceeded. Warnings: doubtful but workable entries (e.g. User_Prm_Data disagreeing with the
 // Ext_User_Prm_Data defaults). When `reader` applies to the GSD's Ident_Number, module entries are
-// also checked against that device's rules (the CAN-DP/2's slot rules: validate/gsd_reading.hpp,
-// manual §7, docs/slots.md "Chk_Cfg slots").
+// also checked against that device's rules (the CAN-DP/2's slot rules:
+// tools/candp2/gsd_reading.hpp, manual §7, docs/slots.md "Chk_Cfg slots").
 std::vector<Diagnostic> check(const Model& model, const DeviceReader* reader = nullptr);
 
 }  // namespace candp2::gsd

@@ -7,9 +7,10 @@
 // head of the status) belongs to one instant between two master cycles. The HTTP face builds a
 // large status from such pieces over several loop turns (http/documents.hpp, http/live_view.hpp).
 // A station's fields, LED codes included (manual table 3.3.1), come from its status
-// (station::Status, gathered by station/gather.hpp) through the station table (station::kFields),
-// the one every face reads, so the page, Modbus and /metrics can never disagree; values show as
-// the status holds them (only Modbus saturates them to its registers). No other face is read.
+// (station::Status, gathered by plant/station_status.hpp) through the station table
+// (station::kFields), the one every face reads, so the page, Modbus and /metrics can never
+// disagree; values show as the status holds them (only Modbus saturates them to its registers). No
+// other face is read.
 #pragma once
 
 #include <cstdint>
@@ -64,14 +65,14 @@ class BusMonitor {
 struct GatewaySource {
   const config::GatewayConfig* cfg = nullptr;
   const plant::GatewayUnit* unit = nullptr;
-  // Its status now (LEDs, diagnosis, counters; station/gather.hpp).
+  // Its status now (LEDs, diagnosis, counters; plant/station_status.hpp).
   std::function<station::Status(Time)> status;
 };
 // A generic DP-V0 slave from its GSD (docs/slaves.md "Front panel and HTTP API").
 struct SlaveSource {
   const config::SlaveConfig* cfg = nullptr;
   const plant::SlaveUnit* unit = nullptr;
-  std::function<station::Status(Time)> status;               // station/gather.hpp
+  std::function<station::Status(Time)> status;               // plant/station_status.hpp
   std::function<std::vector<std::uint8_t>(Time)> diagnosis;  // the whole Slave_Diag answer
   bool line = false;  // on a profibus line in role slaves (else in-process)
 };

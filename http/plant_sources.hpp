@@ -9,8 +9,8 @@
 
 #include "http/http_status.hpp"
 #include "plant/plant.hpp"
+#include "plant/station_status.hpp"
 #include "plant/tap.hpp"
-#include "station/gather.hpp"
 
 namespace candp2::http {
 
@@ -27,11 +27,11 @@ class BusMonitors final : public plant::Tap {
 };
 
 // The status model's sources for `plant`: the master, its cycle and period; every gateway and
-// generic slave (docs/slaves.md "Front panel and HTTP API") with its status as station/gather.hpp
-// gathers it for every face (gateways with their bit rate group from `bitrate`), so the page,
-// Modbus and /metrics never disagree; every bus with its monitor from `monitors` (none when null)
-// and the CAN bit rate its first gateway is configured to (manual table 5.1.1); every drive;
-// `modbus` for the Modbus server's figures (none when empty).
+// generic slave (docs/slaves.md "Front panel and HTTP API") with its status as
+// plant/station_status.hpp gathers it for every face (gateways with their bit rate group from
+// `bitrate`), so the page, Modbus and /metrics never disagree; every bus with its monitor from
+// `monitors` (none when null) and the CAN bit rate its first gateway is configured to (manual
+// table 5.1.1); every drive; `modbus` for the Modbus server's figures (none when empty).
 StatusSources make_sources(plant::Plant& plant, const BusMonitors* monitors = nullptr,
                            std::function<ModbusFigures()> modbus = {},
                            station::BitrateFn bitrate = {});

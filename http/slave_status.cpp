@@ -1,7 +1,7 @@
 // The generic DP-V0 slaves in the HTTP face (docs/slaves.md "Front panel and HTTP API",
 // docs/daemon.md "HTTP face"): a slave's overview tile and its whole state, read from the slave
-// (gsd_slave::GsdSlave) and from its status and whole diagnosis (station/gather.hpp), so the page,
-// Modbus and /metrics can never disagree.
+// (gsd_slave::GsdSlave) and from its status and whole diagnosis (plant/station_status.hpp), so the
+// page, Modbus and /metrics can never disagree.
 
 #include "common/hex.hpp"
 #include "gsd/cfg.hpp"

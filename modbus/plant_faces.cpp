@@ -4,7 +4,7 @@
 
 #include "plant/master_line.hpp"
 #include "plant/slave_line.hpp"
-#include "station/gather.hpp"
+#include "plant/station_status.hpp"
 
 namespace candp2::modbus {
 

@@ -15,7 +15,7 @@
 #include "modbus/modbus_map.hpp"
 #include "plant/plant.hpp"
 #include "plant/slave_line.hpp"
-#include "station/gather.hpp"
+#include "plant/station_status.hpp"
 
 namespace candp2::modbus {
 

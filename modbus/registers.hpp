@@ -181,7 +181,7 @@ inline std::uint32_t get32(const StatusBlock& b, std::uint16_t at) {
 }
 
 // Everything a status block shows (station/status.hpp), gathered by the owner of gateway and
-// master (station/gather.hpp).
+// master (plant/station_status.hpp).
 using BitrateStatus = station::BitrateStatus;
 using StatusInputs = station::Status;
 StatusBlock encode_status(const StatusInputs& in);

@@ -20,8 +20,8 @@
 #include "config/config.hpp"
 #include "gateway/page_mode.hpp"
 #include "plant/line_fault.hpp"
+#include "plc/page_driver.hpp"
 #include "profibus_sim/dp/dp_slave.hpp"
-#include "profibus_sim/plc/page_driver.hpp"
 
 namespace candp2::replay {
 

@@ -12,7 +12,7 @@
 
 #include "can/virtual_bus.hpp"
 #include "plant/plant.hpp"
-#include "profibus_sim/plc/page_driver.hpp"
+#include "plc/page_driver.hpp"
 #include "replay/runner.hpp"
 
 namespace candp2::replay {

@@ -6,8 +6,8 @@
 
 #include "common/hex.hpp"
 #include "faults/drive_fault.hpp"
+#include "plant/station_status.hpp"
 #include "replay/sim.hpp"
-#include "station/gather.hpp"
 
 namespace candp2::replay {
 
@@ -162,7 +162,7 @@ void Sim::expect_dp_state(const Step& s, StepResult& r) {
 }
 
 // The counters as the station table reads them (station/status.hpp), from the gateway's own part
-// of its status (station/gather.hpp).
+// of its status (plant/station_status.hpp).
 void Sim::expect_counters(const Step& s, StepResult& r) {
   plant::GatewayUnit& g = gateway(s);
   r.passed = poll(

@@ -1,6 +1,6 @@
 // What a station (a CAN-DP/2 gateway, a generic DP slave, a remote station on a line) shows of
-// itself: its status (station::Status, gathered by station/gather.hpp from the plant) and the one
-// table of its fields and counters (docs/architecture.md "One vocabulary"): name, unit, meaning
+// itself: its status (station::Status, gathered by plant/station_status.hpp from the plant) and the
+// one table of its fields and counters (docs/architecture.md "One vocabulary"): name, unit, meaning
 // and how to read it. Every face iterates this table: the Modbus status block and its map
 // (modbus/registers.hpp, `candp2d --print-modbus-map [--json]`, so the candp2 Python package),
 // GET /api/v1/status and GET /metrics (http/), replay's expect_counters (replay/). A new counter

@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "gsd/gsd.hpp"
-#include "validate/gsd_reading.hpp"
+#include "tools/candp2/gsd_reading.hpp"
 
 namespace candp2::gsd {
 namespace {
@@ -140,7 +140,7 @@ TEST(GsdCheck, Findings) {
     SCOPED_TRACE(c.name);
     const ParseResult r = parse(c.text);
     for (const auto& d : r.diagnostics) ADD_FAILURE() << "parse: " << format(d, "t.gsd");
-    const auto findings = check(r.model, &validate::candp2_reader());
+    const auto findings = check(r.model, &cli::candp2_reader());
     bool found = false;
     for (const auto& d : findings)
       if (d.line == c.line && d.severity == c.severity &&

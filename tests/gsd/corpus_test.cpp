@@ -16,7 +16,7 @@
 #include "gsd/summary.hpp"
 #include "gsd/text.hpp"
 #include "tests/vendor_files.hpp"
-#include "validate/gsd_reading.hpp"
+#include "tools/candp2/gsd_reading.hpp"
 
 namespace candp2::gsd {
 namespace {
@@ -75,10 +75,10 @@ void check_encode_and_summary(const std::vector<fs::path>& files) {
   for (const auto& f : files) {
     SCOPED_TRACE(f.filename().string());
     const ParseResult r = parse_file(f.string());
-    (void)check(r.model, &validate::candp2_reader());
+    (void)check(r.model, &cli::candp2_reader());
     EXPECT_TRUE(encode_user_prm(r.model).ok());
     for (const auto& m : r.model.modules) EXPECT_TRUE(encode_module_prm(r.model, m).ok()) << m.name;
-    const std::string s = summary(r.model, &validate::candp2_reader());
+    const std::string s = summary(r.model, &cli::candp2_reader());
     EXPECT_NE(s.find("Modules: " + std::to_string(r.model.modules.size())), std::string::npos);
   }
 }

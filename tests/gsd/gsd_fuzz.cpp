@@ -11,15 +11,15 @@
 #include "gsd/gsd.hpp"
 #include "gsd/prm.hpp"
 #include "gsd/summary.hpp"
-#include "validate/gsd_reading.hpp"
+#include "tools/candp2/gsd_reading.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   namespace gsd = candp2::gsd;
   const std::string_view text(reinterpret_cast<const char*>(data), size);
   const gsd::ParseResult r = gsd::parse(text);
   for (const auto& d : r.diagnostics) (void)gsd::format(d, "fuzz");
-  (void)gsd::check(r.model, &candp2::validate::candp2_reader());
-  (void)gsd::summary(r.model, &candp2::validate::candp2_reader());
+  (void)gsd::check(r.model, &candp2::cli::candp2_reader());
+  (void)gsd::summary(r.model, &candp2::cli::candp2_reader());
 
   // Overrides by every parameter name, with the data's first bytes as values and as text.
   std::vector<gsd::PrmOverride> ov;

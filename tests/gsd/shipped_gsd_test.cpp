@@ -16,7 +16,7 @@
 #include "gsd/gsd.hpp"
 #include "gsd/prm.hpp"
 #include "gsd/summary.hpp"
-#include "validate/gsd_reading.hpp"
+#include "tools/candp2/gsd_reading.hpp"
 
 namespace candp2::gsd {
 namespace {
@@ -42,7 +42,7 @@ TEST(ShippedGsd, ParsesWithoutAnyDiagnostic) {
 }
 
 TEST(ShippedGsd, CheckHasNoFindings) {
-  for (const auto& d : check(shipped().model, &validate::candp2_reader()))
+  for (const auto& d : check(shipped().model, &cli::candp2_reader()))
     ADD_FAILURE() << format(d, kGsdPath);
 }
 
@@ -244,7 +244,7 @@ TEST(ShippedGsd, EveryModuleIsAValidCanDp2Slot) {
 }
 
 TEST(ShippedGsd, SummaryNamesTheEssentials) {
-  const std::string s = summary(shipped().model, &validate::candp2_reader());
+  const std::string s = summary(shipped().model, &cli::candp2_reader());
   for (const char* part :
        {"esd CAN-DP/2", "0x04A4", "Max_Module 48", "Max_Input_Len 244", "Max_Data_Len 300",
         "defaults 00 06 00 01 00 00 FF FF FF", "CAN-Bitrate", "\"125 kbit/s\"", "byte 7..8",

@@ -1,6 +1,6 @@
 // The PLC-side page driver (FB2 equivalent, manual §6.5, §8.2) against the emulated gateway,
 // through the simulated DP master's process image.
-#include "profibus_sim/plc/page_driver.hpp"
+#include "plc/page_driver.hpp"
 
 #include <gtest/gtest.h>
 

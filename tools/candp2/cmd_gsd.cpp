@@ -16,7 +16,7 @@
 #include "gsd/prm.hpp"
 #include "gsd/summary.hpp"
 #include "tools/candp2/commands.hpp"
-#include "validate/gsd_reading.hpp"
+#include "tools/candp2/gsd_reading.hpp"
 
 namespace candp2::cli {
 
@@ -44,7 +44,7 @@ int run_gsd(const GsdArgs& a) {
     return 1;
   }
   std::vector<gsd::Diagnostic> all = parsed.diagnostics;
-  const auto findings = gsd::check(parsed.model, &validate::candp2_reader());
+  const auto findings = gsd::check(parsed.model, &cli::candp2_reader());
   all.insert(all.end(), findings.begin(), findings.end());
 
   std::vector<gsd::PrmOverride> overrides;
@@ -71,7 +71,7 @@ int run_gsd(const GsdArgs& a) {
   }
   if (!a.quiet) {
     section();
-    std::cout << gsd::summary(parsed.model, &validate::candp2_reader());
+    std::cout << gsd::summary(parsed.model, &cli::candp2_reader());
   }
   if (!overrides.empty()) {
     section();

@@ -1,4 +1,4 @@
-#include "profibus_sim/page/page_format.hpp"
+#include "gateway/page/page_format.hpp"
 
 #include <algorithm>
 #include <cstdio>

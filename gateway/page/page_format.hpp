@@ -1,5 +1,5 @@
 // The Page-Mode page wire format (manual §6, docs/page-mode.md), shared by the gateway's Page-Mode
-// engine (gateway/page_mode.hpp) and the PLC-side page driver (profibus_sim/plc/page_driver.hpp):
+// engine (gateway/page_mode.hpp) and the PLC-side page driver (plc/page_driver.hpp):
 // segment layout and payload regions ("Segments"), header bytes ("Header bytes"), the 6-byte
 // identifier entries and end markers of configuration pages ("Pages", manual tables 6.4.4/6.4.5),
 // the packing of data entries onto pages 251.. (manual tables 6.4.6/6.4.8). Pure functions and

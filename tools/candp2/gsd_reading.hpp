@@ -6,10 +6,10 @@
 
 #include "gsd/cfg.hpp"
 
-namespace candp2::validate {
+namespace candp2::cli {
 
 // Shows "CAN-DP/2: Rx 11-bit ID 0x181, ..." in gsd::summary and the finding "the CAN-DP/2 rejects
 // this entry (Cfg fault code ...; manual §7, docs/slots.md)" in gsd::check.
 const gsd::DeviceReader& candp2_reader();
 
-}  // namespace candp2::validate
+}  // namespace candp2::cli

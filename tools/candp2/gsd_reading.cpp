@@ -1,9 +1,9 @@
-#include "validate/gsd_reading.hpp"
+#include "tools/candp2/gsd_reading.hpp"
 
 #include "gateway/cfg_reading.hpp"
 #include "gateway/user_prm.hpp"
 
-namespace candp2::validate {
+namespace candp2::cli {
 
 const gsd::DeviceReader& candp2_reader() {
   static const gsd::DeviceReader reader{.ident = gw::kIdentNumber,
@@ -16,4 +16,4 @@ const gsd::DeviceReader& candp2_reader() {
   return reader;
 }
 
-}  // namespace candp2::validate
+}  // namespace candp2::cli

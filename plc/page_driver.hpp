@@ -25,8 +25,8 @@
 
 #include "common/log.hpp"
 #include "common/time.hpp"
+#include "gateway/page/page_format.hpp"
 #include "profibus_sim/master/dp_master.hpp"
-#include "profibus_sim/page/page_format.hpp"
 
 namespace candp2::plc {
 

@@ -1,4 +1,4 @@
-#include "profibus_sim/plc/page_driver.hpp"
+#include "plc/page_driver.hpp"
 
 #include <algorithm>
 #include <tuple>

@@ -1,4 +1,4 @@
-#include "station/gather.hpp"
+#include "plant/station_status.hpp"
 
 #include "plant/master_line.hpp"
 
