@@ -159,7 +159,13 @@ void TimedLine::end_issue(Time now) {
 }
 
 void TimedLine::enqueue(Job job, Time now) {
-  queue_.push_back(std::move(job));
+  if (answering_ && job.station == answering_) {
+    // docs/profibus.md "The line in time": the next step of the station follows its answer at once.
+    queue_.insert(queue_.begin() + static_cast<std::ptrdiff_t>(head_), std::move(job));
+    if (sorted_from_ > head_) ++sorted_from_;
+  } else {
+    queue_.push_back(std::move(job));
+  }
   if (holding_ || phase_ != Phase::Idle) return;
   start_next(start_bit(now));
   advance(now);
@@ -440,7 +446,14 @@ void TimedLine::on_response_end() {
     return put_request(free_bit_);
   }
   s.seq_.advance();
-  o.job->done(o.answer, time_of(event_bit_));  // the next exchange begins after it
+  complete(o.answer, event_bit_);  // the next exchange begins after it
+}
+
+void TimedLine::complete(const dp::Response& r, std::uint64_t at_bit) {
+  OnLine& o = current_;
+  answering_ = o.job->station;
+  o.job->done(r, time_of(at_bit));
+  answering_ = nullptr;
 }
 
 void TimedLine::on_slot_expired() {
@@ -469,7 +482,7 @@ void TimedLine::unanswered(std::uint64_t free_bit) {
   if (log_.enabled(LogLevel::Debug))
     log_.debug("station " + std::to_string(o.job->station->address()) + ": no valid answer after " +
                std::to_string(params_.retry_limit) + " retries");
-  o.job->done(dp::Response{}, time_of(free_bit_));
+  complete(dp::Response{}, free_bit_);
 }
 
 void TimedLine::on_unanswered_end() {

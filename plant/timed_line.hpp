@@ -8,7 +8,10 @@
 // its outputs then and sends its CAN frames from then on); the master's request completes when the
 // response's last character has arrived. No answer within the slot time: the request is repeated up
 // to retry_limit times, then it completes with NoResponse. A station is asked for its FDL_Status
-// before its first DP request and after it was lost. When the master's requests of a rotation are
+// before its first DP request and after it was lost. A request the master makes while it handles a
+// station's answer (the next step of a parameterization, the first Data_Exchange, the Slave_Diag
+// after a refusal) goes next, before the other stations' requests: a station is parameterized in
+// one go. When the master's requests of a rotation are
 // done it passes the token to itself (SD4) and, every gap_factor rotations, asks one address of
 // its GAP (above its own, up to HSA) for its FDL_Status, where nobody answers within the slot time.
 //
@@ -167,6 +170,9 @@ class TimedLine {
   };
 
   void enqueue(Job job, Time now);
+  // The exchange's completion, told to the master: a request it makes for the same station
+  // meanwhile goes next (docs/profibus.md "The line in time": in one go).
+  void complete(const dp::Response& r, std::uint64_t at_bit);
   void start_next(std::uint64_t at_bit);
   // The current exchange's telegram on the line from `at_bit` (or when the line is free).
   void put_request(std::uint64_t at_bit);
@@ -201,6 +207,8 @@ class TimedLine {
   std::vector<Job> queue_;
   std::size_t head_ = 0;
   std::size_t sorted_from_ = 0;  // queue_ index where the requests of this cycle start
+  // The station whose answer the master is handling: its next request goes first.
+  const Station* answering_ = nullptr;
   Phase phase_ = Phase::Idle;
   OnLine current_;               // valid while phase_ is not Idle
   std::uint64_t event_bit_ = 0;  // the bit the current phase ends at
