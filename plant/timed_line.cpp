@@ -228,6 +228,10 @@ void TimedLine::put_request(std::uint64_t at_bit) {
   if (late_ && std::max(at_bit, free_bit_) != late_->bit) flush_late();
   const std::uint64_t start = std::max(at_bit, free_bit_);
   if (rotating_ && !rotation_start_) rotation_start_ = start;
+  if (rotating_ && o.job &&
+      (o.fdl_status || o.job->request.service == dp::Service::SetPrm ||
+       o.job->request.service == dp::Service::ChkCfg))
+    parameterizes_ = true;
   request_start_ = start;
   request_end_ = start + kBitsPerChar * o.request.size();
   // docs/faults.md "Line faults": noise garbles it; a late answer starting with it collides.
@@ -497,14 +501,10 @@ void TimedLine::on_unanswered_end() {
   rotating_ = false;
   gap_done_ = false;
   ++rotations_;
-  if (rotation_start_) {
-    const Duration d = fdl::bits_to_time(baud_, event_bit_ - *rotation_start_);
-    cycles_.last = d;
-    cycles_.min = cycles_.count ? std::min(cycles_.min, d) : d;
-    cycles_.max = std::max(cycles_.max, d);
-    cycles_.sum += d;
-    ++cycles_.count;
-  }
+  if (rotation_start_)  // docs/daemon.md "Statistics of the steady line"
+    (parameterizes_ ? parameterizing_ : cycles_)
+        .add(fdl::bits_to_time(baud_, event_bit_ - *rotation_start_));
+  parameterizes_ = false;
 }
 
 }  // namespace candp2::plant

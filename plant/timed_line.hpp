@@ -96,15 +96,11 @@ class TimedLine {
   std::uint32_t tsdr_bits(std::uint8_t address) const;
 
   // The measured bus cycle: one rotation from its first telegram to the end of the idle after the
-  // token (docs/profibus.md "The line in time").
-  struct CycleTimes {
-    std::uint64_t count = 0;
-    Duration last{0}, min{0}, max{0}, sum{0};
-    Duration mean() const {
-      return count ? Duration(sum.count() / static_cast<std::int64_t>(count)) : Duration(0);
-    }
-  };
-  const CycleTimes& bus_cycle() const { return cycles_; }
+  // token (docs/profibus.md "The line in time"), of the steady line: rotations in which the master
+  // parameterized no station. A rotation with a station's FDL_Status, Set_Prm or Chk_Cfg (the
+  // start-up, a station lost or parameterized again) is counted apart.
+  const fdl::RotationTimes& bus_cycle() const { return cycles_; }
+  const fdl::RotationTimes& parameterization_cycle() const { return parameterizing_; }
   std::uint64_t retries() const { return retries_; }
   std::uint64_t gap_polls() const { return gap_polls_; }
 
@@ -223,7 +219,8 @@ class TimedLine {
   std::uint64_t rotations_ = 0;
   std::uint8_t gap_next_ = 0;
   std::uint64_t retries_ = 0, gap_polls_ = 0;
-  CycleTimes cycles_;
+  fdl::RotationTimes cycles_, parameterizing_;
+  bool parameterizes_ = false;  // this rotation has a station's FDL_Status, Set_Prm or Chk_Cfg
   fdl::LineStatistics stats_;
   std::optional<Late> late_;
   Time noise_from_{0}, noise_until_{0};

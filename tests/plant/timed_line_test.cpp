@@ -278,7 +278,7 @@ TEST(TimedLine, ParameterizesAStationInOneGo) {
   ASSERT_TRUE(rig.plant);
   TimedLine& line = rig.line();
   line.set_record(true);
-  while (line.bus_cycle().count == 0) rig.plant->advance(*rig.plant->next_deadline());
+  while (line.parameterization_cycle().count == 0) rig.plant->advance(*rig.plant->next_deadline());
   const auto& tg = line.record();
   const auto tid1 = fdl::tid1_bits(line.parameters());
   // The master's requests of the first rotation, by station and kind.
@@ -309,13 +309,40 @@ TEST(TimedLine, ParameterizesAStationInOneGo) {
     EXPECT_EQ(seen[k].first, 3 + k / one_go.size()) << k;
     EXPECT_EQ(seen[k].second, one_go[k % one_go.size()]) << k;
   }
-  EXPECT_GT(line.bus_cycle().last,
-            milliseconds(100));  // the start-up rotation outlasts the watchdog
+  // The start-up rotation outlasts the watchdog; it is no bus cycle of the steady line.
+  EXPECT_GT(line.parameterization_cycle().last, milliseconds(100));
+  EXPECT_EQ(line.bus_cycle().count, 0u);
   for (const auto& v : rig.plant->master().slaves()) {  // each reached Data_Exch at the first try
     EXPECT_EQ(v.state, dp::MasterSlaveState::DataExch) << int(v.address);
     EXPECT_EQ(v.parameterizations, 1u) << int(v.address);
     EXPECT_EQ(v.data_exchanges, 1u) << int(v.address);
   }
+}
+
+// docs/daemon.md "Statistics of the steady line": the bus cycle counts the rotations that
+// parameterized no station; the start-up rotation and a re-parameterization are counted apart.
+TEST(TimedLine, TheBusCycleIsTheSteadyLine) {
+  Rig rig(config_text(2, R"({ "cycle_ms": 1, "baud": 9600 })"));
+  ASSERT_TRUE(rig.plant);
+  TimedLine& line = rig.line();
+  rig.run_until(Time{3'000'000});
+  const auto predicted = fdl::predict_cycle(
+      9600, line.parameters(), std::vector<fdl::CycleStation>(2, {.outputs = 2, .inputs = 0}));
+  const auto start_up = line.parameterization_cycle();
+  EXPECT_EQ(start_up.count, 1u);
+  const auto steady = line.bus_cycle();
+  EXPECT_GT(steady.count, 30u);
+  EXPECT_GT(start_up.max, steady.max * 2);  // two stations' parameterizations in it
+  // Steady rotations only: the longest is a rotation with the GAP request.
+  EXPECT_NEAR(static_cast<double>(steady.max.count()), static_cast<double>(predicted.worst.count()),
+              predicted.worst.count() * 0.01);
+  EXPECT_NEAR(static_cast<double>(steady.mean().count()),
+              static_cast<double>(predicted.mean.count()), predicted.mean.count() * 0.02);
+  rig.plant->master().reparameterize(4, rig.plant->now());
+  rig.run_until(rig.plant->now() + milliseconds(500));
+  EXPECT_EQ(line.parameterization_cycle().count, 2u);
+  EXPECT_EQ(line.bus_cycle().max, steady.max);
+  EXPECT_GT(line.bus_cycle().count, steady.count);
 }
 
 // The prediction (docs/profibus.md "The line in time") and the simulation agree within 2 %.
