@@ -2,6 +2,7 @@
 cycle in /api/v1/status, /metrics and candp2.Daemon.line; nothing of it on an ideal line."""
 
 import json
+import pathlib
 import re
 import urllib.request
 from typing import Callable
@@ -157,3 +158,28 @@ def test_a_refused_line_fault_write_says_why_in_the_log(candp2d: Factory) -> Non
     assert re.search(r"warning \[modbus\] 127\.0\.0\.1:\d+: unit 5: write \(function 16\) refused "
                      r"with exception 0x03 \(illegal data value\): line fault kind 9 \(0 none, 1 "
                      r"corrupt, 2 silent, 3 late, 4 double_address\)$", refused[0]), refused
+
+
+def test_a_noise_burst_at_9600_is_followed_by_no_cascade(candp2d: Factory) -> None:
+    """Live, as the replay scenario line-noise-9600 (docs/profibus.md "The line in time"): three
+    gateways at 9.6 kbit/s whose watchdogs outlast the rotation that parameterizes them again.
+    A 300 ms noise burst drops all three; each is parameterized again in one go, once, and no
+    watchdog expires in the rotations after."""
+    root = pathlib.Path(__file__).resolve().parents[2]
+    config = json.loads((root / "config" / "line-9600-noise.json").read_text())
+    daemon = candp2d(config)
+    stations = (3, 4, 5)
+    line = daemon.line
+    line.wait_until(lambda li: all(li.station(a).live == "ok" for a in stations) and li,
+                    timeout=10)
+    line.noise(for_ms=300)
+    back = line.wait_until(lambda li: all(li.station(a).syncs == 2 and li.station(a).live == "ok"
+                                          for a in stations) and li, timeout=10)
+    assert isinstance(back, Line) and back.bus_cycle_us is not None
+    cycles = back.bus_cycle_us.cycles
+    after = line.wait_until(lambda li: li.bus_cycle_us is not None
+                            and li.bus_cycle_us.cycles >= cycles + 10 and li, timeout=10)
+    assert isinstance(after, Line)
+    for a in stations:
+        s = after.station(a)
+        assert (s.live, s.lost, s.syncs) == ("ok", 1, 2), after.describe()
