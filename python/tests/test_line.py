@@ -27,8 +27,11 @@ def timed(baud: int) -> dict[str, object]:
 def test_the_measured_bus_cycle_is_seen_from_outside(candp2d: Factory) -> None:
     daemon = candp2d(timed(187500))
     daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch")
-    line = daemon.line
-    assert line is not None and line.baud == 187500
+    # The start-up's rotation is no bus cycle (docs/daemon.md "Statistics of the steady line"):
+    # wait for the first rotation of the steady line.
+    line = daemon.line.wait_until(lambda li: li.bus_cycle_us is not None
+                                  and li.bus_cycle_us.cycles > 0 and li)
+    assert isinstance(line, Line) and line.baud == 187500
     c = line.bus_cycle_us
     assert c is not None
     # A rotation carries at least one Data_Exchange: SD2 request and answer at 187.5 kbit/s
@@ -183,3 +186,7 @@ def test_a_noise_burst_at_9600_is_followed_by_no_cascade(candp2d: Factory) -> No
     for a in stations:
         s = after.station(a)
         assert (s.live, s.lost, s.syncs) == ("ok", 1, 2), after.describe()
+    # The start-up and the rotations that parameterized the three again are no bus cycles.
+    p = after.parameterization_cycle_us
+    assert p is not None and after.bus_cycle_us is not None and p.cycles >= 2
+    assert p.max > after.bus_cycle_us.max, after.describe()
