@@ -251,17 +251,27 @@ void MetricsBuild::tail() {
   family("candp2_http_event_bytes_total", "counter", "bytes of Server-Sent Events written");
   one("candp2_http_event_bytes_total", "", h.event_bytes);
   if (src.line) {  // the line in time (docs/profibus.md "The line in time")
-    const auto& c = src.line->bus_cycle();
-    family("candp2_line_bus_cycle_seconds", "gauge",
-           "the measured PROFIBUS bus cycle: the last, shortest, mean and longest token rotation");
-    for (const auto& [stat, d] :
-         {std::pair{"last", c.last}, {"min", c.min}, {"mean", c.mean()}, {"max", c.max}}) {
-      out_ += "candp2_line_bus_cycle_seconds{stat=\"";
-      out_ += stat;
-      out_ += "\"} ";
-      put(out_, static_cast<double>(d.count()) / 1e6);
-      out_ += '\n';
-    }
+    // docs/daemon.md "Statistics of the steady line".
+    const auto times = [&](const std::string& name, const char* help, const fdl::RotationTimes& c) {
+      family(name, "gauge", help);
+      for (const auto& [stat, d] :
+           {std::pair{"last", c.last}, {"min", c.min}, {"mean", c.mean()}, {"max", c.max}}) {
+        out_ += name;
+        out_ += "{stat=\"";
+        out_ += stat;
+        out_ += "\"} ";
+        put(out_, static_cast<double>(d.count()) / 1e6);
+        out_ += '\n';
+      }
+    };
+    times("candp2_line_bus_cycle_seconds",
+          "the measured PROFIBUS bus cycle: the last, shortest, mean and longest token rotation "
+          "that parameterized no station",
+          src.line->bus_cycle());
+    times("candp2_line_parameterization_cycle_seconds",
+          "the last, shortest, mean and longest token rotation that parameterized a station "
+          "(start-up, a station lost or parameterized again)",
+          src.line->parameterization_cycle());
     family("candp2_line_retries_total", "counter", "requests the master repeated on the line");
     one("candp2_line_retries_total", "", src.line->retries());
   }

@@ -260,12 +260,17 @@ json StatusModel::line_json() const {
   if (!src_.line && !src_.line_stats) return nullptr;
   json j = {{"baud", src_.line_baud}};
   if (src_.line) {
-    const auto& c = src_.line->bus_cycle();
-    j["bus_cycle_us"] = {{"last", c.last.count()},
-                         {"min", c.min.count()},
-                         {"mean", c.mean().count()},
-                         {"max", c.max.count()},
-                         {"cycles", c.count}};
+    // docs/daemon.md "Statistics of the steady line": the bus cycle of the rotations that
+    // parameterized no station, and those that did apart.
+    const auto times = [](const fdl::RotationTimes& c) -> json {
+      return {{"last", c.last.count()},
+              {"min", c.min.count()},
+              {"mean", c.mean().count()},
+              {"max", c.max.count()},
+              {"cycles", c.count}};
+    };
+    j["bus_cycle_us"] = times(src_.line->bus_cycle());
+    j["parameterization_cycle_us"] = times(src_.line->parameterization_cycle());
     j["retries"] = src_.line->retries();
     j["gap_polls"] = src_.line->gap_polls();
   }

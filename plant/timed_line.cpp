@@ -159,7 +159,13 @@ void TimedLine::end_issue(Time now) {
 }
 
 void TimedLine::enqueue(Job job, Time now) {
-  queue_.push_back(std::move(job));
+  if (answering_ && job.station == answering_) {
+    // docs/profibus.md "The line in time": the next step of the station follows its answer at once.
+    queue_.insert(queue_.begin() + static_cast<std::ptrdiff_t>(head_), std::move(job));
+    if (sorted_from_ > head_) ++sorted_from_;
+  } else {
+    queue_.push_back(std::move(job));
+  }
   if (holding_ || phase_ != Phase::Idle) return;
   start_next(start_bit(now));
   advance(now);
@@ -222,6 +228,10 @@ void TimedLine::put_request(std::uint64_t at_bit) {
   if (late_ && std::max(at_bit, free_bit_) != late_->bit) flush_late();
   const std::uint64_t start = std::max(at_bit, free_bit_);
   if (rotating_ && !rotation_start_) rotation_start_ = start;
+  if (rotating_ && o.job &&
+      (o.fdl_status || o.job->request.service == dp::Service::SetPrm ||
+       o.job->request.service == dp::Service::ChkCfg))
+    parameterizes_ = true;
   request_start_ = start;
   request_end_ = start + kBitsPerChar * o.request.size();
   // docs/faults.md "Line faults": noise garbles it; a late answer starting with it collides.
@@ -440,7 +450,14 @@ void TimedLine::on_response_end() {
     return put_request(free_bit_);
   }
   s.seq_.advance();
-  o.job->done(o.answer, time_of(event_bit_));  // the next exchange begins after it
+  complete(o.answer, event_bit_);  // the next exchange begins after it
+}
+
+void TimedLine::complete(const dp::Response& r, std::uint64_t at_bit) {
+  OnLine& o = current_;
+  answering_ = o.job->station;
+  o.job->done(r, time_of(at_bit));
+  answering_ = nullptr;
 }
 
 void TimedLine::on_slot_expired() {
@@ -469,7 +486,7 @@ void TimedLine::unanswered(std::uint64_t free_bit) {
   if (log_.enabled(LogLevel::Debug))
     log_.debug("station " + std::to_string(o.job->station->address()) + ": no valid answer after " +
                std::to_string(params_.retry_limit) + " retries");
-  o.job->done(dp::Response{}, time_of(free_bit_));
+  complete(dp::Response{}, free_bit_);
 }
 
 void TimedLine::on_unanswered_end() {
@@ -484,14 +501,10 @@ void TimedLine::on_unanswered_end() {
   rotating_ = false;
   gap_done_ = false;
   ++rotations_;
-  if (rotation_start_) {
-    const Duration d = fdl::bits_to_time(baud_, event_bit_ - *rotation_start_);
-    cycles_.last = d;
-    cycles_.min = cycles_.count ? std::min(cycles_.min, d) : d;
-    cycles_.max = std::max(cycles_.max, d);
-    cycles_.sum += d;
-    ++cycles_.count;
-  }
+  if (rotation_start_)  // docs/daemon.md "Statistics of the steady line"
+    (parameterizes_ ? parameterizing_ : cycles_)
+        .add(fdl::bits_to_time(baud_, event_bit_ - *rotation_start_));
+  parameterizes_ = false;
 }
 
 }  // namespace candp2::plant

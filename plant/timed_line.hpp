@@ -8,7 +8,10 @@
 // its outputs then and sends its CAN frames from then on); the master's request completes when the
 // response's last character has arrived. No answer within the slot time: the request is repeated up
 // to retry_limit times, then it completes with NoResponse. A station is asked for its FDL_Status
-// before its first DP request and after it was lost. When the master's requests of a rotation are
+// before its first DP request and after it was lost. A request the master makes while it handles a
+// station's answer (the next step of a parameterization, the first Data_Exchange, the Slave_Diag
+// after a refusal) goes next, before the other stations' requests: a station is parameterized in
+// one go. When the master's requests of a rotation are
 // done it passes the token to itself (SD4) and, every gap_factor rotations, asks one address of
 // its GAP (above its own, up to HSA) for its FDL_Status, where nobody answers within the slot time.
 //
@@ -96,15 +99,11 @@ class TimedLine {
   std::uint32_t tsdr_bits(std::uint8_t address) const;
 
   // The measured bus cycle: one rotation from its first telegram to the end of the idle after the
-  // token (docs/profibus.md "The line in time").
-  struct CycleTimes {
-    std::uint64_t count = 0;
-    Duration last{0}, min{0}, max{0}, sum{0};
-    Duration mean() const {
-      return count ? Duration(sum.count() / static_cast<std::int64_t>(count)) : Duration(0);
-    }
-  };
-  const CycleTimes& bus_cycle() const { return cycles_; }
+  // token (docs/profibus.md "The line in time"), of the steady line: rotations in which the master
+  // parameterized no station. A rotation with a station's FDL_Status, Set_Prm or Chk_Cfg (the
+  // start-up, a station lost or parameterized again) is counted apart.
+  const fdl::RotationTimes& bus_cycle() const { return cycles_; }
+  const fdl::RotationTimes& parameterization_cycle() const { return parameterizing_; }
   std::uint64_t retries() const { return retries_; }
   std::uint64_t gap_polls() const { return gap_polls_; }
 
@@ -170,6 +169,9 @@ class TimedLine {
   };
 
   void enqueue(Job job, Time now);
+  // The exchange's completion, told to the master: a request it makes for the same station
+  // meanwhile goes next (docs/profibus.md "The line in time": in one go).
+  void complete(const dp::Response& r, std::uint64_t at_bit);
   void start_next(std::uint64_t at_bit);
   // The current exchange's telegram on the line from `at_bit` (or when the line is free).
   void put_request(std::uint64_t at_bit);
@@ -204,6 +206,8 @@ class TimedLine {
   std::vector<Job> queue_;
   std::size_t head_ = 0;
   std::size_t sorted_from_ = 0;  // queue_ index where the requests of this cycle start
+  // The station whose answer the master is handling: its next request goes first.
+  const Station* answering_ = nullptr;
   Phase phase_ = Phase::Idle;
   OnLine current_;               // valid while phase_ is not Idle
   std::uint64_t event_bit_ = 0;  // the bit the current phase ends at
@@ -218,7 +222,8 @@ class TimedLine {
   std::uint64_t rotations_ = 0;
   std::uint8_t gap_next_ = 0;
   std::uint64_t retries_ = 0, gap_polls_ = 0;
-  CycleTimes cycles_;
+  fdl::RotationTimes cycles_, parameterizing_;
+  bool parameterizes_ = false;  // this rotation has a station's FDL_Status, Set_Prm or Chk_Cfg
   fdl::LineStatistics stats_;
   std::optional<Late> late_;
   Time noise_from_{0}, noise_until_{0};

@@ -126,12 +126,7 @@ void LineStatistics::on_token(std::uint8_t sa, Time start) {
   for (const std::uint8_t a : repeated_) cycle_repeats_[a] = 0;
   repeated_.clear();
   if (last_token_) {
-    const Duration d = start - *last_token_;
-    rotation_.last = d;
-    rotation_.min = rotation_.count ? std::min(rotation_.min, d) : d;
-    rotation_.max = std::max(rotation_.max, d);
-    rotation_.sum += d;
-    ++rotation_.count;
+    rotation_.add(start - *last_token_);
   }
   last_token_ = start;
 }

@@ -6,6 +6,7 @@
 // (kStationCounters); every face iterates them. Pure: bytes and their time in, counters out.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -65,12 +66,21 @@ enum class Live : std::uint8_t {
 };
 std::string_view to_string(Live l);
 
-// The token rotation seen on the line: from one token of the master to its next.
+// Rotation times: the token rotation an analyser sees on the line (from one token of the master
+// to its next), the bus cycle the in-process line measures (plant/timed_line.hpp). The one type
+// for both, with its one update.
 struct RotationTimes {
   std::uint64_t count = 0;
   Duration last{0}, min{0}, max{0}, sum{0};
   Duration mean() const {
     return count ? Duration(sum.count() / static_cast<std::int64_t>(count)) : Duration(0);
+  }
+  void add(Duration d) {
+    last = d;
+    min = count ? std::min(min, d) : d;
+    max = std::max(max, d);
+    sum += d;
+    ++count;
   }
 };
 

@@ -195,7 +195,10 @@ def _wait_reading(read: Callable[[], R], predicate: Callable[[R], T], timeout: f
 class Line(_Recorded):
     """The line when it was read (read `daemon.line` again for newer figures, or wait for them
     with `wait_until()`): `baud` (bit/s);
-    on a line in time (`master.baud`) the measured `bus_cycle_us`, the requests the master
+    on a line in time (`master.baud`) the measured `bus_cycle_us` (the rotations that
+    parameterized no station) and `parameterization_cycle_us` (those that did: the start-up, a
+    station lost or parameterized again; docs/daemon.md "Statistics of the steady line"), the
+    requests the master
     repeated (`retries`) and its FDL-Status requests into the GAP (`gap_polls`), None in
     profibus.role "master"; the `live_list`, the `stations` (LineStation), the illegal telegrams
     no station was blamed for (`illegals_unattributed`) and the noise still on the line
@@ -210,13 +213,16 @@ class Line(_Recorded):
     illegals_unattributed: int = 0
     noise_remaining_ms: int = 0
     connection: Connection | None = field(default=None, repr=False, compare=False)
+    parameterization_cycle_us: BusCycle | None = None
 
     @classmethod
     def from_status(cls, line: Mapping[str, Any], connection: Connection | None = None) -> Line:
         """The `line` object of GET /api/v1/status (docs/daemon.md "HTTP face")."""
-        c = line.get("bus_cycle_us")
-        cycle = None if c is None else BusCycle(int(c["last"]), int(c["min"]), int(c["mean"]),
-                                                int(c["max"]), int(c["cycles"]))
+        def times(key: str) -> BusCycle | None:
+            c = line.get(key)
+            return None if c is None else BusCycle(int(c["last"]), int(c["min"]), int(c["mean"]),
+                                                   int(c["max"]), int(c["cycles"]))
+        cycle = times("bus_cycle_us")
         live = line.get("live_list", {})
 
         def addresses(state: str) -> tuple[int, ...]:
@@ -231,7 +237,8 @@ class Line(_Recorded):
                    tuple(LineStation.from_status(s, order, connection)
                          for s in line.get("stations", ())),
                    int(line.get("illegals_unattributed", 0)),
-                   int(line.get("noise_remaining_ms", 0)), connection)
+                   int(line.get("noise_remaining_ms", 0)), connection,
+                   times("parameterization_cycle_us"))
 
     def station(self, address: int) -> LineStation:
         """The station at this DP address; one the line never saw nor configured has live

@@ -2,6 +2,7 @@
 cycle in /api/v1/status, /metrics and candp2.Daemon.line; nothing of it on an ideal line."""
 
 import json
+import pathlib
 import re
 import urllib.request
 from typing import Callable
@@ -26,8 +27,11 @@ def timed(baud: int) -> dict[str, object]:
 def test_the_measured_bus_cycle_is_seen_from_outside(candp2d: Factory) -> None:
     daemon = candp2d(timed(187500))
     daemon.gateway(5).wait_until(lambda g: g.state == "Data_Exch")
-    line = daemon.line
-    assert line is not None and line.baud == 187500
+    # The start-up's rotation is no bus cycle (docs/daemon.md "Statistics of the steady line"):
+    # wait for the first rotation of the steady line.
+    line = daemon.line.wait_until(lambda li: li.bus_cycle_us is not None
+                                  and li.bus_cycle_us.cycles > 0 and li)
+    assert isinstance(line, Line) and line.baud == 187500
     c = line.bus_cycle_us
     assert c is not None
     # A rotation carries at least one Data_Exchange: SD2 request and answer at 187.5 kbit/s
@@ -157,3 +161,32 @@ def test_a_refused_line_fault_write_says_why_in_the_log(candp2d: Factory) -> Non
     assert re.search(r"warning \[modbus\] 127\.0\.0\.1:\d+: unit 5: write \(function 16\) refused "
                      r"with exception 0x03 \(illegal data value\): line fault kind 9 \(0 none, 1 "
                      r"corrupt, 2 silent, 3 late, 4 double_address\)$", refused[0]), refused
+
+
+def test_a_noise_burst_at_9600_is_followed_by_no_cascade(candp2d: Factory) -> None:
+    """Live, as the replay scenario line-noise-9600 (docs/profibus.md "The line in time"): three
+    gateways at 9.6 kbit/s whose watchdogs outlast the rotation that parameterizes them again.
+    A 300 ms noise burst drops all three; each is parameterized again in one go, once, and no
+    watchdog expires in the rotations after."""
+    root = pathlib.Path(__file__).resolve().parents[2]
+    config = json.loads((root / "config" / "line-9600-noise.json").read_text())
+    daemon = candp2d(config)
+    stations = (3, 4, 5)
+    line = daemon.line
+    line.wait_until(lambda li: all(li.station(a).live == "ok" for a in stations) and li,
+                    timeout=10)
+    line.noise(for_ms=300)
+    back = line.wait_until(lambda li: all(li.station(a).syncs == 2 and li.station(a).live == "ok"
+                                          for a in stations) and li, timeout=10)
+    assert isinstance(back, Line) and back.bus_cycle_us is not None
+    cycles = back.bus_cycle_us.cycles
+    after = line.wait_until(lambda li: li.bus_cycle_us is not None
+                            and li.bus_cycle_us.cycles >= cycles + 10 and li, timeout=10)
+    assert isinstance(after, Line)
+    for a in stations:
+        s = after.station(a)
+        assert (s.live, s.lost, s.syncs) == ("ok", 1, 2), after.describe()
+    # The start-up and the rotations that parameterized the three again are no bus cycles.
+    p = after.parameterization_cycle_us
+    assert p is not None and after.bus_cycle_us is not None and p.cycles >= 2
+    assert p.max > after.bus_cycle_us.max, after.describe()

@@ -271,6 +271,86 @@ TEST(TimedLine, WatchdogExpiresWhenTheCycleOutgrowsIt) {
   }
 }
 
+// docs/profibus.md "The line in time": the master parameterizes a station in one go. Four
+// stations at 9.6 kbit/s start together: each one's FDL_Status, Slave_Diag, Set_Prm, Chk_Cfg,
+// Slave_Diag and first Data_Exchange follow one another, TID1 after each answer, before the next
+// station's first request; so the watchdog the Set_Prm set (100 ms: longer than one station's
+// parameterization, shorter than the rotation that parameterizes all four, and shorter than the
+// three other stations' Set_Prm that came between a Set_Prm and its Chk_Cfg before) does not
+// expire before the first Data_Exchange.
+TEST(TimedLine, ParameterizesAStationInOneGo) {
+  Rig rig(config_text(4, R"({ "cycle_ms": 1, "retry_ms": 100, "baud": 9600 })",
+                      R"(, "watchdog_ms": 100)"));
+  ASSERT_TRUE(rig.plant);
+  TimedLine& line = rig.line();
+  line.set_record(true);
+  while (line.parameterization_cycle().count == 0) rig.plant->advance(*rig.plant->next_deadline());
+  const auto& tg = line.record();
+  const auto tid1 = fdl::tid1_bits(line.parameters());
+  // The master's requests of the first rotation, by station and kind.
+  std::vector<std::pair<std::uint8_t, std::string>> seen;
+  for (std::size_t i = 0; i < tg.size(); ++i) {
+    if (!tg[i].from_master) continue;
+    const fdl::Telegram d = decoded(tg[i]);
+    if (d.kind == fdl::Kind::SD4) break;  // the rotation's token
+    if (d.da < 3 || d.da > 6) continue;   // the GAP
+    std::string what = d.function() == fdl::kFcFdlStatus ? "FDL_Status"
+                       : d.dsap == fdl::kSapSlaveDiag    ? "Slave_Diag"
+                       : d.dsap == fdl::kSapSetPrm       ? "Set_Prm"
+                       : d.dsap == fdl::kSapChkCfg       ? "Chk_Cfg"
+                       : !d.dsap                         ? "Data_Exchange"
+                                                         : "?";
+    seen.emplace_back(d.da, what);
+    // Each request of a station after its first follows the answer before it by TID1.
+    if (seen.size() > 1 && seen[seen.size() - 2].first == d.da) {
+      ASSERT_GT(i, 0u);
+      EXPECT_FALSE(tg[i - 1].from_master) << i;
+      EXPECT_EQ(tg[i].start_bit, tg[i - 1].end_bit + tid1) << i;
+    }
+  }
+  const std::vector<std::string> one_go = {"FDL_Status", "Slave_Diag", "Set_Prm",
+                                           "Chk_Cfg",    "Slave_Diag", "Data_Exchange"};
+  ASSERT_EQ(seen.size(), 4 * one_go.size());
+  for (std::size_t k = 0; k < seen.size(); ++k) {
+    EXPECT_EQ(seen[k].first, 3 + k / one_go.size()) << k;
+    EXPECT_EQ(seen[k].second, one_go[k % one_go.size()]) << k;
+  }
+  // The start-up rotation outlasts the watchdog; it is no bus cycle of the steady line.
+  EXPECT_GT(line.parameterization_cycle().last, milliseconds(100));
+  EXPECT_EQ(line.bus_cycle().count, 0u);
+  for (const auto& v : rig.plant->master().slaves()) {  // each reached Data_Exch at the first try
+    EXPECT_EQ(v.state, dp::MasterSlaveState::DataExch) << int(v.address);
+    EXPECT_EQ(v.parameterizations, 1u) << int(v.address);
+    EXPECT_EQ(v.data_exchanges, 1u) << int(v.address);
+  }
+}
+
+// docs/daemon.md "Statistics of the steady line": the bus cycle counts the rotations that
+// parameterized no station; the start-up rotation and a re-parameterization are counted apart.
+TEST(TimedLine, TheBusCycleIsTheSteadyLine) {
+  Rig rig(config_text(2, R"({ "cycle_ms": 1, "baud": 9600 })"));
+  ASSERT_TRUE(rig.plant);
+  TimedLine& line = rig.line();
+  rig.run_until(Time{3'000'000});
+  const auto predicted = fdl::predict_cycle(
+      9600, line.parameters(), std::vector<fdl::CycleStation>(2, {.outputs = 2, .inputs = 0}));
+  const auto start_up = line.parameterization_cycle();
+  EXPECT_EQ(start_up.count, 1u);
+  const auto steady = line.bus_cycle();
+  EXPECT_GT(steady.count, 30u);
+  EXPECT_GT(start_up.max, steady.max * 2);  // two stations' parameterizations in it
+  // Steady rotations only: the longest is a rotation with the GAP request.
+  EXPECT_NEAR(static_cast<double>(steady.max.count()), static_cast<double>(predicted.worst.count()),
+              predicted.worst.count() * 0.01);
+  EXPECT_NEAR(static_cast<double>(steady.mean().count()),
+              static_cast<double>(predicted.mean.count()), predicted.mean.count() * 0.02);
+  rig.plant->master().reparameterize(4, rig.plant->now());
+  rig.run_until(rig.plant->now() + milliseconds(500));
+  EXPECT_EQ(line.parameterization_cycle().count, 2u);
+  EXPECT_EQ(line.bus_cycle().max, steady.max);
+  EXPECT_GT(line.bus_cycle().count, steady.count);
+}
+
 // The prediction (docs/profibus.md "The line in time") and the simulation agree within 2 %.
 TEST(TimedLine, PredictionAgreesWithTheSimulation) {
   for (const std::size_t n : {1u, 8u, 32u, 122u}) {
