@@ -67,6 +67,8 @@ class TimedBus {
 
   // A node with a transmit queue of `depth` frames (FIFO: its head contends).
   std::size_t add_node(std::size_t depth);
+  // A new depth for the node's queue (frames already queued beyond it stay).
+  void set_depth(std::size_t node, std::size_t depth) { nodes_.at(node).depth = depth; }
   // The node left the bus: its queue is emptied (a frame on the bus still ends).
   void remove_node(std::size_t node);
   // The node asks to send `frame` at `now` (not before the last advance). False: its queue is full

@@ -335,6 +335,7 @@ bool DaemonImpl::start_exports(std::string* error) {
     auto e = std::make_unique<Export>();
     e->bus = b.get();
     e->endpoint = b->virtual_bus()->endpoint("socketcand:" + cfg.channel);
+    e->endpoint->set_tx_queue(can::kSocketcandTxQueue);
     can::SocketcandServer::Options o;
     o.host = cfg.socketcand_listen->host;
     o.port = cfg.socketcand_listen->port;

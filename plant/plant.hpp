@@ -214,7 +214,8 @@ class Plant final : public ControlSurface {
   Plant& operator=(const Plant&) = delete;
 
   // ---- time ---------------------------------------------------------------------------------
-  // The earliest time something is due: the next master cycle, a gateway's or drive's timer.
+  // The earliest time something is due: the next master cycle, a gateway's or drive's timer, a
+  // start or end of frame on a bus in time.
   std::optional<Time> next_deadline() const;
   // Runs everything due at or before `now`. A master cycle whose time passed more than one period
   // ago is not run late a second time: it counts as missed (cycle_stats(), logged when a run of
@@ -322,6 +323,7 @@ class Plant final : public ControlSurface {
   bool add_remote_stations(std::string* error);
   void run_timers(Time now);
   void run_cycle(Time now);
+  void settle_buses();
   void log_misses(Time due, Time now, std::uint64_t missed);
   void tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender, Time time);
   // The emulated gateway or drive whose endpoint is named `sender`, or SenderKind::Outside.
@@ -337,6 +339,7 @@ class Plant final : public ControlSurface {
   Logger log_;
   Time now_{0};
   std::vector<std::unique_ptr<BusUnit>> buses_;
+  std::vector<can::VirtualBus*> timed_buses_;  // the virtual buses with a bit rate
   std::vector<std::unique_ptr<GatewayUnit>> gateways_;
   std::vector<std::unique_ptr<DriveUnit>> drives_;
   std::vector<std::unique_ptr<SlaveUnit>> slaves_;
