@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <initializer_list>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "can/frame_bits.hpp"
@@ -30,6 +32,12 @@ struct Trace {
 
 void run(TimedBus& bus) {
   while (const auto d = bus.next_deadline()) bus.advance(*d);
+}
+
+// Each (node, frame) asks to send at `at`, in this order.
+void request_all(TimedBus& bus, std::initializer_list<std::pair<std::size_t, const char*>> frames,
+                 Time at) {
+  for (const auto& [node, text] : frames) bus.request(node, F(text), at);
 }
 
 // 125 kbit/s: 8 µs a bit. Three nodes request at 0; the smallest identifier wins each idle.
@@ -108,9 +116,7 @@ TEST(TimedBus, OnlyTheHeadOfAQueueContends) {
   TimedBus bus(1000000, Time(0));
   Trace trace(bus);
   const auto a = bus.add_node(8), b = bus.add_node(8);
-  bus.request(a, F("7FF#FFFFFFFFFFFFFFFF"), Time(0));
-  bus.request(a, F("000#"), Time(0));
-  bus.request(b, F("080#"), Time(0));
+  request_all(bus, {{a, "7FF#FFFFFFFFFFFFFFFF"}, {a, "000#"}, {b, "080#"}}, Time(0));
   run(bus);
   EXPECT_EQ(trace.lines, (std::vector<std::string>{"0 51 1 080#", "51 177 0 7FF#FFFFFFFFFFFFFFFF",
                                                    "177 230 0 000#"}));
@@ -134,9 +140,7 @@ TEST(TimedBus, ARemovedNodeSendsNothingMore) {
   TimedBus bus(125000, Time(0));
   Trace trace(bus);
   const auto a = bus.add_node(8), b = bus.add_node(8);
-  bus.request(a, F("001#"), Time(0));
-  bus.request(a, F("002#"), Time(0));
-  bus.request(b, F("003#"), Time(0));
+  request_all(bus, {{a, "001#"}, {a, "002#"}, {b, "003#"}}, Time(0));
   bus.advance(Time(0));  // 001# on the bus
   bus.remove_node(a);
   EXPECT_FALSE(bus.request(a, F("004#"), Time(0)));
