@@ -254,6 +254,7 @@ bool DaemonImpl::start(std::string* error) {
   o.wire_image = config_.capture.has_value();  // the in-process DP side in the capture
   // docs/profibus.md "The line in time": the line in steps of 1 ms in real time.
   o.line_step = milliseconds(1);
+  o.bus_step = milliseconds(1);
   plant_ = plant::Plant::build(config_, std::move(o), loop_.now(), error);
   if (!plant_) return false;
   plant_timer_ = std::make_unique<DeadlineTimer>(loop_, [this] { plant_->advance(sim_now()); });

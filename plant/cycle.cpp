@@ -59,7 +59,9 @@ std::optional<Time> Plant::next_deadline() const {
   for (const auto& sl : slaves_) earliest(sl->slave_->next_deadline());
   if (master_line_) earliest(master_line_->next_deadline());
   if (timed_line_) earliest(timed_line_->next_deadline());
-  for (const auto& b : timed_buses_) earliest(b->next_deadline());
+  for (const auto& b : timed_buses_)
+    if (const auto d = b->next_deadline())
+      earliest(std::max(*d, buses_handled_ + options_.bus_step));
   return next;
 }
 
@@ -120,6 +122,7 @@ void Plant::settle_buses() {
       if (const auto d = b->next_deadline(); d && *d <= now_) {
         b->advance(now_);
         due = true;
+        buses_handled_ = now_;
       }
     if (due) deliver(now_);
   }

@@ -92,6 +92,10 @@ struct Options {
   // (docs/profibus.md "The line in time": candp2d handles the line in steps of 1 ms; replay and
   // the tests, 0, at every telegram's own bit).
   Duration line_step{0};
+  // The buses in time the same way (docs/can-bus.md "In the plant"): their next start or end of
+  // frame comes due no sooner than this after the plant last advanced them; the frames' times stay
+  // exact. 0: at every frame's own microsecond.
+  Duration bus_step{0};
 };
 
 // One CAN bus of the configuration.
@@ -340,6 +344,7 @@ class Plant final : public ControlSurface {
   Time now_{0};
   std::vector<std::unique_ptr<BusUnit>> buses_;
   std::vector<can::VirtualBus*> timed_buses_;  // the virtual buses with a bit rate
+  Time buses_handled_{0};                      // when settle_buses() last advanced one
   std::vector<std::unique_ptr<GatewayUnit>> gateways_;
   std::vector<std::unique_ptr<DriveUnit>> drives_;
   std::vector<std::unique_ptr<SlaveUnit>> slaves_;
