@@ -6,6 +6,10 @@
 //  - every other endpoint receives every frame, in send order (one bus = one total order);
 //  - each endpoint has a bounded receive queue; a frame arriving at a full queue is dropped and
 //    counted in that endpoint's rx_lost() (SO_RXQ_OVFL).
+// Ideal by default: a frame is delivered the moment it is sent. With a bit rate (set_bitrate) it is
+// a bus in time (can/timed_bus.hpp, docs/can-bus.md "The bus in time"): a sent frame waits in its
+// endpoint's transmit queue, wins arbitration, and is delivered at its end; the owner of the clock
+// advances the bus at next_deadline().
 // Not thread-safe by design: one event loop owns the bus.
 #pragma once
 
@@ -17,11 +21,31 @@
 #include <vector>
 
 #include "can/channel.hpp"
+#include "can/timed_bus.hpp"
 #include "common/time.hpp"
 
 namespace candp2::can {
 
 class VirtualBus;
+
+// An endpoint's transmit queue on a bus in time (docs/can-bus.md "Transmit queues").
+struct TxQueue {
+  std::size_t depth = 4096;
+  // A frame lost past the full queue counts in rx_lost() (the gateway's IRQ_LOST counts frames the
+  // controller lost, "receive or send", manual §3.4.2), else in tx_dropped().
+  bool loss_is_irq_lost = false;
+};
+// The CAN-DP/2's controller: the manual names a 255-frame FIFO for received frames (§5.3.3.2) and
+// none for sending; the emulator gives the sending side the same depth.
+inline constexpr TxQueue kGatewayTxQueue{255, true};
+// A simulated drive: its manual names no transmit buffer; 16 frames (an emulator's choice).
+inline constexpr TxQueue kDriveTxQueue{16, false};
+// A socketcand client of the daemon's export: what a SocketCAN interface queues for sending
+// (Linux CAN devices' default txqueuelen, 10); past it the write fails (ENOBUFS).
+inline constexpr TxQueue kSocketcandTxQueue{10, false};
+// The replay tester's node and endpoints by default: deep enough that a scenario's burst is never
+// lost on its own.
+inline constexpr TxQueue kTesterTxQueue{4096, false};
 
 class VirtualEndpoint final : public Channel {
  public:
@@ -37,6 +61,8 @@ class VirtualEndpoint final : public Channel {
   std::string_view name() const override { return name_; }
 
   std::size_t pending() const { return queue_.size(); }
+  // The transmit queue on a bus in time (ideal bus: no effect).
+  void set_tx_queue(TxQueue q);
   // Fault injection: pretend the controller lost n frames (an RX overrun).
   void inject_rx_lost(std::uint32_t n);
   // Fault injection for this endpoint's controller only; nullopt follows the bus state.
@@ -48,6 +74,8 @@ class VirtualEndpoint final : public Channel {
   void deliver(const Frame& frame);
 
   VirtualBus* bus_;
+  std::size_t node_ = 0;  // on a bus in time
+  TxQueue tx_queue_;
   std::string name_;
   bool receive_own_;
   std::size_t limit_;
@@ -94,10 +122,29 @@ class VirtualBus {
 
   std::uint64_t frames_sent() const { return frames_sent_; }
 
+  // ---- in time -----------------------------------------------------------------------------
+  // Makes this a bus in time at `bitrate` bit/s from `origin` (before its first frame).
+  void set_bitrate(std::uint32_t bitrate, Time origin);
+  // The engine (statistics); nullptr on an ideal bus.
+  const TimedBus* timed() const { return timed_.get(); }
+  // When the bus in time next needs advancing; nullopt on an ideal bus.
+  std::optional<Time> next_deadline() const {
+    return timed_ ? timed_->next_deadline() : std::nullopt;
+  }
+  // Starts and ends every frame due at or before `now` (taps at each start of frame, receivers at
+  // each end).
+  void advance(Time now) {
+    if (timed_) timed_->advance(now);
+  }
+
  private:
   friend class VirtualEndpoint;
   void transmit(VirtualEndpoint* from, const Frame& frame);
   void detach(VirtualEndpoint* ep);
+  void attach_timed(VirtualEndpoint* ep);
+  void started(const TimedBus::OnBus& f);
+  void ended(const TimedBus::OnBus& f);
+  void deliver_all(VirtualEndpoint* from, const Frame& frame);
 
   Options options_;
   std::vector<VirtualEndpoint*> endpoints_;
@@ -112,6 +159,8 @@ class VirtualBus {
   Time now_{0};
   const Time* clock_ = nullptr;
   std::uint64_t frames_sent_ = 0;
+  std::unique_ptr<TimedBus> timed_;
+  std::vector<VirtualEndpoint*> nodes_;  // by TimedBus node; null when detached
 };
 
 }  // namespace candp2::can

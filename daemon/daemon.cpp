@@ -257,6 +257,7 @@ bool DaemonImpl::start(std::string* error) {
   // A cycle the line step passed over starts at its own time; one the host held back by more
   // than the host-stall tolerance (at least 50 ms) starts late (master.host_stall_ms 0).
   o.line_catch_up = o.line_step + std::max(clock_.tolerance(), Duration(milliseconds(50)));
+  o.bus_step = milliseconds(1);
   plant_ = plant::Plant::build(config_, std::move(o), loop_.now(), error);
   if (!plant_) return false;
   plant_timer_ = std::make_unique<DeadlineTimer>(loop_, [this] { plant_->advance(sim_now()); });
@@ -338,6 +339,7 @@ bool DaemonImpl::start_exports(std::string* error) {
     auto e = std::make_unique<Export>();
     e->bus = b.get();
     e->endpoint = b->virtual_bus()->endpoint("socketcand:" + cfg.channel);
+    e->endpoint->set_tx_queue(can::kSocketcandTxQueue);
     can::SocketcandServer::Options o;
     o.host = cfg.socketcand_listen->host;
     o.port = cfg.socketcand_listen->port;

@@ -142,7 +142,64 @@ void MetricsBuild::per_row(const station::Field& f, const station::Metric& m,
   }
 }
 
+// docs/can-bus.md "Seen from outside": only when a bus is timed (the families of a configuration
+// without one are as before).
+void MetricsBuild::timed_buses() {
+  const auto& src = model_.sources();
+  if (std::none_of(src.buses.begin(), src.buses.end(), [](const auto& b) { return b.timed; }))
+    return;
+  auto each = [&](auto&& row) {
+    for (const auto& b : src.buses)
+      if (b.timed) row(b.cfg->name, *b.timed);
+  };
+  auto line = [&](std::string_view name, const std::string& labels, auto v) {
+    out_ += name;
+    out_ += '{';
+    out_ += labels;
+    out_ += "} ";
+    put(out_, v);
+    out_ += '\n';
+  };
+  family("candp2_bus_timed_load_ratio", "gauge",
+         "bus in time: bits frames occupied in the last complete second / bit rate (exact)");
+  each([&](const std::string& bus, const can::TimedBus& t) {
+    line("candp2_bus_timed_load_ratio", "bus=\"" + bus + "\"", t.load(now_).last_pct / 100.0);
+  });
+  family("candp2_bus_timed_load_max_ratio", "gauge",
+         "bus in time: the most loaded complete second so far");
+  each([&](const std::string& bus, const can::TimedBus& t) {
+    line("candp2_bus_timed_load_max_ratio", "bus=\"" + bus + "\"", t.load(now_).max_pct / 100.0);
+  });
+  family("candp2_bus_tx_lost_total", "counter",
+         "bus in time: frames lost past a node's full transmit queue");
+  each([&](const std::string& bus, const can::TimedBus& t) {
+    line("candp2_bus_tx_lost_total", "bus=\"" + bus + "\"", t.lost());
+  });
+  auto per_id = [&](std::string_view name, std::string_view type, std::string_view help,
+                    auto value) {
+    family(name, type, help);
+    each([&](const std::string& bus, const can::TimedBus& t) {
+      for (const auto& [key, s] : t.identifiers()) {
+        std::string labels = "bus=\"" + bus + "\",id=\"" + std::to_string(s.id.id) + "\"";
+        if (s.id.extended) labels += ",ext=\"1\"";
+        if (s.remote) labels += ",rtr=\"1\"";
+        line(name, labels, value(s));
+      }
+    });
+  };
+  auto seconds = [](Duration d) { return static_cast<double>(d.count()) / 1e6; };
+  per_id("candp2_can_id_frames_total", "counter", "bus in time: frames of the identifier",
+         [](const can::TimedBus::IdStatistics& s) { return s.frames; });
+  per_id("candp2_can_id_latency_mean_seconds", "gauge",
+         "bus in time: queueing latency of the identifier, send request to start of frame, mean",
+         [&](const can::TimedBus::IdStatistics& s) { return seconds(s.latency_mean()); });
+  per_id("candp2_can_id_latency_max_seconds", "gauge",
+         "bus in time: queueing latency of the identifier, send request to start of frame, max",
+         [&](const can::TimedBus::IdStatistics& s) { return seconds(s.latency_max); });
+}
+
 bool MetricsBuild::step(Time now) {
+  now_ = now;
   if (done_) return true;
   started_ = true;
   const auto& gateways = model_.sources().gateways;
@@ -199,6 +256,7 @@ void MetricsBuild::tail() {
       put(out_, model_.bus_load(i));
       out_ += '\n';
     }
+  timed_buses();
   auto one = [&](std::string_view name, std::string_view labels, std::uint64_t v) {
     out_ += name;
     if (!labels.empty()) {

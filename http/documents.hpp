@@ -70,6 +70,8 @@ class MetricsBuild final : public DocumentBuild {
   // One family of the station table (station/status.hpp) over the gateways' or slaves' rows.
   void per_row(const station::Field& f, const station::Metric& m, const std::vector<Row>& rows);
   void tail();
+  void timed_buses();
+  Time now_{0};
 
   StatusModel& model_;
   bool started_ = false;

@@ -355,6 +355,7 @@ json StatusModel::bus_json(std::size_t i, Time now, bool trace) {
     e["bits"] = b.monitor->bits();
     e["load_pct"] = load_[i].load * 100.0;
     e["frames_per_s"] = load_[i].fps;
+    if (b.timed) e.update(timed_json(*b.timed, now));
     if (trace) {
       json frames = json::array();
       for (const auto& t : b.monitor->trace()) frames.push_back(trace_frame(t));
@@ -362,6 +363,29 @@ json StatusModel::bus_json(std::size_t i, Time now, bool trace) {
     }
   }
   return e;
+}
+
+// docs/can-bus.md "Seen from outside": the bus in time's own figures, exact (additive fields).
+json StatusModel::timed_json(const can::TimedBus& t, Time now) {
+  auto ms = [](Duration d) { return static_cast<double>(d.count()) / 1000.0; };
+  const can::TimedBus::Load load = t.load(now);
+  json ids = json::array();
+  for (const auto& [key, s] : t.identifiers())
+    ids.push_back({{"id", s.id.id},
+                   {"ext", s.id.extended},
+                   {"rtr", s.remote},
+                   {"frames", s.frames},
+                   {"period_ms", ms(s.period_mean())},
+                   {"jitter_ms", ms(s.jitter())},
+                   {"latency_ms",
+                    {{"last", ms(s.latency_last)},
+                     {"mean", ms(s.latency_mean())},
+                     {"max", ms(s.latency_max)}}}});
+  return {{"timed_bitrate", t.bitrate()},
+          {"load", {{"last_pct", load.last_pct}, {"max_pct", load.max_pct}}},
+          {"frames_on_bus", t.frames()},
+          {"tx_lost", t.lost()},
+          {"identifiers", std::move(ids)}};
 }
 
 json StatusModel::drive_json(std::size_t i) const {

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "can/frame.hpp"
+#include "can/timed_bus.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
 #include "plant/cycle_stats.hpp"
@@ -80,6 +81,8 @@ struct BusSource {
   const config::BusConfig* cfg = nullptr;
   const BusMonitor* monitor = nullptr;
   std::uint32_t bitrate = 0;  // bit/s: the first gateway's configured CAN bit rate on this bus
+  // A virtual bus with `bitrate` (docs/can-bus.md "The bus in time"); null otherwise.
+  const can::TimedBus* timed = nullptr;
 };
 struct DriveSource {
   const config::DriveConfig* cfg = nullptr;
@@ -172,6 +175,7 @@ class StatusModel {
   // {"count", "total_ms", "longest_ms"}: the host stalls (docs/daemon.md "Host stalls").
   nlohmann::json host_stalls_json() const;
   nlohmann::json bus_json(std::size_t bus, Time now, bool trace);
+  static nlohmann::json timed_json(const can::TimedBus& t, Time now);
   nlohmann::json trace_frame(const BusMonitor::Traced& t) const;
   nlohmann::json drive_json(std::size_t drive) const;
   // The bus a gateway is on (index into sources().buses), if it has a monitor there.

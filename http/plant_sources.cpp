@@ -26,7 +26,8 @@ StatusSources make_sources(plant::Plant& plant, const BusMonitors* monitors,
                               return station::gateway_status(plant, *unit, now, bitrate);
                             }});
   for (const auto& b : plant.buses()) {
-    BusSource bs{&b->config(), monitors ? &monitors->at(b->index()) : nullptr, 0};
+    BusSource bs{&b->config(), monitors ? &monitors->at(b->index()) : nullptr, 0,
+                 b->virtual_bus() ? b->virtual_bus()->timed() : nullptr};
     for (const auto& g :
          plant.gateways())  // manual table 5.1.1: the bit rate the gateway is set to
       if (&g->bus() == b.get() && !bs.bitrate)

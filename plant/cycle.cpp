@@ -59,6 +59,9 @@ std::optional<Time> Plant::next_deadline() const {
   for (const auto& sl : slaves_) earliest(sl->slave_->next_deadline());
   if (master_line_) earliest(master_line_->next_deadline());
   if (timed_line_) earliest(timed_line_->next_deadline());
+  for (const auto& b : timed_buses_)
+    if (const auto d = b->next_deadline())
+      earliest(std::max(*d, buses_handled_ + options_.bus_step));
   return next;
 }
 
@@ -110,6 +113,22 @@ void Plant::advance(Time now) {
     if (timed_line_) timed_line_->advance(now_);
     deliver(now_);
     if (!timed_line_) break;
+  }
+  settle_buses();
+}
+
+// docs/can-bus.md "The bus in time": every start and end of frame due by now, and what the
+// receivers send back at once, until the buses wait for a later time.
+void Plant::settle_buses() {
+  for (bool due = true; due;) {
+    due = false;
+    for (auto* b : timed_buses_)
+      if (const auto d = b->next_deadline(); d && *d <= now_) {
+        b->advance(now_);
+        due = true;
+        buses_handled_ = now_;
+      }
+    if (due) deliver(now_);
   }
 }
 

@@ -113,6 +113,11 @@ bool Plant::add_bus(const config::BusConfig& cfg, std::string* /*error*/) {
     b->vbus_->count_changes_in(&bus_changes_);
     b->vbus_->use_clock(&now_);  // the plant's time, without a walk over the buses each step
     b->vbus_->set_now(now_);
+    // docs/can-bus.md "The bus in time": with a bit rate the bus is timed from the plant's start.
+    if (cfg.timed_bitrate) {
+      b->vbus_->set_bitrate(*cfg.timed_bitrate, now_);
+      timed_buses_.push_back(b->vbus_.get());
+    }
     BusUnit* bus = b.get();
     b->vbus_->add_tap([this, bus](const can::Frame& f, Time t, std::string_view sender) {
       tap_can(*bus, f, sender, t);
@@ -136,6 +141,7 @@ bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
   const auto& b = g->bus_->config();
   if (b.type == BusType::Virtual) {
     auto ep = g->bus_->virtual_bus()->endpoint(g->sender_);
+    ep->set_tx_queue(can::kGatewayTxQueue);
     g->endpoint_ = ep.get();
     g->channel_ = std::move(ep);
   } else {
@@ -187,6 +193,7 @@ bool Plant::add_drive(const config::DriveConfig& cfg, std::string* error) {
   auto d = std::make_unique<DriveUnit>();
   d->cfg_ = &cfg;
   d->endpoint_ = b->virtual_bus()->endpoint(std::string(kDrivePrefix) + cfg.name);
+  d->endpoint_->set_tx_queue(can::kDriveTxQueue);
   drive::UnitekDrive::Options o;
   o.rx_id = cfg.rx_id;
   o.tx_id = cfg.tx_id;

@@ -97,6 +97,10 @@ struct Options {
   // the host kept the plant from running (candp2d with master.host_stall_ms 0): the cycle starts
   // when the plant woke, and the lateness reaches the world. 0: no limit (replay, the tests).
   Duration line_catch_up{0};
+  // The buses in time the same way (docs/can-bus.md "In the plant"): their next start or end of
+  // frame comes due no sooner than this after the plant last advanced them; the frames' times stay
+  // exact. 0: at every frame's own microsecond.
+  Duration bus_step{0};
 };
 
 // One CAN bus of the configuration.
@@ -219,7 +223,8 @@ class Plant final : public ControlSurface {
   Plant& operator=(const Plant&) = delete;
 
   // ---- time ---------------------------------------------------------------------------------
-  // The earliest time something is due: the next master cycle, a gateway's or drive's timer.
+  // The earliest time something is due: the next master cycle, a gateway's or drive's timer, a
+  // start or end of frame on a bus in time.
   std::optional<Time> next_deadline() const;
   // Runs everything due at or before `now`. A master cycle whose time passed more than one period
   // ago is not run late a second time: it counts as missed (cycle_stats(), logged when a run of
@@ -329,6 +334,7 @@ class Plant final : public ControlSurface {
   void run_cycle(Time now);
   // The time the master cycle due by now_ starts at (docs/profibus.md "The line in time"), if any.
   std::optional<Time> cycle_due() const;
+  void settle_buses();
   void log_misses(Time due, Time now, std::uint64_t missed);
   void tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender, Time time);
   // The emulated gateway or drive whose endpoint is named `sender`, or SenderKind::Outside.
@@ -344,6 +350,8 @@ class Plant final : public ControlSurface {
   Logger log_;
   Time now_{0};
   std::vector<std::unique_ptr<BusUnit>> buses_;
+  std::vector<can::VirtualBus*> timed_buses_;  // the virtual buses with a bit rate
+  Time buses_handled_{0};                      // when settle_buses() last advanced one
   std::vector<std::unique_ptr<GatewayUnit>> gateways_;
   std::vector<std::unique_ptr<DriveUnit>> drives_;
   std::vector<std::unique_ptr<SlaveUnit>> slaves_;

@@ -32,8 +32,10 @@ Sim::Sim(const Scenario& sc, RunResult& res, LogLevel level)
   gw_frames_.resize(plant_->gateways().size());
   cursor_.resize(plant_->gateways().size());
   plant_->add_tap(this);
-  for (auto& b : plant_->buses())
+  for (auto& b : plant_->buses()) {
     testers_.push_back(b->virtual_bus()->endpoint(std::string(kTesterNode)));
+    testers_.back()->set_tx_queue(can::kTesterTxQueue);
+  }
   if (sc.driver) setup_driver(*sc.driver);
 }
 

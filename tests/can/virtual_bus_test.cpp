@@ -92,3 +92,70 @@ TEST(VirtualBus, EndpointDetachesOnDestruction) {
 
 }  // namespace
 }  // namespace candp2::can
+
+namespace candp2::can {
+namespace {
+
+// docs/can-bus.md "The bus in time": with a bit rate the frame waits for the bus and its end.
+TEST(VirtualBusInTime, DeliveredAtTheEndTappedAtTheStart) {
+  VirtualBus bus;
+  Time now{0};
+  bus.use_clock(&now);
+  bus.set_bitrate(125000, Time(0));
+  auto a = bus.endpoint("a");
+  auto b = bus.endpoint("b");
+  std::vector<std::string> taps;
+  bus.add_tap([&](const Frame& f, Time t, std::string_view sender) {
+    taps.push_back(std::to_string(t.count()) + " " + std::string(sender) + " " + format_candump(f));
+  });
+  a->send(*parse_candump("123#1122334455667788").frame);
+  b->send(*parse_candump("080#").frame);
+  EXPECT_FALSE(b->receive());  // nothing is on the bus before it is advanced
+  EXPECT_EQ(bus.next_deadline(), Time(0));
+  bus.advance(now);
+  EXPECT_EQ(taps, (std::vector<std::string>{"0 b 080#"}));
+  EXPECT_FALSE(a->receive());  // 080# is on the bus until 408 µs (51 bits)
+  EXPECT_EQ(bus.next_deadline(), Time(408));
+  now = Time(408);
+  bus.advance(now);
+  EXPECT_EQ(format_candump(*a->receive()), "080#");
+  EXPECT_FALSE(b->receive());  // the sender does not get its own frame
+  now = Time(408 + 896);
+  bus.advance(now);
+  EXPECT_EQ(format_candump(*b->receive()), "123#1122334455667788");
+  EXPECT_EQ(taps.back(), "408 a 123#1122334455667788");
+  EXPECT_EQ(bus.frames_sent(), 2u);
+  EXPECT_EQ(bus.timed()->frames(), 2u);
+}
+
+// A gateway's frame lost past its full queue counts in IRQ_LOST (rx_lost, manual §3.4.2 "receive
+// or send"); another node's in tx_dropped.
+TEST(VirtualBusInTime, LostPastTheQueueCountedWhereTheDeviceCountsIt) {
+  VirtualBus bus;
+  bus.set_bitrate(125000, Time(0));
+  auto gw = bus.endpoint("gw");
+  gw->set_tx_queue({2, true});
+  auto node = bus.endpoint("node");
+  node->set_tx_queue({1, false});
+  const std::uint64_t before = bus.changes();
+  for (int i = 0; i < 3; ++i) gw->send(*parse_candump("001#").frame);
+  node->send(*parse_candump("002#").frame);
+  node->send(*parse_candump("002#").frame);
+  EXPECT_EQ(gw->rx_lost(), 1u);
+  EXPECT_EQ(gw->tx_dropped(), 0u);
+  EXPECT_EQ(node->tx_dropped(), 1u);
+  EXPECT_EQ(node->rx_lost(), 0u);
+  EXPECT_GT(bus.changes(), before);  // the controller's count changed: the plant looks again
+  EXPECT_EQ(bus.timed()->lost(), 2u);
+}
+
+TEST(VirtualBusInTime, IdealBusHasNoDeadline) {
+  VirtualBus bus;
+  auto a = bus.endpoint("a");
+  a->send(*parse_candump("001#").frame);
+  EXPECT_FALSE(bus.next_deadline());
+  EXPECT_FALSE(bus.timed());
+}
+
+}  // namespace
+}  // namespace candp2::can

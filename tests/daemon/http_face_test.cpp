@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <variant>
 
+#include "can/frame_bits.hpp"
 #include "config/config.hpp"
 #include "http/client_table.hpp"
 #include "http/documents.hpp"
@@ -154,6 +155,54 @@ TEST_F(Face, TheMetricsHaveEveryFamilyOnce) {
        ++at)
     ++types;
   EXPECT_EQ(types, 1u);
+  EXPECT_EQ(text.find("candp2_bus_timed"), std::string::npos);  // no bus in time: as before
+}
+
+// docs/can-bus.md "Seen from outside": a bus with `bitrate` shows its exact load and its
+// identifiers' latency; an ideal bus shows neither.
+struct TimedFace : Face {
+  std::string text() const override {
+    std::string t = kConfig;
+    const std::string bus = R"("can0": { "type": "virtual" })";
+    t.replace(t.find(bus), bus.size(), R"("can0": { "type": "virtual", "bitrate": "125k" })");
+    return t;
+  }
+};
+
+TEST_F(TimedFace, TheStatusAndTheMetricsShowTheBusInTime) {
+  const json st = model->status(now);
+  const json& can0 = st["buses"][0];
+  const json& can1 = st["buses"][1];
+  EXPECT_FALSE(can1.contains("load"));
+  EXPECT_FALSE(can1.contains("identifiers"));
+  ASSERT_TRUE(can0.contains("identifiers")) << can0.dump();
+  EXPECT_EQ(can0["timed_bitrate"], 125000);
+  EXPECT_EQ(can0["tx_lost"], 0);
+  EXPECT_EQ(can0["frames_on_bus"], 2);  // gw3's release: 201#0000 then 202#0000
+  const json& ids = can0["identifiers"];
+  ASSERT_EQ(ids.size(), 2u);
+  EXPECT_EQ(ids[0]["id"], 0x201);
+  EXPECT_EQ(ids[0]["latency_ms"]["last"], 0.0);
+  // 202# waited in gw3's queue behind 201#: its length at 8 µs a bit.
+  const auto bits = can::frame_bits_exact(*can::parse_candump("201#0000").frame);
+  EXPECT_EQ(ids[1]["id"], 0x202);
+  EXPECT_DOUBLE_EQ(ids[1]["latency_ms"]["max"].get<double>(), bits * 0.008);
+  EXPECT_EQ(can0["load"]["max_pct"], 0.0);  // 2 frames in the first second, counted at its end
+  run_until(Time{1'000'000});
+  const json later = model->status(now);
+  EXPECT_DOUBLE_EQ(later["buses"][0]["load"]["last_pct"].get<double>(),
+                   100.0 * 2 * bits / 125000.0);
+
+  http::MetricsBuild build(*model, 0);
+  while (!build.step(now)) {
+  }
+  const std::string text = build.take();
+  EXPECT_NE(text.find("candp2_bus_timed_load_ratio{bus=\"can0\"} "), std::string::npos) << text;
+  EXPECT_EQ(text.find("candp2_bus_timed_load_ratio{bus=\"can1\"}"), std::string::npos);
+  EXPECT_NE(text.find("candp2_can_id_latency_max_seconds{bus=\"can0\",id=\"514\"} "),
+            std::string::npos);
+  EXPECT_NE(text.find("candp2_can_id_frames_total{bus=\"can0\",id=\"513\"} 1\n"),
+            std::string::npos);
 }
 
 using test::run_round;

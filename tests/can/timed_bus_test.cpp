@@ -1,0 +1,202 @@
+// The CAN bus in time (docs/can-bus.md "The bus in time"): arbitration, queues, latency and load
+// to the microsecond. Frame lengths are the hand-worked frames of frame_bits_test.cpp:
+// 000# 53 bits, 080# 51 bits, 123#1122334455667788 112 bits, 7FF#FFFFFFFFFFFFFFFF 126 bits.
+#include "can/timed_bus.hpp"
+
+#include <gtest/gtest.h>
+
+#include <initializer_list>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "can/frame_bits.hpp"
+
+namespace candp2::can {
+namespace {
+
+Frame F(const char* text) {
+  return *parse_candump(text).frame;
+}
+
+// "start end node frame" of every frame at its end.
+struct Trace {
+  std::vector<std::string> lines;
+  explicit Trace(TimedBus& bus) {
+    bus.on_end([this](const TimedBus::OnBus& f) {
+      lines.push_back(std::to_string(f.start.count()) + " " + std::to_string(f.end.count()) + " " +
+                      std::to_string(f.node) + " " + format_candump(f.frame));
+    });
+  }
+};
+
+void run(TimedBus& bus) {
+  while (const auto d = bus.next_deadline()) bus.advance(*d);
+}
+
+// Each (node, frame) asks to send at `at`, in this order.
+void request_all(TimedBus& bus, std::initializer_list<std::pair<std::size_t, const char*>> frames,
+                 Time at) {
+  for (const auto& [node, text] : frames) bus.request(node, F(text), at);
+}
+
+// 125 kbit/s: 8 µs a bit. Three nodes request at 0; the smallest identifier wins each idle.
+TEST(TimedBus, ThreeNodesContendSmallestIdentifierFirstToTheBit) {
+  TimedBus bus(125000, Time(0));
+  Trace trace(bus);
+  const auto a = bus.add_node(8), b = bus.add_node(8), c = bus.add_node(8);
+  ASSERT_TRUE(bus.request(a, F("123#1122334455667788"), Time(0)));
+  ASSERT_TRUE(bus.request(b, F("080#"), Time(0)));
+  ASSERT_TRUE(bus.request(c, F("000#"), Time(0)));
+  EXPECT_EQ(bus.next_deadline(), Time(0));
+  bus.advance(Time(0));
+  EXPECT_TRUE(bus.busy());
+  EXPECT_EQ(bus.next_deadline(), Time(53 * 8));  // 000# on the bus: bits 0..53
+  run(bus);
+  // 000# bits 0..53, 080# 53..104, 123# 104..216: back to back, intermission included.
+  EXPECT_EQ(trace.lines, (std::vector<std::string>{"0 424 2 000#", "424 832 1 080#",
+                                                   "832 1728 0 123#1122334455667788"}));
+  const auto& ids = bus.identifiers();
+  EXPECT_EQ(ids.at(arbitration_key(F("000#"))).latency_last, Duration(0));
+  EXPECT_EQ(ids.at(arbitration_key(F("080#"))).latency_last, Duration(424));
+  EXPECT_EQ(ids.at(arbitration_key(F("123#11"))).latency_max, Duration(832));
+  EXPECT_EQ(bus.frames(), 3u);
+  EXPECT_EQ(bus.busy_bits(), 216u);
+  EXPECT_FALSE(bus.next_deadline());
+}
+
+// A frame requested while another is on the bus contends at its end, with what waited longer.
+TEST(TimedBus, RequestsDuringAFrameContendAtItsEnd) {
+  TimedBus bus(125000, Time(0));
+  Trace trace(bus);
+  const auto a = bus.add_node(8), b = bus.add_node(8), c = bus.add_node(8);
+  bus.request(a, F("123#1122334455667788"), Time(0));
+  bus.advance(Time(0));
+  bus.advance(Time(100));
+  bus.request(b, F("7FF#FFFFFFFFFFFFFFFF"), Time(100));
+  bus.advance(Time(500));
+  bus.request(c, F("080#"), Time(500));
+  run(bus);
+  // 123# bits 0..112 (896 µs); 080# 112..163; 7FF# 163..289.
+  EXPECT_EQ(trace.lines,
+            (std::vector<std::string>{"0 896 0 123#1122334455667788", "896 1304 2 080#",
+                                      "1304 2312 1 7FF#FFFFFFFFFFFFFFFF"}));
+  EXPECT_EQ(bus.identifiers().at(arbitration_key(F("7FF#"))).latency_last, Duration(1204));
+  EXPECT_EQ(bus.identifiers().at(arbitration_key(F("080#"))).latency_last, Duration(396));
+}
+
+// On an idle bus a frame starts at the first whole bit at or after its request.
+TEST(TimedBus, IdleBusStartsAtTheNextBit) {
+  TimedBus bus(125000, Time(1000));
+  Trace trace(bus);
+  const auto a = bus.add_node(8);
+  bus.advance(Time(1003));
+  bus.request(a, F("080#"), Time(1003));
+  EXPECT_EQ(bus.next_deadline(), Time(1008));  // bit 1
+  run(bus);
+  EXPECT_EQ(trace.lines, (std::vector<std::string>{"1008 1416 0 080#"}));
+  EXPECT_EQ(bus.identifiers().begin()->second.latency_last, Duration(5));
+}
+
+// 800 kbit/s: 1.25 µs a bit; stamps are the first microsecond at or after the bit.
+TEST(TimedBus, StampsRoundUpToTheMicrosecond) {
+  TimedBus bus(800000, Time(0));
+  Trace trace(bus);
+  const auto a = bus.add_node(8);
+  bus.request(a, F("080#"), Time(0));
+  bus.request(a, F("080#"), Time(0));
+  run(bus);
+  // bits 0..51 (63.75 µs), 51..102 (127.5 µs).
+  EXPECT_EQ(trace.lines, (std::vector<std::string>{"0 64 0 080#", "64 128 0 080#"}));
+}
+
+// A node's queue is FIFO: only its head contends, so a low identifier behind a high one waits
+// (docs/can-bus.md "Transmit queues").
+TEST(TimedBus, OnlyTheHeadOfAQueueContends) {
+  TimedBus bus(1000000, Time(0));
+  Trace trace(bus);
+  const auto a = bus.add_node(8), b = bus.add_node(8);
+  request_all(bus, {{a, "7FF#FFFFFFFFFFFFFFFF"}, {a, "000#"}, {b, "080#"}}, Time(0));
+  run(bus);
+  EXPECT_EQ(trace.lines, (std::vector<std::string>{"0 51 1 080#", "51 177 0 7FF#FFFFFFFFFFFFFFFF",
+                                                   "177 230 0 000#"}));
+}
+
+TEST(TimedBus, AFramePastAFullQueueIsLost) {
+  TimedBus bus(125000, Time(0));
+  const auto a = bus.add_node(2);
+  EXPECT_TRUE(bus.request(a, F("001#"), Time(0)));
+  EXPECT_TRUE(bus.request(a, F("002#"), Time(0)));
+  EXPECT_FALSE(bus.request(a, F("003#"), Time(0)));
+  EXPECT_EQ(bus.lost(), 1u);
+  EXPECT_EQ(bus.queued(a), 2u);
+  bus.advance(Time(0));  // 001# on the bus: one place free again
+  EXPECT_EQ(bus.queued(a), 1u);
+  EXPECT_TRUE(bus.request(a, F("003#"), Time(0)));
+  EXPECT_EQ(bus.lost(), 1u);
+}
+
+TEST(TimedBus, ARemovedNodeSendsNothingMore) {
+  TimedBus bus(125000, Time(0));
+  Trace trace(bus);
+  const auto a = bus.add_node(8), b = bus.add_node(8);
+  request_all(bus, {{a, "001#"}, {a, "002#"}, {b, "003#"}}, Time(0));
+  bus.advance(Time(0));  // 001# on the bus
+  bus.remove_node(a);
+  EXPECT_FALSE(bus.request(a, F("004#"), Time(0)));
+  run(bus);
+  ASSERT_EQ(trace.lines.size(), 2u);  // 001# ends, 002# never starts
+  EXPECT_EQ(trace.lines[1].substr(trace.lines[1].size() - 4), "003#");
+}
+
+// 080# (51 bits) every millisecond at 1 Mbit/s: 51 000 bits a second, 5.1 %; period 1 ms, no
+// jitter, no latency.
+TEST(TimedBus, LoadPeriodAndJitter) {
+  TimedBus bus(1000000, Time(0));
+  const auto a = bus.add_node(8);
+  for (int k = 0; k < 2000; ++k) {
+    bus.advance(Time(k * 1000));
+    bus.request(a, F("080#"), Time(k * 1000));
+    bus.advance(Time(k * 1000));
+  }
+  EXPECT_DOUBLE_EQ(bus.load(Time(1'999'000)).last_pct, 5.1);  // second 0 complete
+  EXPECT_DOUBLE_EQ(bus.load(Time(2'000'000)).last_pct, 5.1);  // second 1 complete
+  EXPECT_DOUBLE_EQ(bus.load(Time(3'000'000)).last_pct, 0.0);  // an idle second
+  EXPECT_DOUBLE_EQ(bus.load(Time(3'000'000)).max_pct, 5.1);
+  const auto& s = bus.identifiers().begin()->second;
+  EXPECT_EQ(s.frames, 2000u);
+  EXPECT_EQ(s.period_mean(), Duration(1000));
+  EXPECT_EQ(s.jitter(), Duration(0));
+  EXPECT_EQ(s.latency_max, Duration(0));
+  // One late request: its period is 1.5 ms, the next 0.5 ms; jitter 1 ms.
+  bus.advance(Time(2'000'500));
+  bus.request(a, F("080#"), Time(2'000'500));
+  bus.advance(Time(2'001'000));
+  bus.request(a, F("080#"), Time(2'001'000));
+  bus.advance(Time(2'001'000));
+  EXPECT_EQ(s.period_last, Duration(500));
+  EXPECT_EQ(s.period_max, Duration(1500));
+  EXPECT_EQ(s.jitter(), Duration(1000));
+}
+
+// Overload: the lower-priority identifier waits longer every period.
+TEST(TimedBus, OverloadGrowsLatency) {
+  TimedBus bus(125000, Time(0));
+  const auto a = bus.add_node(64), b = bus.add_node(64);
+  // Every 1 ms a 112-bit (896 µs) frame from each node: 1.79 ms of bus time a millisecond.
+  for (int k = 0; k < 10; ++k) {
+    bus.advance(Time(k * 1000));
+    bus.request(a, F("100#1122334455667788"), Time(k * 1000));
+    bus.request(b, F("200#1122334455667788"), Time(k * 1000));
+    bus.advance(Time(k * 1000));
+  }
+  run(bus);
+  const auto& low = bus.identifiers().at(arbitration_key(F("200#")));
+  const auto& high = bus.identifiers().at(arbitration_key(F("100#")));
+  EXPECT_GT(low.latency_last, low.latency_mean());
+  EXPECT_GT(low.latency_max, Duration(5000));
+  EXPECT_LT(high.latency_max, low.latency_max);
+}
+
+}  // namespace
+}  // namespace candp2::can
