@@ -6,7 +6,6 @@
 
 #include "can/frame_bits.hpp"
 #include "common/hex.hpp"
-#include "drive_sim/unitek_drive.hpp"
 #include "http/documents.hpp"
 #include "plant/plant.hpp"
 
@@ -116,7 +115,8 @@ json StatusModel::gateway_head(std::size_t index, Time now) const {
   j["dp_address"] = row("dp_address").get(status);
   j["dp_state"] = std::string(dp::to_string(st.dp_state));
   j["dp_state_code"] = row("dp_state").get(status);
-  const auto view = src_.master ? src_.master->slave(g.unit->gateway().address()) : std::nullopt;
+  const plant::GatewayView gv = g.unit->view();
+  const auto view = src_.master ? src_.master->slave(gv.address) : std::nullopt;
   j["master_state"] = view ? std::string(dp::to_string(view->state)) : "";
   j["leds"] = leds(status);  // manual table 3.3.1, encoded once in station::led::codes
   json diag = json::array();
@@ -136,11 +136,10 @@ json StatusModel::gateway_head(std::size_t index, Time now) const {
   j["wakeup_s"] = st.wakeup_s;
 
   // Set_Prm user parameters (manual §5.1.2): the accepted ones, else the configured ones.
-  const bool accepted = g.unit->gateway().user_prm().has_value();
-  const gw::UserPrm& p = accepted ? *g.unit->gateway().user_prm() : g.cfg->parameters;
+  const gw::UserPrm& p = gv.parameters;
   const auto user = gw::encode_user_prm(p);
   j["parameters"] = {
-      {"accepted", accepted},
+      {"accepted", gv.accepted},
       {"bitrate", gw::bitrate_bps(p.bitrate_index).value_or(0)},
       {"bitrate_index", p.bitrate_index},
       {"comm_window", p.comm_window},
@@ -158,28 +157,27 @@ json StatusModel::gateway_head(std::size_t index, Time now) const {
       {"user_prm_hex", hex_bytes(user)},
   };
 
-  const auto& cfg = g.unit->gateway().slot_config();
+  const auto& cfg = gv.slot_config;
   j["page_mode"] = {
       {"enabled", cfg && cfg->page_mode},
-      {"state", cfg && cfg->page_mode
-                    ? std::string(gw::to_string(g.unit->gateway().page_mode().state()))
-                    : std::string()},
-      {"pages_processed", g.unit->gateway().page_mode().pages_processed()}};
+      {"state", cfg && cfg->page_mode ? std::string(gw::to_string(gv.page_state)) : std::string()},
+      {"pages_processed", gv.pages_processed}};
   j["slot_count"] = slot_count(index);
   return j;
 }
 
 std::size_t StatusModel::slot_count(std::size_t index) const {
-  const auto& cfg = src_.gateways[index].unit->gateway().slot_config();
+  const auto& cfg = src_.gateways[index].unit->view().slot_config;
   return cfg && src_.master ? cfg->slots.size() : 0;
 }
 
 json StatusModel::slot_json(std::size_t index, std::size_t i, Time now, bool age) const {
   const GatewaySource& g = src_.gateways[index];
-  const auto& cfg = g.unit->gateway().slot_config();
+  const plant::GatewayView gv = g.unit->view();
+  const auto& cfg = gv.slot_config;
   if (!cfg || !src_.master || i >= cfg->slots.size()) return nullptr;
   const auto& addresses = addresses_[index];
-  const auto& stats = g.unit->gateway().slot_engine().slot_stats();
+  const auto stats = gv.slot_stats;
   const auto& image = src_.master->image();
   const gw::Slot& s = cfg->slots[i];
   json e;
@@ -208,7 +206,7 @@ json StatusModel::slot_json(std::size_t index, std::size_t i, Time now, bool age
     e["plc"] = nullptr;
     e["bytes"] = "";
   }
-  const auto stat = i < stats.size() ? stats[i] : gw::SlotEngine::SlotStats{};
+  const auto stat = i < stats.size() ? stats[i] : plant::GatewayView::SlotStats{};
   e["frames"] = stat.frames;
   if (age)
     e["age_ms"] = stat.last ? json(ms_since(now, *stat.last)) : json(nullptr);

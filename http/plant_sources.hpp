@@ -1,6 +1,6 @@
 // The HTTP face's view of a plant (docs/development.md "Add a face"): it reads the plant through
-// its accessors (the status model's sources) and its tap (the bus monitors), never an engine the
-// plant does not hand out, and builds both itself, so candp2d only wires.
+// its accessors and its units' views (the status model's sources) and its tap (the bus monitors),
+// never an engine, and builds both itself, so candp2d only wires.
 #pragma once
 
 #include <cstddef>

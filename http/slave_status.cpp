@@ -1,6 +1,6 @@
 // The generic DP-V0 slaves in the HTTP face (docs/slaves.md "Front panel and HTTP API",
-// docs/daemon.md "HTTP face"): a slave's overview tile and its whole state, read from the slave
-// (gsd_slave::GsdSlave) and from its status and whole diagnosis (plant/station_status.hpp), so the
+// docs/daemon.md "HTTP face"): a slave's overview tile and its whole state, read from its unit's
+// view (plant::SlaveView) and from its status and whole diagnosis (plant/station_status.hpp), so the
 // page, Modbus and /metrics can never disagree.
 
 #include "common/hex.hpp"
@@ -20,11 +20,11 @@ using nlohmann::json;
 // addressing it. Empty when all is well.
 std::string slave_fault(const SlaveSource& s, std::span<const std::uint8_t> diag,
                         const std::optional<dp::DpMaster::SlaveView>& view) {
-  const auto& g = s.unit->slave();
+  const plant::SlaveView g = s.unit->view();
   const std::uint8_t s1 = diag.empty() ? 0 : diag[0];
-  if (!g.online()) return "off the bus";
-  if (g.prm_fault_forced()) return "Prm fault (forced)";
-  if (g.cfg_fault_forced()) return "Cfg fault (forced)";
+  if (!g.online) return "off the bus";
+  if (g.prm_fault_forced) return "Prm fault (forced)";
+  if (g.cfg_fault_forced) return "Cfg fault (forced)";
   if (s1 & dp::kDiag1PrmFault) return "Prm fault";
   if (s1 & dp::kDiag1CfgFault) return "Cfg fault";
   if (s1 & dp::kDiag1NotSupported) return "Not_Supported";
@@ -50,9 +50,9 @@ json nullable(const std::string& s) {
 // master gives them, and the current bytes of each direction.
 json module_row(const SlaveSource& s, std::string name, std::span<const std::uint8_t> cfg,
                 std::size_t in_len, std::size_t out_len, std::size_t in_at, std::size_t out_at) {
-  const auto& g = s.unit->slave();
-  const auto in = g.field_inputs();
-  const auto out = g.field_outputs();
+  const plant::SlaveView g = s.unit->view();
+  const auto in = g.field_inputs;
+  const auto out = g.field_outputs;
   auto slice = [](std::span<const std::uint8_t> all, std::size_t at, std::size_t n) {
     return at + n <= all.size() ? hex_bytes(all.subspan(at, n)) : std::string();
   };
@@ -70,7 +70,7 @@ json module_row(const SlaveSource& s, std::string name, std::span<const std::uin
 
 json modules_json(const SlaveSource& s) {
   json rows = json::array();
-  const auto& c = s.unit->slave().configuration();
+  const auto& c = s.unit->view().configuration;
   std::size_t in_at = 0, out_at = 0;
   if (!c.modules.empty()) {
     for (const gsd::Module* m : c.modules) {
@@ -98,21 +98,22 @@ json StatusModel::slave_tile(std::size_t index, Time now) const {
   const SlaveSource& s = src_.slaves[index];
   const auto diag = s.diagnosis(now);
   const auto view = src_.master ? src_.master->slave(s.cfg->address) : std::nullopt;
+  const plant::SlaveView g = s.unit->view();
   return {{"dp_address", s.cfg->address},
           {"name", s.cfg->name},
-          {"model", gsd::to_utf8(s.unit->slave().profile().model)},
+          {"model", gsd::to_utf8(g.profile.model)},
           {"kind", s.line ? "line" : "in-process"},
-          {"dp_state", std::string(dp::to_string(s.unit->slave().dp().state()))},
+          {"dp_state", std::string(dp::to_string(g.dp_state))},
           {"fault", slave_fault(s, diag, view)}};
 }
 
 json StatusModel::slave_json(std::size_t index, Time now) const {
   const SlaveSource& s = src_.slaves[index];
-  const auto& g = s.unit->slave();
-  const auto& p = g.profile();
   const station::Status status = s.status(now);
   const auto diag = s.diagnosis(now);
   const auto view = src_.master ? src_.master->slave(s.cfg->address) : std::nullopt;
+  const plant::SlaveView g = s.unit->view();
+  const auto& p = g.profile;
   json j;
   j["name"] = s.cfg->name;
   j["dp_address"] = s.cfg->address;
@@ -123,7 +124,7 @@ json StatusModel::slave_json(std::size_t index, Time now) const {
               {"ident_number", p.ident_number}};
   j["field_unit"] = s.cfg->field_unit ? json(*s.cfg->field_unit) : json(nullptr);
   j["watchdog_ms"] = s.cfg->watchdog_ms;
-  j["dp_state"] = std::string(dp::to_string(g.dp().state()));
+  j["dp_state"] = std::string(dp::to_string(g.dp_state));
   j["dp_state_code"] = station::field("dp_state")->get(status);
   if (view)
     j["master"] = {{"state", std::string(dp::to_string(view->state))},
@@ -149,21 +150,21 @@ json StatusModel::slave_json(std::size_t index, Time now) const {
       {"master_address", full && diag[3] != 0xFF ? json(diag[3]) : json(nullptr)},
       {"ident_number", full ? json(diag[4] << 8 | diag[5]) : json(nullptr)},
       {"ext_diag_hex", full ? hex_bytes(std::span(diag).subspan(dp::kDiagStdLen)) : std::string()}};
-  j["prm_problem"] = g.prm_problem();
-  j["cfg_problem"] = g.cfg_problem();
+  j["prm_problem"] = g.prm_problem;
+  j["cfg_problem"] = g.cfg_problem;
 
   j["modules"] = modules_json(s);
-  j["input_length"] = g.input_length();
-  j["output_length"] = g.output_length();
+  j["input_length"] = g.input_length;
+  j["output_length"] = g.output_length;
   // The field side (docs/slaves.md "Field side"): what the slave reports, what it applies, and
   // the master's last outputs as on the wire.
-  j["inputs_hex"] = hex_bytes(g.field_inputs());
-  j["outputs_hex"] = hex_bytes(g.field_outputs());
-  j["received_outputs_hex"] = hex_bytes(g.received_outputs());
-  const auto& alarm = g.device_diagnosis();
-  j["faults"] = {{"on_bus", g.online()},
-                 {"prm_fault", g.prm_fault_forced()},
-                 {"cfg_fault", g.cfg_fault_forced()},
+  j["inputs_hex"] = hex_bytes(g.field_inputs);
+  j["outputs_hex"] = hex_bytes(g.field_outputs);
+  j["received_outputs_hex"] = hex_bytes(g.received_outputs);
+  const auto& alarm = g.device_diagnosis;
+  j["faults"] = {{"on_bus", g.online},
+                 {"prm_fault", g.prm_fault_forced},
+                 {"cfg_fault", g.cfg_fault_forced},
                  {"alarm_hex", alarm ? json(hex_bytes(*alarm)) : json(nullptr)}};
   j["fault"] = slave_fault(s, diag, view);
   return j;

@@ -47,7 +47,7 @@ void PlantGatewayFace::control(Control command, Time now) {
   if (command == Control::PowerCycle)
     plant_.power_cycle(unit_, now, kOrigin);
   else
-    station_control(plant_, unit_.gateway().address(), command, now);
+    station_control(plant_, unit_.view().address, command, now);
 }
 
 bool PlantGatewayFace::force_bus_state(std::uint16_t code, Time now) {
@@ -107,19 +107,19 @@ void GenericSlaveFace::control(Control command, Time now) {
 }
 
 std::uint16_t GenericSlaveFace::slave_fault(std::uint16_t offset) const {
-  const auto& s = unit_.slave();
+  const plant::SlaveView s = unit_.view();
   switch (offset) {
     case kSlaveOnBus:
-      return s.online() ? 1 : 0;
+      return s.online ? 1 : 0;
     case kSlavePrmFault:
-      return s.prm_fault_forced() ? 1 : 0;
+      return s.prm_fault_forced ? 1 : 0;
     case kSlaveCfgFault:
-      return s.cfg_fault_forced() ? 1 : 0;
+      return s.cfg_fault_forced ? 1 : 0;
     case kSlaveAlarmLength:
-      return static_cast<std::uint16_t>(s.device_diagnosis() ? s.device_diagnosis()->size() : 0);
+      return static_cast<std::uint16_t>(s.device_diagnosis ? s.device_diagnosis->size() : 0);
     default: {
       const std::size_t i = offset - kSlaveAlarmBytes;
-      const auto& d = s.device_diagnosis();
+      const auto& d = s.device_diagnosis;
       if (!d) return alarm_[i];
       const std::uint8_t hi = 2 * i < d->size() ? (*d)[2 * i] : 0;
       const std::uint8_t lo = 2 * i + 1 < d->size() ? (*d)[2 * i + 1] : 0;
@@ -149,14 +149,14 @@ std::optional<DecodeFailure> GenericSlaveFace::write_slave_faults(
     if (o >= kSlaveAlarmBytes) alarm_[o - kSlaveAlarmBytes] = values[i];
     if (o == kSlaveAlarmLength) length = values[i];
   }
-  auto& s = unit_.slave();
   for (std::size_t i = 0; i < values.size(); ++i) {
     const std::size_t o = offset + i;
     const bool on = values[i] == 1;
-    if (o == kSlaveOnBus && on != s.online()) plant_.set_slave_online(unit_, on, now, kOrigin);
-    if (o == kSlavePrmFault && on != s.prm_fault_forced())
+    const plant::SlaveView s = unit_.view();  // as the writes before this one left it
+    if (o == kSlaveOnBus && on != s.online) plant_.set_slave_online(unit_, on, now, kOrigin);
+    if (o == kSlavePrmFault && on != s.prm_fault_forced)
       plant_.force_slave_fault(unit_, true, on, now, kOrigin);
-    if (o == kSlaveCfgFault && on != s.cfg_fault_forced())
+    if (o == kSlaveCfgFault && on != s.cfg_fault_forced)
       plant_.force_slave_fault(unit_, false, on, now, kOrigin);
   }
   if (length) {

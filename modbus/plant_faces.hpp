@@ -25,7 +25,7 @@ class PlantGatewayFace final : public GatewayFace {
  public:
   PlantGatewayFace(plant::Plant& plant, plant::GatewayUnit& unit, BitrateFn bitrate)
       : plant_(plant), unit_(unit), bitrate_(std::move(bitrate)) {}
-  std::uint8_t dp_address() const override { return unit_.gateway().address(); }
+  std::uint8_t dp_address() const override { return unit_.view().address; }
   StatusBlock status(Time now) override;
   void control(Control command, Time now) override;
   bool force_bus_state(std::uint16_t code, Time now) override;
@@ -91,8 +91,8 @@ class SlaveFieldFace final : public FieldFace {
  public:
   explicit SlaveFieldFace(plant::SlaveUnit& unit) : unit_(unit) {}
   std::uint8_t field_unit() const override { return unit_.config().field_unit.value_or(0); }
-  std::span<const std::uint8_t> inputs() const override { return unit_.slave().field_inputs(); }
-  std::span<const std::uint8_t> outputs() const override { return unit_.slave().field_outputs(); }
+  std::span<const std::uint8_t> inputs() const override { return unit_.view().field_inputs; }
+  std::span<const std::uint8_t> outputs() const override { return unit_.view().field_outputs; }
   void write_inputs(std::size_t offset, std::span<const std::uint8_t> bytes) override {
     unit_.slave().write_inputs(offset, bytes);
   }

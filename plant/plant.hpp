@@ -23,6 +23,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -34,6 +35,7 @@
 #include "common/time.hpp"
 #include "config/config.hpp"
 #include "drive_sim/parameter_store.hpp"
+#include "drive_sim/unitek_drive.hpp"  // drive::ControlMode of DriveStatus
 #include "faults/can_fault.hpp"
 #include "faults/drive_fault.hpp"
 #include "gateway/gateway.hpp"
@@ -121,6 +123,21 @@ class BusUnit {
   std::unique_ptr<can::VirtualBus> vbus_;
 };
 
+// What a face shows of a gateway beyond its station::Status (docs/architecture.md "One
+// vocabulary"): plain data read through its unit, not the engine. The references are the engine's
+// own data, valid until the plant next runs.
+struct GatewayView {
+  using SlotStats = gw::SlotEngine::SlotStats;  // one slot's frames and when it last had one
+  std::uint8_t address = 0;                     // its DP address
+  // Set_Prm user parameters (manual §5.1.2): the accepted ones (`accepted`), else the configured.
+  bool accepted = false;
+  const gw::UserPrm& parameters;
+  const std::optional<gw::SlotConfig>& slot_config;  // from Chk_Cfg; none before
+  gw::PageMode::State page_state = gw::PageMode::State::WaitInit;
+  std::uint64_t pages_processed = 0;
+  std::span<const SlotStats> slot_stats;  // by slot index
+};
+
 // One emulated gateway: its channel, the fault layer in between, the firmware engine.
 class GatewayUnit final : private can::FrameSink {
  public:
@@ -133,6 +150,7 @@ class GatewayUnit final : private can::FrameSink {
     return *gateway_;
   }
   const gw::Gateway& gateway() const { return *gateway_; }
+  GatewayView view() const;
   const faults::CanFaultLayer& faults() const { return faults_; }
   can::Channel& channel() { return *channel_; }
   const can::Channel& channel() const { return *channel_; }
@@ -194,6 +212,29 @@ class DriveUnit {
   std::unique_ptr<faults::FaultyDrive> drive_;
 };
 
+// What a face shows of a generic slave beyond its station::Status (docs/slaves.md "Front panel
+// and HTTP API"): plain data read through its unit, not the engine. The references and spans
+// are the slave's own data, valid until the plant next runs.
+struct SlaveView {
+  std::uint8_t address = 0;  // its DP address
+  const gsd_slave::Profile& profile;
+  const gsd_slave::Configuration& configuration;
+  dp::SlaveState dp_state = dp::SlaveState::WaitPrm;
+  // Its faults (docs/slaves.md "Faults"): on the bus, the forced ones, the device's alarm.
+  bool online = false;
+  bool prm_fault_forced = false;
+  bool cfg_fault_forced = false;
+  const std::optional<std::vector<std::uint8_t>>& device_diagnosis;
+  const std::string& prm_problem;  // why the last Set_Prm was refused; empty: it was not
+  const std::string& cfg_problem;  // likewise Chk_Cfg
+  std::size_t input_length = 0;
+  std::size_t output_length = 0;
+  // The field side (docs/slaves.md "Field side") and the master's last outputs as on the wire.
+  std::span<const std::uint8_t> field_inputs;
+  std::span<const std::uint8_t> field_outputs;
+  std::span<const std::uint8_t> received_outputs;
+};
+
 // One generic DP-V0 slave from its GSD (docs/slaves.md): in-process under the built-in master or
 // on a profibus line in role slaves.
 class SlaveUnit {
@@ -203,6 +244,7 @@ class SlaveUnit {
   std::size_t index() const { return index_; }
   gsd_slave::GsdSlave& slave() { return *slave_; }
   const gsd_slave::GsdSlave& slave() const { return *slave_; }
+  SlaveView view() const;
 
  private:
   friend class Plant;

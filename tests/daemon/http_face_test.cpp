@@ -139,6 +139,24 @@ TEST_F(Face, TheSourcesComeFromThePlant) {
   EXPECT_TRUE(src.drives.empty());
 }
 
+// What the face shows of a gateway beyond its status comes from its unit's view, plain data
+// (docs/architecture.md "One vocabulary"): in Data_Exch the accepted user parameters (manual
+// §5.1.2), the slots of Chk_Cfg with the frames each one sent.
+TEST_F(Face, AGatewaysViewIsWhatItsUnitHolds) {
+  const plant::GatewayView v = plant->gateways().at(0)->view();
+  EXPECT_EQ(v.address, 3);
+  EXPECT_TRUE(v.accepted);
+  EXPECT_EQ(v.parameters.bitrate_index, cfg.gateways[0].parameters.bitrate_index);
+  ASSERT_TRUE(v.slot_config.has_value());
+  EXPECT_EQ(v.slot_config->slots.size(), 3u);
+  ASSERT_EQ(v.slot_stats.size(), 3u);
+  EXPECT_GE(v.slot_stats[0].frames, 1u);  // an output slot sends every master cycle
+  EXPECT_EQ(v.pages_processed, 0u);
+  const json head = model->status(now)["gateways"][0];
+  EXPECT_EQ(head["parameters"]["accepted"], true);
+  EXPECT_EQ(head["slots"][0]["frames"], v.slot_stats[0].frames);
+}
+
 TEST_F(Face, TheMetricsHaveEveryFamilyOnce) {
   http::MetricsBuild build(*model, 0);
   int steps = 1;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <nlohmann/json.hpp>
 #include <variant>
 
@@ -122,6 +123,28 @@ TEST_F(SlaveFace, FaultsShowOnTheStatusAndTheTile) {
   plant->set_slave_online(io(0), false, now, "by the test");
   EXPECT_EQ(model->slave_tile(0, now)["fault"], "off the bus");
   EXPECT_EQ(model->slave_json(0, now)["faults"]["on_bus"], false);
+}
+
+// What the face shows of a slave beyond its status comes from its unit's view, plain data
+// (docs/slaves.md "Front panel and HTTP API"): its DP state, its faults, its field side.
+TEST_F(SlaveFace, ASlavesViewIsWhatItsUnitHolds) {
+  const std::array<std::uint8_t, 2> field{0xC3, 0x5A};
+  ASSERT_TRUE(io(0).slave().write_inputs(0, field));
+  const plant::SlaveView v = io(0).view();
+  EXPECT_EQ(v.address, 8);
+  EXPECT_EQ(v.dp_state, dp::SlaveState::DataExch);
+  EXPECT_TRUE(v.online);
+  EXPECT_FALSE(v.device_diagnosis.has_value());
+  ASSERT_GE(v.field_inputs.size(), 2u);
+  EXPECT_EQ(v.field_inputs[0], 0xC3);
+  EXPECT_EQ(v.field_inputs[1], 0x5A);
+  EXPECT_EQ(v.input_length, v.field_inputs.size());
+  EXPECT_EQ(v.configuration.modules.size(), model->slave_json(0, now)["modules"].size());
+
+  plant->force_slave_fault(io(0), false, true, now, "by the test");
+  const plant::SlaveView faulty = io(0).view();
+  EXPECT_TRUE(faulty.cfg_fault_forced);
+  EXPECT_EQ(faulty.dp_state, dp::SlaveState::WaitPrm);
 }
 
 TEST_F(SlaveFace, TheMetricsHaveEachSlave) {
