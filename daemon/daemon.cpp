@@ -398,6 +398,7 @@ bool DaemonImpl::start_modbus(std::string* error) {
   faces_ = modbus::make_faces(*plant_, [this](std::size_t g) { return bitrate(g); });
   map_ = std::make_unique<modbus::ProcessImageMap>(plant_->master().image(), faces_.gateway_list(),
                                                    faces_.drive_list(), faces_.field_list());
+  map_->set_host_stalls([this] { return clock_.stalls(); });
   map_->set_outputs_read_only(plant_->slave_line() != nullptr);
   std::string e;
   modbus_ = modbus::ModbusServer::listen({.host = config_.modbus_listen.host,
@@ -430,10 +431,7 @@ bool DaemonImpl::start_http(std::string* error) {
     };
   auto sources = http::make_sources(*plant_, monitors_.get(), std::move(modbus_figures),
                                     [this](std::size_t g) { return bitrate(g); });
-  sources.host_stalls = [this] {
-    const auto& st = clock_.stalls();
-    return http::HostStallFigures{st.count, st.total, st.longest};
-  };
+  sources.host_stalls = [this] { return clock_.stalls(); };
   status_model_ = std::make_unique<http::StatusModel>(std::move(sources));
   std::string e;
   http_ = http::HttpServer::listen(

@@ -11,15 +11,10 @@
 #include <cstdint>
 #include <optional>
 
+#include "common/host_stalls.hpp"
 #include "common/time.hpp"
 
 namespace candp2::daemon {
-
-struct HostStalls {
-  std::uint64_t count = 0;
-  Duration total{0};
-  Duration longest{0};
-};
 
 class SimClock {
  public:

@@ -278,7 +278,7 @@ void MetricsBuild::tail() {
     one("candp2_modbus_clients", "", m.clients);
   }
   {  // docs/daemon.md "Host stalls"
-    const HostStallFigures st = src.host_stalls ? src.host_stalls() : HostStallFigures{};
+    const HostStalls st = src.host_stalls ? src.host_stalls() : HostStalls{};
     auto sec = [](Duration d) { return static_cast<double>(d.count()) / 1e6; };
     family(
         "candp2_host_stalls_total", "counter",

@@ -327,7 +327,7 @@ json StatusModel::http_json() const {
 }
 
 json StatusModel::host_stalls_json() const {
-  const HostStallFigures h = src_.host_stalls ? src_.host_stalls() : HostStallFigures{};
+  const HostStalls h = src_.host_stalls ? src_.host_stalls() : HostStalls{};
   auto ms = [](Duration d) { return static_cast<double>(d.count()) / 1000.0; };
   return {{"count", h.count}, {"total_ms", ms(h.total)}, {"longest_ms", ms(h.longest)}};
 }

@@ -23,6 +23,7 @@
 
 #include "can/frame.hpp"
 #include "can/timed_bus.hpp"
+#include "common/host_stalls.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
 #include "plant/cycle_stats.hpp"
@@ -113,13 +114,6 @@ struct ModbusFigures {
   std::uint64_t clients_accepted = 0;
 };
 
-// The host stalls candp2d's simulated clock took out (docs/daemon.md "Host stalls").
-struct HostStallFigures {
-  std::uint64_t count = 0;
-  Duration total{0};
-  Duration longest{0};
-};
-
 struct StatusSources {
   const dp::DpMaster* master = nullptr;
   std::uint32_t cycle_ms = 10;
@@ -130,9 +124,9 @@ struct StatusSources {
   // What an analyser counts on the line (docs/profibus.md "Line statistics"): the timed line's or
   // in role master the FDL master's; null otherwise.
   const fdl::LineStatistics* line_stats = nullptr;
-  std::uint32_t line_baud = 0;                    // of the line the statistics are counted on
-  std::function<ModbusFigures()> modbus;          // empty: no Modbus face
-  std::function<HostStallFigures()> host_stalls;  // empty: a world that never stalls (0)
+  std::uint32_t line_baud = 0;              // of the line the statistics are counted on
+  std::function<ModbusFigures()> modbus;    // empty: no Modbus face
+  std::function<HostStalls()> host_stalls;  // empty: a world that never stalls (0)
   std::vector<GatewaySource> gateways;
   std::vector<SlaveSource> slaves;
   std::vector<BusSource> buses;

@@ -99,6 +99,7 @@ bool LiveView::step(Time now) {
         }
         if (const auto m = model_.modbus_json(); !m.is_null()) h["modbus"] = m;
         h["http"] = model_.http_json();
+        h["host_stalls"] = model_.host_stalls_json();
         h["gateway_count"] = tiles_.size();
         if (!slave_tiles_.empty()) h["slave_count"] = slave_tiles_.size();
         r.header = h.dump();

@@ -205,6 +205,21 @@ json line_json(const config::DaemonConfig& config) {
             {"kinds", std::move(kinds)}}}};
 }
 
+// docs/modbus.md "Host block": the host stalls, in every unit.
+json host_json() {
+  json fields = json::array();
+  for (std::size_t i = 0; i < kHostFields.size(); ++i)
+    fields.push_back({{"name", kHostFields[i].name},
+                      {"register", kHostBase + 2 * i},
+                      {"registers", 2},
+                      {"meaning", kHostFields[i].meaning}});
+  return {{"table", table_name(Table::InputRegisters)},
+          {"unit", "any unit"},
+          {"first", kHostBase},
+          {"count", kHostRegisters},
+          {"fields", std::move(fields)}};
+}
+
 json exceptions_json() {
   json out = json::array();
   for (auto e :
@@ -393,6 +408,7 @@ nlohmann::ordered_json map_json(const config::DaemonConfig& config) {
       {"leds", leds_json()},
       {"diagnosis", diagnosis_json()},
       {"diagnosis_bytes", diagnosis_bytes_json()},
+      {"host", host_json()},
       {"gateways", gateways_json(config)},
       {"slaves", slaves_json(config)},
       {"drives", drives_json(config)},

@@ -98,6 +98,11 @@ std::string map_text(const config::DaemonConfig& config) {
         << " every, " << kLineBase + line::kFaultForMs << " for_ms, "
         << kLineBase + line::kNoiseForMs << " noise on the line for_ms\n";
   }
+  out << "\nHost block (any unit; docs/modbus.md \"Host block\"), input registers:\n";
+  for (std::size_t i = 0; i < kHostFields.size(); ++i) {
+    std::snprintf(line, sizeof line, "  %zu..%zu  ", kHostBase + 2 * i, kHostBase + 2 * i + 1);
+    out << line << kHostFields[i].name << ": " << kHostFields[i].meaning << "\n";
+  }
   out << "\nControl (holding register " << kControlRegister
       << ", unit ID = DP address): write 1 = power cycle, 2 = re-parameterize, 3 = the master "
          "stops addressing the gateway, 4 = it resumes; reads the last command\n";

@@ -96,6 +96,11 @@ std::optional<DecodeFailure> ProcessImageMap::read_registers(Table t, GatewayFac
     }
     return std::nullopt;
   }
+  if (t == Table::InputRegisters && within(address, count, kHostBase, kHostRegisters)) {
+    const HostBlock block = encode_host_stalls(host_stalls_ ? host_stalls_() : HostStalls{});
+    std::copy_n(block.begin() + (address - kHostBase), count, out.registers.begin());
+    return std::nullopt;
+  }
   if (g.line() && t == Table::InputRegisters && within(address, count, kLineBase, line::kCount)) {
     const LineBlock block = g.line()->block(g.dp_address(), now);
     std::copy_n(block.begin() + (address - kLineBase), count, out.registers.begin());

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <span>
 #include <string>
@@ -116,6 +117,9 @@ class ProcessImageMap final : public Handler {
   std::optional<DecodeFailure> handle(const Request& request, ReadResult& out, Time now) override;
   // The last command written to a gateway's control register (reads of holding register 8192).
   std::uint16_t last_control(std::uint8_t dp_address) const;
+  // The host block's source (docs/modbus.md "Host block"); unset: zeros (a world that never
+  // stalls, as in replay).
+  void set_host_stalls(std::function<HostStalls()> source) { host_stalls_ = std::move(source); }
 
  private:
   GatewayFace* resolve(std::uint8_t unit) const;
@@ -136,6 +140,7 @@ class ProcessImageMap final : public Handler {
   bool outputs_read_only_ = false;
   std::vector<DriveFace*> drives_;
   std::vector<FieldFace*> fields_;
+  std::function<HostStalls()> host_stalls_;
 };
 
 }  // namespace candp2::modbus

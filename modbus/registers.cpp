@@ -69,4 +69,14 @@ StatusBlock encode_status(const StatusInputs& in) {
   return b;
 }
 
+HostBlock encode_host_stalls(const HostStalls& h) {
+  HostBlock b{};
+  for (std::size_t i = 0; i < kHostFields.size(); ++i) {
+    const std::uint32_t x = station::sat32(kHostFields[i].value(h));
+    b[2 * i] = static_cast<std::uint16_t>(x >> 16);
+    b[2 * i + 1] = static_cast<std::uint16_t>(x & 0xFFFF);
+  }
+  return b;
+}
+
 }  // namespace candp2::modbus

@@ -12,6 +12,7 @@
 #include <string>
 #include <string_view>
 
+#include "common/host_stalls.hpp"
 #include "config/config.hpp"
 #include "gateway/gateway.hpp"
 #include "profibus_sim/fdl/line_stats.hpp"
@@ -150,6 +151,29 @@ using LineBlock = std::array<std::uint16_t, line::kCount>;
 inline bool has_line_block(const config::DaemonConfig& c) {
   return c.line.has_value() || c.remote_gateways();
 }
+
+// The host block (docs/modbus.md "Host block"): input registers of every unit, the host stalls
+// candp2d's simulated clock kept from the world (docs/daemon.md "Host stalls"), 32 bit each, high
+// word first, saturating: how many, their time in all (ms), the longest (ms). Zeros where the
+// world never stalls.
+inline constexpr std::uint16_t kHostBase = 8440;
+struct HostField {
+  std::string_view name;
+  std::string_view meaning;
+  std::uint64_t (*value)(const HostStalls&);
+};
+inline constexpr std::array<HostField, 3> kHostFields = {{
+    {"host_stalls", "host stalls: loop wakes more than master.host_stall_ms late",
+     [](const HostStalls& h) { return h.count; }},
+    {"host_stall_total_ms", "the host stalls' time in all, ms",
+     [](const HostStalls& h) { return static_cast<std::uint64_t>(h.total.count() / 1000); }},
+    {"host_stall_longest_ms", "the longest host stall, ms",
+     [](const HostStalls& h) { return static_cast<std::uint64_t>(h.longest.count() / 1000); }},
+}};
+inline constexpr std::uint16_t kHostRegisters = 2 * kHostFields.size();  // 8440..8445
+static_assert(kLineBase + line::kCount <= kHostBase, "the host block follows the line block");
+using HostBlock = std::array<std::uint16_t, kHostRegisters>;
+HostBlock encode_host_stalls(const HostStalls& h);
 
 // LED codes in the status block (manual §3.3, table 3.3.1): station/status.hpp.
 namespace led = station::led;

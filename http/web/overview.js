@@ -144,6 +144,14 @@ function renderHeader(s) {
   setText(cyc, text);
   setClass(cyc, c.missed ? 'warn' : '');
   if (s.modbus) setText(document.getElementById('modbus'), s.modbus.requests + ' req · ' + s.modbus.clients + ' client(s)');
+  // Host stalls (docs/daemon.md "Host stalls"): the host, not the simulated world, stopped; shown
+  // once there was one, so that a late reply or a gap in a log has its explanation in sight.
+  const hs = s.host_stalls;
+  if (hs && hs.count > 0) {
+    setText(document.getElementById('stalls'), hs.count + ' · ' + us(hs.total_ms * 1000) + ' (longest ' +
+      us(hs.longest_ms * 1000) + ')');
+    document.getElementById('stalls-wrap').hidden = false;
+  }
   if (s.gateway_count !== undefined) {
     const count = document.getElementById('count');
     setText(count, s.gateway_count);

@@ -4,8 +4,8 @@ ctest e2e_host_stall).
 candp2d runs config/demo.json (gateway watchdog 200 ms, cycle 10 ms) and is stopped with SIGSTOP
 three times for 300 ms. With the default master.host_stall_ms (50) the simulated world does not
 see the stalls: no watchdog expiry, the gateway stays in Data_Exch and is parameterized once, and
-the daemon counts 3 stalls of about 900 ms in all on GET /api/v1/status, /metrics and
-Daemon.host_stalls. With master.host_stall_ms 0 (host lateness reaches the world, as before the
+the daemon counts 3 stalls of about 900 ms in all on GET /api/v1/status, /metrics, the Modbus
+host block (docs/modbus.md "Host block"), the panel's event header and Daemon.host_stalls. With master.host_stall_ms 0 (host lateness reaches the world, as before the
 simulated clock) the same stalls expire the watchdog. Also on a line in time at 12 Mbit/s, where
 the line's station counters stay at lost 0, syncs 1.
 """
@@ -53,6 +53,22 @@ def stall(daemon, seen):
         await_true(lambda: daemon.host_stalls.count > before, 5, "the stall counted")
 
 
+def host_block(daemon):
+    """The Modbus host block of the gateway's unit as {name: value} (32 bit each, high first)."""
+    block = daemon.register_map.document["host"]
+    words = daemon.modbus.read_registers("input_registers", block["first"], block["count"], UNIT)
+    return {f["name"]: words[f["register"] - block["first"]] << 16
+            | words[f["register"] - block["first"] + 1] for f in block["fields"]}
+
+
+def event_header(daemon):
+    """The panel's first event (GET /api/v1/events?once): its JSON."""
+    body = daemon.http.get("/api/v1/events?once").decode()
+    data = [line[len("data: "):] for line in body.splitlines() if line.startswith("data: ")]
+    assert data, body[:200]
+    return json.loads(data[0])
+
+
 def metric(daemon, name):
     for line in daemon.http.get("/metrics").decode().splitlines():
         if line.startswith(name + " "):
@@ -66,6 +82,7 @@ def test_stalls_do_not_reach_the_world(candp2d, baud):
     gw = daemon.gateway(UNIT)
     gw.wait_until(lambda g: g.state == "Data_Exch", timeout=10)
     assert daemon.host_stalls.count == 0
+    assert set(host_block(daemon).values()) == {0}
     for _ in range(STALLS):
         stall(daemon, seen=True)
     # A watchdog of 200 ms would have expired within 200 ms of the last stall: await a cycle
@@ -86,6 +103,11 @@ def test_stalls_do_not_reach_the_world(candp2d, baud):
         stalls.total_ms / 1000, abs=1e-6)
     assert metric(daemon, "candp2_host_stall_longest_seconds") == pytest.approx(
         stalls.longest_ms / 1000, abs=1e-6)
+    regs = host_block(daemon)
+    assert regs["host_stalls"] == stalls.count
+    assert regs["host_stall_total_ms"] == int(stalls.total_ms)
+    assert regs["host_stall_longest_ms"] == int(stalls.longest_ms)
+    assert event_header(daemon)["host_stalls"]["count"] == stalls.count
     assert "host stall: the loop woke" in daemon.log
     assert "host stalls: %d, %.1f ms in all" % (stalls.count, stalls.total_ms) in daemon.report()
     if baud is not None:
