@@ -126,14 +126,20 @@ build_deb() {
   packaging/deb/build-deb.sh "$release_dir" dist
 }
 
-# The fuzz build: the libFuzzer targets and what they link, nothing of the test suite
-# (CANDP2_TESTS=OFF; the target candp2_fuzzers).
-fuzz_dir="build-fuzz"
+# The sanitizer build (build-asan/): one clang tree, every object compiled once with ASan, UBSan
+# and libFuzzer's coverage (CANDP2_FUZZ=ON and CANDP2_SANITIZE=ON), serves both the unit tests run
+# under the sanitizers (the target candp2_unit_tests, stage asan-build) and the libFuzzer targets
+# (the target candp2_fuzzers, stage fuzz-build: their mains and links only). No apps, no benches.
+# -O1 -g without NDEBUG: the assertions stay on, at the optimisation AddressSanitizer recommends.
+fuzz_dir="build-asan"
+configure_sanitizers() {
+  CC=clang-14 CXX=clang++-14 cmake -S . -B build-asan -G Ninja "${launcher[@]}" -DCANDP2_FUZZ=ON \
+    -DCANDP2_SANITIZE=ON -DCANDP2_APPS=OFF -DCANDP2_BENCH=OFF -DCANDP2_WERROR=ON \
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g" \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" >/dev/null
+}
 build_fuzzers() {
-  CC=clang-14 CXX=clang++-14 cmake -S . -B "$fuzz_dir" -G Ninja "${launcher[@]}" -DCANDP2_FUZZ=ON \
-    -DCANDP2_TESTS=OFF -DCANDP2_APPS=OFF -DCANDP2_BENCH=OFF -DCANDP2_WERROR=ON \
-    -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null &&
-    cmake --build "$fuzz_dir" -j "$jobs" --target candp2_fuzzers
+  configure_sanitizers && cmake --build "$fuzz_dir" -j "$jobs" --target candp2_fuzzers
 }
 
 # fuzz_one TARGET: one libFuzzer target for $fuzz_seconds on its corpus; its lines go to
@@ -329,11 +335,9 @@ dev_build() {
   warning_check "$log" "dev build"
 }
 
-# The sanitizer build: only what `ctest -L unit` runs (the target candp2_unit_tests).
+# The sanitizer build's unit tests: only what `ctest -L unit` runs (the target candp2_unit_tests).
 asan_build() {
-  cmake -S . -B build-asan -G Ninja "${launcher[@]}" -DCMAKE_BUILD_TYPE=Debug -DCANDP2_SANITIZE=ON \
-    -DCANDP2_BENCH=OFF -DCANDP2_APPS=OFF -DCANDP2_WERROR=ON >/dev/null &&
-    cmake --build build-asan -j "$jobs" --target candp2_unit_tests
+  configure_sanitizers && cmake --build build-asan -j "$jobs" --target candp2_unit_tests
 }
 
 run_tests() {

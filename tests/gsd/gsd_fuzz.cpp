@@ -1,5 +1,5 @@
 // libFuzzer target: any bytes as a GSD file through parser, checker, encoder and summary.
-// Run: build-fuzz/fuzz/gsd_fuzz -max_len=8192 tests/gsd/data gsd/
+// Run: build-asan/fuzz/gsd_fuzz -max_len=8192 tests/gsd/data gsd/
 // The unit tests link this file too (fuzz_smoke_test.cpp) and call the entry point directly.
 #include <cstddef>
 #include <cstdint>
