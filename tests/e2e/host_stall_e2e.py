@@ -5,8 +5,9 @@ candp2d runs config/demo.json (gateway watchdog 200 ms, cycle 10 ms) and is stop
 three times for 300 ms. With the default master.host_stall_ms (50) the simulated world does not
 see the stalls: no watchdog expiry, the gateway stays in Data_Exch and is parameterized once, and
 the daemon counts 3 stalls of about 900 ms in all on GET /api/v1/status, /metrics, the Modbus
-host block (docs/modbus.md "Host block"), the panel's event header and Daemon.host_stalls. With master.host_stall_ms 0 (host lateness reaches the world, as before the
-simulated clock) the same stalls expire the watchdog. Also on a line in time at 12 Mbit/s, where
+host block (docs/modbus.md "Host block"), the panel's event header and Daemon.host_stalls. With
+master.host_stall_ms 0 (host lateness reaches the world, as before the simulated clock) the same
+stalls expire the watchdog. Also on a line in time at 12 Mbit/s, where
 the line's station counters stay at lost 0, syncs 1.
 """
 
