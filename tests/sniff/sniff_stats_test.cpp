@@ -5,6 +5,7 @@
 // raw capture. The expected counters follow from the scenario as written down here.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -104,7 +105,7 @@ std::vector<Timed> scenario() {
       {2300, fdl::garble(token(), 9)},  // no answer due: unattributed 1
       {2400, token()},                  // rotation 3 (1300 µs)
       {2500, dx3},
-      {2550, kSc},      // 3 in data exchange
+      {2550, kSc},  // 3 in data exchange
       {2600, dx3b},
       {2700, dx3b},     // repeats 3: 4
       {2800, token()},  // rotation 4 (400 µs): 3 dropped out of data exchange: lost
@@ -146,7 +147,9 @@ struct Result {
   std::string out, err;
 };
 Result sniff(const std::string& args) {
-  const std::string err = temp_path("sniff.stderr");
+  // One file a test process: ctest runs the tests of this program side by side, and a shared
+  // name mixed one test's stderr into another's.
+  const std::string err = temp_path("sniff-" + std::to_string(::getpid()) + ".stderr");
   Result r;
   FILE* p = ::popen((std::string(CANDP2_BIN) + " sniff " + args + " 2>" + err).c_str(), "r");
   if (!p) return r;
