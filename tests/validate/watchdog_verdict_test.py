@@ -48,11 +48,11 @@ def configuration(baud, cycle_ms, watchdogs):
 CASES = [
     ("ideal-master-cycle", None, 20, [10], "error", "shorter than the master cycle itself"),
     ("9600-bus-cycle", 9600, 10, [50, 50], "error", "shorter than the bus cycle itself"),
-    # issue 35: at 9.6 kbit/s cycle_ms 100 and watchdog 200 expired 22 times in 9 s.
+    # At 9.6 kbit/s cycle_ms 100 and watchdog 200 expired 22 times in 9 s.
     ("9600-parameterization", 9600, 100, [200], "warning",
      "the rotation that parameterizes every station"),
     ("9600-retries", 9600, 300, [320], "warning", "the master cycle 300.00 ms with its retries"),
-    # issue 35: cycle_ms 300, watchdog 500 stays in Data_Exch (candp2d used to warn).
+    # cycle_ms 300, watchdog 500 stays in Data_Exch (candp2d used to warn).
     ("9600-holds", 9600, 300, [500], "holds", None),
     ("1500k-late-cycle", 1500000, 10, [40, 200], "warning",
      "the master cycle 10.00 ms with its retries"),
