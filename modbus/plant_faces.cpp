@@ -40,7 +40,7 @@ StatusBlock PlantGatewayFace::status(Time now) {
 }
 
 std::vector<std::uint8_t> PlantGatewayFace::diagnosis(Time now) {
-  return unit_.gateway().dp().diagnosis(now);
+  return station::gateway_diagnosis(unit_, now);
 }
 
 void PlantGatewayFace::control(Control command, Time now) {

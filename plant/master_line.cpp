@@ -107,8 +107,8 @@ void MasterLine::check_presence(const dp::DpMaster& master) {
   }
 }
 
-LineStatus MasterLine::status(std::uint8_t address, const dp::DpMaster& master) const {
-  LineStatus l;
+station::LineStatus MasterLine::status(std::uint8_t address, const dp::DpMaster& master) const {
+  station::LineStatus l;
   l.role = 2;  // docs/modbus.md kLineRole: 2 role master
   const auto& p = fdl_.line_stats();
   l.telegrams = clamp32(p.telegrams);

@@ -58,7 +58,7 @@ class MasterLine {
 
   // Logs stations that appear, are lost, return (from the master's view); call once a cycle.
   void check_presence(const dp::DpMaster& master);
-  LineStatus status(std::uint8_t address, const dp::DpMaster& master) const;
+  station::LineStatus status(std::uint8_t address, const dp::DpMaster& master) const;
   const fdl::FdlMaster& fdl() const { return fdl_; }
   // What an analyser on this line counts (docs/profibus.md "Line statistics in role master"):
   // every telegram the master sends and every one it receives, the dropped ones as illegal.

@@ -118,10 +118,10 @@ void SlaveLine::check_presence(Time now) {
   }
 }
 
-std::optional<LineStatus> SlaveLine::status(std::uint8_t address) const {
+std::optional<station::LineStatus> SlaveLine::status(std::uint8_t address) const {
   const fdl::StationStats* s = front_.stats(address);
   if (!s) return std::nullopt;
-  LineStatus l;
+  station::LineStatus l;
   l.role = 1;
   const auto& p = front_.line_stats();
   l.telegrams = static_cast<std::uint32_t>(p.telegrams);

@@ -21,11 +21,11 @@
 #include "common/log.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
-#include "plant/line_status.hpp"
 #include "plant/tap.hpp"
 #include "profibus_sim/fdl/fdl.hpp"
 #include "profibus_sim/fdl/fdl_slave.hpp"
 #include "profibus_sim/master/dp_master.hpp"
+#include "station/line_status.hpp"
 
 namespace candp2::plant {
 
@@ -56,7 +56,7 @@ class SlaveLine {
   // Logs a station whose master went silent; call periodically.
   void check_presence(Time now);
 
-  std::optional<LineStatus> status(std::uint8_t address) const;
+  std::optional<station::LineStatus> status(std::uint8_t address) const;
   const fdl::ParserStats& line_stats() const { return front_.line_stats(); }
   const fdl::SlaveFrontEnd& front_end() const { return front_; }
 

@@ -74,4 +74,8 @@ std::vector<std::uint8_t> slave_diagnosis(plant::SlaveUnit& unit, Time now) {
   return unit.slave().dp().diagnosis(now);
 }
 
+std::vector<std::uint8_t> gateway_diagnosis(plant::GatewayUnit& unit, Time now) {
+  return unit.gateway().dp().diagnosis(now);
+}
+
 }  // namespace candp2::station

@@ -42,5 +42,7 @@ Status slave_status(plant::Plant& plant, plant::SlaveUnit& unit, Time now);
 // A generic slave's whole diagnosis: 6 standard bytes and the Ext_Diag_Data (docs/slaves.md
 // "Diagnosis").
 std::vector<std::uint8_t> slave_diagnosis(plant::SlaveUnit& unit, Time now);
+// A local gateway's whole diagnosis: its Slave_Diag answer (docs/dp-slave.md "Diagnosis").
+std::vector<std::uint8_t> gateway_diagnosis(plant::GatewayUnit& unit, Time now);
 
 }  // namespace candp2::station

@@ -15,8 +15,8 @@
 #include <string_view>
 
 #include "gateway/gateway.hpp"
-#include "plant/line_status.hpp"
 #include "profibus_sim/master/dp_master.hpp"
+#include "station/line_status.hpp"
 
 namespace candp2::station {
 
@@ -38,7 +38,7 @@ struct Status {
   std::optional<dp::MasterSlaveState> master_state;
   std::uint32_t parameterizations = 0;
   std::uint8_t dp_address = 0;
-  std::optional<plant::LineStatus> line;  // the plant's line figures (plant/line_status.hpp)
+  std::optional<LineStatus> line;  // the plant's line figures (station/line_status.hpp)
   bool addressed = true;
   // Fault injection (docs/faults.md).
   std::uint16_t forced_state = 0;

@@ -95,7 +95,7 @@ struct MasterLineFixture : ::testing::Test {
     const auto v = plant->master().slave(3);
     return v && v->last_diag && ((*v->last_diag)[0] & dp::kDiag1StationNonExistent);
   }
-  plant::LineStatus status() { return plant->master_line()->status(3, plant->master()); }
+  station::LineStatus status() { return plant->master_line()->status(3, plant->master()); }
   const fdl::StationCounters& stats3() const {
     return plant->master_line()->statistics().station(3);
   }
