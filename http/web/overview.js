@@ -137,9 +137,13 @@ function renderHeader(s) {
   if (lat) text += ' · late p50 ' + us(lat.p50) + ', p99 ' + us(lat.p99);
   // The line in time (docs/profibus.md): the measured bus cycle, last and longest (a line in
   // profibus.role "master" has none).
+  // The steady line's figures (docs/daemon.md "Statistics of the steady line"): none until the
+  // first rotation that parameterized no station.
   const bc = s.line && s.line.bus_cycle_us;
-  if (bc) text += ' · bus cycle ' + us(bc.last) + ' (max ' + us(bc.max) + ' at ' +
+  if (bc && bc.cycles) text += ' · bus cycle ' + us(bc.last) + ' (max ' + us(bc.max) + ' at ' +
     s.line.baud / 1000 + ' kbit/s)';
+  else if (bc) text += ' · bus cycle – (stations being parameterized, ' + s.line.baud / 1000 +
+    ' kbit/s)';
   const cyc = document.getElementById('cycle');
   setText(cyc, text);
   setClass(cyc, c.missed ? 'warn' : '');
