@@ -106,9 +106,14 @@ std::uint64_t data_exchange_response_bits(std::size_t inputs) {
   return data_bits(inputs, Kind::SC);
 }
 
+std::uint64_t message_bits(const BusParameters& p, std::uint64_t request_bits,
+                           std::uint32_t tsdr_bits, std::uint64_t answer_bits) {
+  return tid1_bits(p) + request_bits + tsdr_bits + answer_bits;
+}
+
 std::uint64_t message_cycle_bits(const BusParameters& p, const CycleStation& s) {
-  return tid1_bits(p) + data_exchange_request_bits(s.outputs) + s.tsdr_bits +
-         data_exchange_response_bits(s.inputs);
+  return message_bits(p, data_exchange_request_bits(s.outputs), s.tsdr_bits,
+                      data_exchange_response_bits(s.inputs));
 }
 
 std::uint64_t retry_bits(const BusParameters& p, std::size_t outputs) {

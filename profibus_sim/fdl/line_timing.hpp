@@ -85,7 +85,11 @@ struct CycleStation {
 // bytes, else SD2) and the answer (SC without inputs, else SD3/SD2).
 std::uint64_t data_exchange_request_bits(std::size_t outputs);
 std::uint64_t data_exchange_response_bits(std::size_t inputs);
-// The bits of one message cycle: the idle before the request (TID1), request, TSDR, answer.
+// The bits of one message cycle of any service: the idle before the request (TID1), the request,
+// the station's TSDR, the answer.
+std::uint64_t message_bits(const BusParameters& p, std::uint64_t request_bits,
+                           std::uint32_t tsdr_bits, std::uint64_t answer_bits);
+// A station's Data_Exchange message cycle.
 std::uint64_t message_cycle_bits(const BusParameters& p, const CycleStation& s);
 // The retries of an unanswered Data_Exchange: retry_limit times the request and the slot time
 // after it, before the master gives the station up and comes back.

@@ -11,8 +11,9 @@ namespace {
 // The DP services' SAPs (DSAP, SSAP) ahead of their data in an SD2 (dp_wire.hpp).
 constexpr std::size_t kSapBytes = 2;
 
-std::uint64_t message_bits(const BusParameters& p, std::uint64_t request, std::uint64_t answer) {
-  return tid1_bits(p) + request + p.min_tsdr_bits + answer;
+// A parameterization telegram and its answer, the station answering after the line's min_TSDR.
+std::uint64_t answered_bits(const BusParameters& p, std::uint64_t request, std::uint64_t answer) {
+  return fdl::message_bits(p, request, p.min_tsdr_bits, answer);
 }
 
 // One station's parameterization, the first Data_Exchange included (docs/profibus.md "The line
@@ -20,13 +21,13 @@ std::uint64_t message_bits(const BusParameters& p, std::uint64_t request, std::u
 std::uint64_t parameterization_bits(const BusParameters& p, const WatchdogStation& s) {
   const std::uint64_t diag_request = telegram_bits(Kind::SD2, kSapBytes);
   const std::uint64_t diag =
-      message_bits(p, diag_request, telegram_bits(Kind::SD2, kSapBytes + s.diag_bytes));
-  return message_bits(p, telegram_bits(Kind::SD1), telegram_bits(Kind::SD1)) +  // FDL_Status
+      answered_bits(p, diag_request, telegram_bits(Kind::SD2, kSapBytes + s.diag_bytes));
+  return answered_bits(p, telegram_bits(Kind::SD1), telegram_bits(Kind::SD1)) +  // FDL_Status
          diag +
-         message_bits(p, telegram_bits(Kind::SD2, kSapBytes + s.prm_bytes),
-                      telegram_bits(Kind::SC)) +
-         message_bits(p, telegram_bits(Kind::SD2, kSapBytes + s.cfg_bytes),
-                      telegram_bits(Kind::SC)) +
+         answered_bits(p, telegram_bits(Kind::SD2, kSapBytes + s.prm_bytes),
+                       telegram_bits(Kind::SC)) +
+         answered_bits(p, telegram_bits(Kind::SD2, kSapBytes + s.cfg_bytes),
+                       telegram_bits(Kind::SC)) +
          diag + message_cycle_bits(p, {s.outputs, s.inputs, p.min_tsdr_bits});
 }
 
