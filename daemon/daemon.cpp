@@ -252,12 +252,12 @@ bool DaemonImpl::start(std::string* error) {
   }
   if (config_.can_log && !can_log_.open(*config_.can_log, error)) return false;
   o.wire_image = config_.capture.has_value();  // the in-process DP side in the capture
-  // docs/profibus.md "The line in time": the line in steps of 1 ms in real time.
-  o.line_step = milliseconds(1);
+  // docs/profibus.md "The line in time", docs/can-bus.md "In the plant": the line and the buses
+  // in time in steps of 1 ms in real time.
+  o.step = milliseconds(1);
   // A cycle the line step passed over starts at its own time; one the host held back by more
   // than the host-stall tolerance (at least 50 ms) starts late (master.host_stall_ms 0).
-  o.line_catch_up = o.line_step + std::max(clock_.tolerance(), Duration(milliseconds(50)));
-  o.bus_step = milliseconds(1);
+  o.line_catch_up = o.step + std::max(clock_.tolerance(), Duration(milliseconds(50)));
   plant_ = plant::Plant::build(config_, std::move(o), loop_.now(), error);
   if (!plant_) return false;
   plant_timer_ = std::make_unique<DeadlineTimer>(loop_, [this] { plant_->advance(sim_now()); });

@@ -60,8 +60,7 @@ std::optional<Time> Plant::next_deadline() const {
   if (master_line_) earliest(master_line_->next_deadline());
   if (timed_line_) earliest(timed_line_->next_deadline());
   for (const auto& b : timed_buses_)
-    if (const auto d = b->next_deadline())
-      earliest(std::max(*d, buses_handled_ + options_.bus_step));
+    if (const auto d = b->next_deadline()) earliest(std::max(*d, buses_handled_ + options_.step));
   return next;
 }
 

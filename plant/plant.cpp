@@ -72,7 +72,7 @@ bool Plant::build_parts(std::string* error) {
   if (timed) {
     timed_line_ = std::make_unique<TimedLine>(config_.line->baud, config_.line->params,
                                               config_.master_address, now_, log_sink_);
-    timed_line_->set_step(options_.line_step);
+    timed_line_->set_step(options_.step);
     if (options_.wire_image)
       timed_line_->set_tap([this](std::span<const std::uint8_t> t, bool /*from_master*/, Time at) {
         tap_in_process(t, at, config_.line->baud);
@@ -341,42 +341,6 @@ SlaveUnit* Plant::slave_at(std::uint8_t dp_address) {
   for (auto& sl : slaves_)
     if (sl->config().address == dp_address) return sl.get();
   return nullptr;
-}
-
-GatewayView GatewayUnit::view() const {
-  const gw::Gateway& g = *gateway_;
-  const auto& accepted = g.user_prm();
-  return {.address = g.address(),
-          .accepted = accepted.has_value(),
-          .parameters = accepted ? *accepted : cfg_->parameters,
-          .slot_config = g.slot_config(),
-          .page_state = g.page_mode().state(),
-          .pages_processed = g.page_mode().pages_processed(),
-          .slot_stats = g.slot_engine().slot_stats()};
-}
-
-SlaveView SlaveUnit::view() const {
-  const gsd_slave::GsdSlave& s = *slave_;
-  return {.address = s.address(),
-          .profile = s.profile(),
-          .configuration = s.configuration(),
-          .dp_state = s.dp().state(),
-          .online = s.online(),
-          .prm_fault_forced = s.prm_fault_forced(),
-          .cfg_fault_forced = s.cfg_fault_forced(),
-          .device_diagnosis = s.device_diagnosis(),
-          .prm_problem = s.prm_problem(),
-          .cfg_problem = s.cfg_problem(),
-          .input_length = s.input_length(),
-          .output_length = s.output_length(),
-          .field_inputs = s.field_inputs(),
-          .field_outputs = s.field_outputs(),
-          .received_outputs = s.received_outputs()};
-}
-
-DriveStatus DriveUnit::status() const {
-  const auto& d = drive_->drive();
-  return {d.enabled(), d.control_mode(), d.speed_actual(), d.position_actual(), d.status()};
 }
 
 DriveUnit* Plant::drive(std::string_view name) {

@@ -35,7 +35,7 @@
 #include "common/time.hpp"
 #include "config/config.hpp"
 #include "drive_sim/parameter_store.hpp"
-#include "drive_sim/unitek_drive.hpp"  // drive::ControlMode of DriveStatus
+#include "drive_sim/unitek_drive.hpp"
 #include "faults/can_fault.hpp"
 #include "faults/drive_fault.hpp"
 #include "gateway/gateway.hpp"
@@ -44,6 +44,7 @@
 #include "plant/cycle_stats.hpp"
 #include "plant/tap.hpp"
 #include "plant/timed_line.hpp"
+#include "plant/unit_views.hpp"
 #include "profibus_sim/master/dp_master.hpp"
 
 namespace candp2::plant {
@@ -90,19 +91,16 @@ struct Options {
   // tap's on_dp() (docs/capture.md). Off unless a capture wants them: it costs an encoding per
   // service.
   bool wire_image = false;
-  // The line in time: its events come due no closer than this after the plant's last advance
-  // (docs/profibus.md "The line in time": candp2d handles the line in steps of 1 ms; replay and
-  // the tests, 0, at every telegram's own bit).
-  Duration line_step{0};
+  // The engines in time (the line, the buses) in steps: their events come due no closer than
+  // this after the plant last advanced them, and the times computed for telegrams and frames stay
+  // exact (docs/profibus.md "The line in time", docs/can-bus.md "In the plant": candp2d 1 ms;
+  // replay and the tests 0, at every telegram's own bit and every frame's own microsecond).
+  Duration step{0};
   // The line in time: a master cycle due within a step starts at its own time (its grid point or
   // the end of the last rotation) when the plant wakes at most this much after that time; later,
   // the host kept the plant from running (candp2d with master.host_stall_ms 0): the cycle starts
   // when the plant woke, and the lateness reaches the world. 0: no limit (replay, the tests).
   Duration line_catch_up{0};
-  // The buses in time the same way (docs/can-bus.md "In the plant"): their next start or end of
-  // frame comes due no sooner than this after the plant last advanced them; the frames' times stay
-  // exact. 0: at every frame's own microsecond.
-  Duration bus_step{0};
 };
 
 // One CAN bus of the configuration.
@@ -121,21 +119,6 @@ class BusUnit {
   const config::BusConfig* cfg_ = nullptr;
   std::uint16_t index_ = 0;
   std::unique_ptr<can::VirtualBus> vbus_;
-};
-
-// What a face shows of a gateway beyond its station::Status (docs/architecture.md "One
-// vocabulary"): plain data read through its unit, not the engine. The references are the engine's
-// own data, valid until the plant next runs.
-struct GatewayView {
-  using SlotStats = gw::SlotEngine::SlotStats;  // one slot's frames and when it last had one
-  std::uint8_t address = 0;                     // its DP address
-  // Set_Prm user parameters (manual §5.1.2): the accepted ones (`accepted`), else the configured.
-  bool accepted = false;
-  const gw::UserPrm& parameters;
-  const std::optional<gw::SlotConfig>& slot_config;  // from Chk_Cfg; none before
-  gw::PageMode::State page_state = gw::PageMode::State::WaitInit;
-  std::uint64_t pages_processed = 0;
-  std::span<const SlotStats> slot_stats;  // by slot index
 };
 
 // One emulated gateway: its channel, the fault layer in between, the firmware engine.
@@ -185,16 +168,6 @@ class GatewayUnit final : private can::FrameSink {
   std::optional<std::pair<can::BusState, std::uint32_t>> applied_;
 };
 
-// What a face shows of a drive (docs/daemon.md "HTTP face"): read through its unit, not the
-// engine.
-struct DriveStatus {
-  bool enabled = false;
-  drive::ControlMode mode = drive::ControlMode::Speed;
-  std::int16_t speed = 0;     // actual speed
-  std::int32_t position = 0;  // actual position
-  std::uint32_t status = 0;   // the status register
-};
-
 // One simulated drive on a virtual bus, behind its fault layer.
 class DriveUnit {
  public:
@@ -210,29 +183,6 @@ class DriveUnit {
   const config::DriveConfig* cfg_ = nullptr;
   std::unique_ptr<can::VirtualEndpoint> endpoint_;
   std::unique_ptr<faults::FaultyDrive> drive_;
-};
-
-// What a face shows of a generic slave beyond its station::Status (docs/slaves.md "Front panel
-// and HTTP API"): plain data read through its unit, not the engine. The references and spans
-// are the slave's own data, valid until the plant next runs.
-struct SlaveView {
-  std::uint8_t address = 0;  // its DP address
-  const gsd_slave::Profile& profile;
-  const gsd_slave::Configuration& configuration;
-  dp::SlaveState dp_state = dp::SlaveState::WaitPrm;
-  // Its faults (docs/slaves.md "Faults"): on the bus, the forced ones, the device's alarm.
-  bool online = false;
-  bool prm_fault_forced = false;
-  bool cfg_fault_forced = false;
-  const std::optional<std::vector<std::uint8_t>>& device_diagnosis;
-  const std::string& prm_problem;  // why the last Set_Prm was refused; empty: it was not
-  const std::string& cfg_problem;  // likewise Chk_Cfg
-  std::size_t input_length = 0;
-  std::size_t output_length = 0;
-  // The field side (docs/slaves.md "Field side") and the master's last outputs as on the wire.
-  std::span<const std::uint8_t> field_inputs;
-  std::span<const std::uint8_t> field_outputs;
-  std::span<const std::uint8_t> received_outputs;
 };
 
 // One generic DP-V0 slave from its GSD (docs/slaves.md): in-process under the built-in master or

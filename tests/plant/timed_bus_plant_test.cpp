@@ -41,7 +41,7 @@ Recording record(Duration step) {
   auto parsed = config::parse_daemon(kConfig, "bus.json");
   const auto cfg = std::get<config::DaemonConfig>(parsed);
   plant::Options o;
-  o.bus_step = step;
+  o.step = step;
   std::string error;
   auto p = plant::Plant::build(cfg, std::move(o), Time{0}, &error);
   Recording r;

@@ -53,7 +53,7 @@ struct Rig {
     plant::Options o;
     o.log = &log;
     o.first_cycle_at_start = true;
-    o.line_step = line_step;
+    o.step = line_step;
     o.line_catch_up = line_catch_up;
     plant = plant::Plant::build(cfg, std::move(o), Time{0}, &error);
     EXPECT_TRUE(plant) << error;
