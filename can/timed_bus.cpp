@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "can/frame_bits.hpp"
+#include "common/line_physics.hpp"
 
 namespace candp2::can {
 
@@ -21,17 +22,13 @@ Duration TimedBus::IdStatistics::latency_mean() const {
 TimedBus::TimedBus(std::uint32_t bitrate, Time origin) : bitrate_(bitrate), origin_(origin) {}
 
 // Split so that neither product overflows: whole seconds, then the rest of one.
+// Bits and microseconds rounded up both ways, as the line in time (common/line_physics.hpp).
 Time TimedBus::time_of(std::uint64_t bit) const {
-  const std::uint64_t q = bit / bitrate_, r = bit % bitrate_;
-  const std::uint64_t us = q * kMicrosPerSecond + (r * kMicrosPerSecond + bitrate_ - 1) / bitrate_;
-  return origin_ + Duration(static_cast<std::int64_t>(us));
+  return origin_ + phy::bits_to_time(bitrate_, bit);
 }
 
 std::uint64_t TimedBus::bit_at(Time t) const {
-  if (t <= origin_) return 0;
-  const auto us = static_cast<std::uint64_t>((t - origin_).count());
-  const std::uint64_t q = us / kMicrosPerSecond, r = us % kMicrosPerSecond;
-  return q * bitrate_ + (r * bitrate_ + kMicrosPerSecond - 1) / kMicrosPerSecond;
+  return t <= origin_ ? 0 : phy::time_to_bits(bitrate_, t - origin_);
 }
 
 std::size_t TimedBus::add_node(std::size_t depth) {

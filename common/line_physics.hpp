@@ -36,10 +36,13 @@ inline std::string line_rates_text() {
 }
 
 // Bit times → microseconds at `baud`, rounded up: for every timer and deadline (a line event
-// happens no earlier than its last bit). 0 at baud 0.
+// happens no earlier than its last bit). 0 at baud 0. Whole seconds apart, so that a bit count
+// since a daemon's start never overflows (a CAN bus in time counts its bits so too).
 constexpr Duration bits_to_time(std::uint32_t baud, std::uint64_t bits) {
   if (baud == 0) return Duration(0);
-  return Duration(static_cast<std::int64_t>((bits * 1'000'000ull + baud - 1) / baud));
+  const std::uint64_t q = bits / baud, r = bits % baud;
+  return Duration(
+      static_cast<std::int64_t>(q * 1'000'000ull + (r * 1'000'000ull + baud - 1) / baud));
 }
 // Bit times → microseconds at `baud`, rounded down: for a time stamp of something captured (a
 // clock shows the microsecond a bit falls in, as candp2 sniff stamps a raw file's telegrams).
@@ -51,7 +54,8 @@ constexpr Duration bits_to_timestamp(std::uint32_t baud, std::uint64_t bits) {
 constexpr std::uint64_t time_to_bits(std::uint32_t baud, Duration d) {
   if (d.count() <= 0) return 0;
   const auto us = static_cast<std::uint64_t>(d.count());
-  return (us * baud + 999'999ull) / 1'000'000ull;
+  const std::uint64_t q = us / 1'000'000ull, r = us % 1'000'000ull;
+  return q * baud + (r * baud + 999'999ull) / 1'000'000ull;
 }
 // The wire time of `chars` characters at `baud`, rounded up.
 constexpr Duration char_time(std::uint32_t baud, std::uint64_t chars = 1) {
