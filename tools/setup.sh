@@ -229,6 +229,23 @@ ctest_failed() {
   if [ -f "$log" ]; then cut -d: -f2- "$log" | tr '\n' ' '; else echo "(no list)"; fi
 }
 
+# failed_output DIR: the last 40 lines each failed test of DIR's last ctest printed, from ctest's
+# own log. Printed again at the very end, beside the stage table: a CI log is read from its tail,
+# and a test that failed early in a run of a thousand is far above it.
+failed_output() {
+  local dir=$1 name
+  local failed=$dir/Testing/Temporary/LastTestsFailed.log all=$dir/Testing/Temporary/LastTest.log
+  [ -f "$failed" ] && [ -f "$all" ] || return 0
+  for name in $(cut -d: -f2- "$failed"); do
+    echo "setup: ---- the output of $name ($dir), its last 40 lines ----"
+    awk -v name="$name" '
+      $0 ~ /^[0-9]+\/[0-9]+ Test: / { sub(/^[0-9]+\/[0-9]+ Test: /, ""); mine = ($0 == name); next }
+      mine && /^Output:$/ { getline; out = 1; next }
+      mine && /^<end of output>$/ { out = 0; mine = 0; next }
+      out { print }' "$all" | tail -40
+  done
+}
+
 # ---- The test command's stages (docs/development.md "The test command: stages and times").
 # Each stage prints its time; the end prints a table of every stage, its time and result, and the
 # total, also when a stage failed (the tail of a CI log is what a contributor reads).
@@ -378,6 +395,8 @@ run_tests() {
   fi
 
   vendor_summary
+  case " ${stage_failed[*]} " in *" dev-test "*) failed_output build ;; esac
+  case " ${stage_failed[*]} " in *" asan-test "*) failed_output build-asan ;; esac
   stage_table $((SECONDS - start))
   if [ ${#failures[@]} -eq 0 ]; then
     echo "setup: ALL TESTS PASSED"
