@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "common/time.hpp"
+#include "plant/can_fault.hpp"
 #include "plant/line_fault.hpp"
 
 namespace candp2::plant {
@@ -51,6 +52,10 @@ class ControlSurface {
   // Faults on cue on the line in time (docs/faults.md "Line faults"): a station's answers, or
   // noise on the whole line. False (the reason logged) without a timed line or such a station.
   virtual bool line_fault(const LineFault& fault, Time now, std::string_view origin) = 0;
+  // Faults on cue on a CAN bus in time (docs/faults.md "CAN faults"): error frames, a node
+  // unplugged or at a wrong bit rate, noise. False (the reason logged) without a timed bus or
+  // such a node.
+  virtual bool can_fault(const CanFault& fault, Time now, std::string_view origin) = 0;
 };
 
 }  // namespace candp2::plant

@@ -258,6 +258,7 @@ class Plant final : public ControlSurface {
   void power_cycle(SlaveUnit& s, Time now, std::string_view origin) override;
   void note(std::string_view text, Time now) override;
   bool line_fault(const LineFault& fault, Time now, std::string_view origin) override;
+  bool can_fault(const CanFault& fault, Time now, std::string_view origin) override;
 
   // ---- inspection ---------------------------------------------------------------------------
   const config::DaemonConfig& config() const { return config_; }
