@@ -51,14 +51,25 @@ std::string state(const TimedBus& bus, std::size_t node) {
   return std::string(to_string(bus.confinement(node).state));
 }
 
+TimedBus::ErrorFault on_node(std::size_t node, std::uint32_t count) {
+  TimedBus::ErrorFault f;
+  f.node = node;
+  f.count = count;
+  return f;
+}
+
+// A bus at 125 kbit/s (8 µs a bit) that checks acknowledgement, traced.
+struct TimedBusErrors : ::testing::Test {
+  TimedBus bus{125000, Time(0)};
+  Trace trace{bus};
+  TimedBusErrors() { bus.check_acknowledgement(true); }
+};
+
 // A lone node at 125 kbit/s (8 µs a bit): nobody acknowledges 080#, an ACK error at the ACK slot
 // (38 stuffed bits + CRC delimiter + ACK slot = 40), then the error frame: 57 bits an attempt.
 // TEC 8, 16, …, warning at 96, error passive at 128; then each attempt is 8 bits of suspend
 // transmission later (65 bits apart) and its ACK errors leave TEC at 128: never bus-off.
-TEST(TimedBusErrors, ALoneNodesAckErrorsStopAtErrorPassive) {
-  TimedBus bus(125000, Time(0));
-  bus.check_acknowledgement(true);
-  Trace trace(bus);
+TEST_F(TimedBusErrors, ALoneNodesAckErrorsStopAtErrorPassive) {
   const auto a = bus.add_node(8);
   ASSERT_TRUE(bus.request(a, F("080#"), Time(0)));
   run_until(bus, Time(39'560));  // between attempt 77's end (bit 4942) and 78's start (4950)
@@ -92,15 +103,9 @@ TEST(TimedBusErrors, ALoneNodesAckErrorsStopAtErrorPassive) {
 // (bits 1833..1888) takes TEC to 256: bus-off, its queue emptied. Its error delimiter and
 // intermission (bits 1877..1888) begin the first run of 11 recessive bits: on an idle bus it is
 // error active again after 128 × 11 = 1408 bits, at bit 3285 (26 280 µs).
-TEST(TimedBusErrors, ErrorFramesOnANodeTakeItBusOffAndItRecovers) {
-  TimedBus bus(125000, Time(0));
-  bus.check_acknowledgement(true);
-  Trace trace(bus);
+TEST_F(TimedBusErrors, ErrorFramesOnANodeTakeItBusOffAndItRecovers) {
   const auto a = bus.add_node(8), b = bus.add_node(8);
-  TimedBus::ErrorFault fault;
-  fault.node = a;
-  fault.count = 32;
-  bus.inject_errors(fault);
+  bus.inject_errors(on_node(a, 32));
   bus.request(a, F("080#"), Time(0));
   bus.request(a, F("081#"), Time(0));
   run(bus);
@@ -119,15 +124,10 @@ TEST(TimedBusErrors, ErrorFramesOnANodeTakeItBusOffAndItRecovers) {
   EXPECT_EQ(bus.confinement(a).tec, 0u);
 }
 
-TEST(TimedBusErrors, BusOffRecoveryOnAnIdleBusToTheBit) {
-  TimedBus bus(125000, Time(0));
-  bus.check_acknowledgement(true);
+TEST_F(TimedBusErrors, BusOffRecoveryOnAnIdleBusToTheBit) {
   const auto a = bus.add_node(8);
   bus.add_node(8);
-  TimedBus::ErrorFault fault;
-  fault.node = a;
-  fault.count = 32;
-  bus.inject_errors(fault);
+  bus.inject_errors(on_node(a, 32));
   bus.request(a, F("080#"), Time(0));
   bus.advance(Time(1888 * 8));
   EXPECT_EQ(state(bus, a), "bus-off");
@@ -145,16 +145,10 @@ TEST(TimedBusErrors, BusOffRecoveryOnAnIdleBusToTheBit) {
 // On a busy bus each frame's end (ACK delimiter, end of frame, intermission: 11 recessive bits)
 // counts one occurrence: b's back-to-back 080# from bit 1888 (51 bits each) recover a at the end
 // of b's 127th frame, bit 1888 + 127 × 51 = 8365 (with the one run a's own error frame ended).
-TEST(TimedBusErrors, BusOffRecoveryOnABusyBusCountsOneRunAFrame) {
-  TimedBus bus(125000, Time(0));
-  bus.check_acknowledgement(true);
-  Trace trace(bus);
+TEST_F(TimedBusErrors, BusOffRecoveryOnABusyBusCountsOneRunAFrame) {
   const auto a = bus.add_node(8), b = bus.add_node(400);
   bus.add_node(8);  // acknowledges b's frames while a is bus-off
-  TimedBus::ErrorFault fault;
-  fault.node = a;
-  fault.count = 32;
-  bus.inject_errors(fault);
+  bus.inject_errors(on_node(a, 32));
   bus.request(a, F("080#"), Time(0));
   bus.advance(Time(1888 * 8));
   ASSERT_EQ(state(bus, a), "bus-off");
@@ -169,10 +163,7 @@ TEST(TimedBusErrors, BusOffRecoveryOnABusyBusCountsOneRunAFrame) {
 // Error frames on an identifier, one in every 3, twice: the 1st and 4th attempts of 123# end in
 // an error frame at the last CRC bit (99 + 17 = 116 bits) and are sent again; the receiver's REC
 // rises by 1 for each and falls by 1 for each frame it gets.
-TEST(TimedBusErrors, ErrorFramesOnAnIdentifierEveryKRaiseTheReceiversRec) {
-  TimedBus bus(125000, Time(0));
-  bus.check_acknowledgement(true);
-  Trace trace(bus);
+TEST_F(TimedBusErrors, ErrorFramesOnAnIdentifierEveryKRaiseTheReceiversRec) {
   const auto a = bus.add_node(8), b = bus.add_node(8);
   TimedBus::ErrorFault fault;
   fault.id = Ident{0x123, false};
@@ -199,26 +190,26 @@ TEST(TimedBusErrors, ErrorFramesOnAnIdentifierEveryKRaiseTheReceiversRec) {
 // A receiver's REC: a node at a wrong bit rate sees every frame of the others as an error (REC
 // +1, it gets nothing): error passive at 128; back at the bus's bit rate, the next frame it gets
 // takes REC from above 127 to 127 (the model's choice in 119..127): error active (warning) again.
-TEST(TimedBusErrors, AReceiversRecToErrorPassiveAndBackTo127) {
-  TimedBus bus(1000000, Time(0));
-  bus.check_acknowledgement(true);
-  Trace trace(bus);
-  const auto a = bus.add_node(8), b = bus.add_node(200);
-  bus.add_node(8);
-  bus.set_wrong_bitrate(a, true);
-  for (int k = 0; k < 130; ++k) bus.request(b, F("080#"), Time(0));
-  run(bus);
-  EXPECT_FALSE(bus.receives(a));
-  EXPECT_EQ(bus.confinement(a).rec, 130u);
-  EXPECT_EQ(bus.confinement(a).error_frames_seen, 130u);
-  EXPECT_EQ(state(bus, a), "error-passive");
-  EXPECT_EQ(bus.frames(), 130u);  // acknowledged by the third node
-  bus.clear_faults(a);
-  EXPECT_TRUE(bus.receives(a));
-  bus.request(b, F("080#"), Time(200'000));
-  run(bus);
-  EXPECT_EQ(bus.confinement(a).rec, 127u);
-  EXPECT_EQ(trace.states,
+TEST_F(TimedBusErrors, AReceiversRecToErrorPassiveAndBackTo127) {
+  TimedBus fast(1000000, Time(0));  // 1 µs a bit
+  fast.check_acknowledgement(true);
+  Trace fast_trace(fast);
+  const auto a = fast.add_node(8), b = fast.add_node(200);
+  fast.add_node(8);
+  fast.set_wrong_bitrate(a, true);
+  for (int k = 0; k < 130; ++k) fast.request(b, F("080#"), Time(0));
+  run(fast);
+  EXPECT_FALSE(fast.receives(a));
+  EXPECT_EQ(fast.confinement(a).rec, 130u);
+  EXPECT_EQ(fast.confinement(a).error_frames_seen, 130u);
+  EXPECT_EQ(state(fast, a), "error-passive");
+  EXPECT_EQ(fast.frames(), 130u);  // acknowledged by the third node
+  fast.clear_faults(a);
+  EXPECT_TRUE(fast.receives(a));
+  fast.request(b, F("080#"), Time(200'000));
+  run(fast);
+  EXPECT_EQ(fast.confinement(a).rec, 127u);
+  EXPECT_EQ(fast_trace.states,
             (std::vector<std::string>{"0 warning 0", "0 error-passive 0", "0 warning 0"}));
 }
 
@@ -226,10 +217,7 @@ TEST(TimedBusErrors, AReceiversRecToErrorPassiveAndBackTo127) {
 // frames (6 + 17 = 23 bits an attempt), its TEC rises by 8 each, theirs REC by 1. Error passive
 // after 16, it suspends 8 bits, and b's 7FF# gets through (received by c, an error to a); a goes
 // on to bus-off at its 32nd attempt (bits 959..982) and recovers 1408 − 11 bits later.
-TEST(TimedBusErrors, ANodeAtAWrongBitRateErrsItsFramesAndGoesBusOff) {
-  TimedBus bus(125000, Time(0));
-  bus.check_acknowledgement(true);
-  Trace trace(bus);
+TEST_F(TimedBusErrors, ANodeAtAWrongBitRateErrsItsFramesAndGoesBusOff) {
   const auto a = bus.add_node(8), b = bus.add_node(8), c = bus.add_node(8);
   bus.set_wrong_bitrate(a, true);
   bus.request(a, F("080#"), Time(0));
@@ -251,10 +239,7 @@ TEST(TimedBusErrors, ANodeAtAWrongBitRateErrsItsFramesAndGoesBusOff) {
 
 // An unplugged node sends nothing (its queue waits), acknowledges nothing and counts nothing:
 // a alone with it gets an ACK error; plugged back, b acknowledges a's next attempt and sends.
-TEST(TimedBusErrors, AnUnpluggedNodeNeitherSendsNorAcknowledges) {
-  TimedBus bus(125000, Time(0));
-  bus.check_acknowledgement(true);
-  Trace trace(bus);
+TEST_F(TimedBusErrors, AnUnpluggedNodeNeitherSendsNorAcknowledges) {
   const auto a = bus.add_node(8), b = bus.add_node(8);
   bus.set_unplugged(b, true);
   EXPECT_FALSE(bus.receives(b));
@@ -274,10 +259,7 @@ TEST(TimedBusErrors, AnUnpluggedNodeNeitherSendsNorAcknowledges) {
 
 // Noise until 1 ms: every frame that starts in it ends in an error frame (at the last CRC bit,
 // 55 bits for 080#); the first to start after it gets through.
-TEST(TimedBusErrors, NoiseErrsEveryFrameStartingInIt) {
-  TimedBus bus(125000, Time(0));
-  bus.check_acknowledgement(true);
-  Trace trace(bus);
+TEST_F(TimedBusErrors, NoiseErrsEveryFrameStartingInIt) {
   const auto a = bus.add_node(8), b = bus.add_node(8);
   TimedBus::ErrorFault noise;
   noise.until = Time(1000);
@@ -292,10 +274,7 @@ TEST(TimedBusErrors, NoiseErrsEveryFrameStartingInIt) {
 
 // Without a fault, with acknowledgement checked and every node present, the bus is as before
 // (timed_bus_test.cpp ThreeNodesContendSmallestIdentifierFirstToTheBit).
-TEST(TimedBusErrors, WithoutFaultsNothingChanges) {
-  TimedBus bus(125000, Time(0));
-  bus.check_acknowledgement(true);
-  Trace trace(bus);
+TEST_F(TimedBusErrors, WithoutFaultsNothingChanges) {
   const auto a = bus.add_node(8), b = bus.add_node(8), c = bus.add_node(8);
   bus.request(a, F("123#1122334455667788"), Time(0));
   bus.request(b, F("080#"), Time(0));

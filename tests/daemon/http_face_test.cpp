@@ -183,6 +183,12 @@ struct TimedFace : Face {
     std::string t = kConfig;
     const std::string bus = R"("can0": { "type": "virtual" })";
     t.replace(t.find(bus), bus.size(), R"("can0": { "type": "virtual", "bitrate": "125k" })");
+    // docs/can-bus.md "Error confinement": gw3 at the bus's bit rate, and a drive beside it that
+    // acknowledges its frames (alone, each would be an ACK error); it listens on 0x27F only.
+    const std::string rate = R"("can_bitrate": "500k" },)";
+    t.replace(t.find(rate), rate.size(), R"("can_bitrate": "125k" },)");
+    t.replace(t.rfind("] }"), 3, R"(] }],
+  "drives": [ { "type": "unitek", "name": "ack", "bus": "can0", "rx_id": "0x27F", "tx_id": "0x1FF" })");
     return t;
   }
 };
