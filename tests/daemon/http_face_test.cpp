@@ -227,6 +227,15 @@ TEST_F(TimedFace, TheStatusAndTheMetricsShowTheBusInTime) {
             std::string::npos);
   EXPECT_NE(text.find("candp2_can_id_frames_total{bus=\"can0\",id=\"513\"} 1\n"),
             std::string::npos);
+  EXPECT_NE(text.find("candp2_bus_error_frames_total{bus=\"can0\"} 0\n"), std::string::npos);
+  EXPECT_NE(text.find("candp2_can_node_tec{bus=\"can0\",node=\"gw:gw3\"} 0\n"), std::string::npos);
+  // The nodes' error confinement (docs/can-bus.md "Error confinement").
+  const json& nodes = later["buses"][0]["nodes"];
+  ASSERT_EQ(nodes.size(), 2u) << nodes.dump();
+  EXPECT_EQ(nodes[0]["name"], "gw:gw3");
+  EXPECT_EQ(nodes[0]["state"], "ok");
+  EXPECT_EQ(nodes[1]["name"], "drive:ack");
+  EXPECT_EQ(later["buses"][0]["error_frames"], 0);
 }
 
 using test::run_round;
