@@ -152,11 +152,25 @@ TEST(VirtualBusInTime, LostPastTheQueueCountedWhereTheDeviceCountsIt) {
 // docs/can-bus.md "Error confinement": an endpoint's state is the worse of the forced one and its
 // node's; a node at its own bit rate other than the bus's gets nothing and its frames are errors;
 // a node that does not acknowledge leaves a sender alone.
-TEST(VirtualBusInTime, AnEndpointsStateIsTheWorseOfForcedAndConfinement) {
+// A 125 kbit/s bus on its own clock, advanced event by event (at most `events`).
+struct Clocked {
   VirtualBus bus;
   Time now{0};
-  bus.use_clock(&now);
-  bus.set_bitrate(125000, Time(0));
+  Clocked() {
+    bus.use_clock(&now);
+    bus.set_bitrate(125000, Time(0));
+  }
+  void run(int events) {
+    for (int k = 0; k < events && bus.next_deadline(); ++k) {
+      now = *bus.next_deadline();
+      bus.advance(now);
+    }
+  }
+};
+
+TEST(VirtualBusInTime, AnEndpointsStateIsTheWorseOfForcedAndConfinement) {
+  Clocked c;
+  VirtualBus& bus = c.bus;
   auto a = bus.endpoint("a");
   auto b = bus.endpoint("b");
   auto tester = bus.endpoint("tester");
@@ -168,10 +182,7 @@ TEST(VirtualBusInTime, AnEndpointsStateIsTheWorseOfForcedAndConfinement) {
   a->set_own_bitrate(250000);  // another rate: a node at a wrong bit rate
   const std::uint64_t before = bus.changes();
   b->send(*parse_candump("080#").frame);
-  for (int k = 0; k < 200 && bus.next_deadline(); ++k) {
-    now = *bus.next_deadline();
-    bus.advance(now);
-  }
+  c.run(200);
   EXPECT_GT(bus.changes(), before);
   // b's frame: nobody acknowledges (a at a wrong rate, the tester listen-only): ACK errors to
   // error passive; a's REC rises with each, the tester's too, and neither gets the frame.
@@ -183,10 +194,7 @@ TEST(VirtualBusInTime, AnEndpointsStateIsTheWorseOfForcedAndConfinement) {
   EXPECT_EQ(bus.frames_sent(), 0u);
   // a back at the bus's rate acknowledges: b's next attempt gets through, to a and the tester.
   a->set_own_bitrate(125000);
-  while (const auto d = bus.next_deadline()) {
-    now = *d;
-    bus.advance(now);
-  }
+  c.run(1000);
   EXPECT_EQ(format_candump(*a->receive()), "080#");
   EXPECT_EQ(format_candump(*tester->receive()), "080#");
   EXPECT_EQ(b->confinement()->tec, 127u);
