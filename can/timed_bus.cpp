@@ -9,6 +9,23 @@ namespace candp2::can {
 
 namespace {
 constexpr std::uint64_t kMicrosPerSecond = 1'000'000;
+// An error frame: error flag (6), error delimiter (8), then the intermission (3).
+constexpr std::uint32_t kErrorFrameBits = 6 + 8 + 3;
+// Where an error is detected, in bits from start of frame to the first bit of the error flag
+// (docs/can-bus.md "Error confinement"): a sender at a wrong bit rate breaks the stuffing rule
+// within the first six bits the others sample; an error on cue is seen at the last CRC bit;
+// an unacknowledged frame at its ACK slot (after the CRC delimiter).
+constexpr std::uint32_t kWrongBitrateDetectBits = 6;
+constexpr std::uint32_t kAckDetectAfterCrc = 2;
+// Bosch CAN 2.0 part B §8 / ISO 11898-1 fault confinement.
+constexpr std::uint32_t kTecOnError = 8;
+constexpr std::uint32_t kWarningLimit = 96;
+constexpr std::uint32_t kPassiveLimit = 128;
+constexpr std::uint32_t kBusOffLimit = 255;      // bus-off when TEC exceeds it
+constexpr std::uint32_t kRecAfterPassive = 127;  // REC > 127 on success: back to 119..127
+constexpr std::uint32_t kSuspendBits = 8;        // an error-passive transmitter's suspend
+constexpr std::uint32_t kRecessiveRun = 11;      // bus-off recovery: 128 runs of 11 bits
+constexpr std::uint32_t kRecoveryRuns = 128;
 }  // namespace
 
 Duration TimedBus::IdStatistics::period_mean() const {
@@ -32,7 +49,9 @@ std::uint64_t TimedBus::bit_at(Time t) const {
 }
 
 std::size_t TimedBus::add_node(std::size_t depth) {
-  nodes_.push_back(Node{depth, true, {}});
+  Node n;
+  n.depth = depth;
+  nodes_.push_back(std::move(n));
   return nodes_.size() - 1;
 }
 
@@ -45,6 +64,7 @@ void TimedBus::remove_node(std::size_t node) {
 
 bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
   Node& n = nodes_.at(node);
+  if (n.present && n.conf.state == BusState::BusOff) return false;
   if (!n.present || n.queue.size() >= n.depth) {
     ++lost_;
     return false;
@@ -54,18 +74,45 @@ bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
   return true;
 }
 
+bool TimedBus::contends(const Node& n, std::uint64_t bit) const {
+  return !n.queue.empty() && !n.unplugged && n.conf.state != BusState::BusOff &&
+         n.suspend_until <= bit && n.queue.front().requested <= time_of(bit);
+}
+
+bool TimedBus::receives(std::size_t node) const {
+  const Node& n = nodes_.at(node);
+  return n.present && !n.unplugged && !n.wrong_bitrate && n.conf.state != BusState::BusOff;
+}
+
 std::optional<std::uint64_t> TimedBus::next_start() const {
   if (pending_ == 0) return std::nullopt;
-  std::optional<Time> first;
-  for (const Node& n : nodes_)
-    if (!n.queue.empty() && (!first || n.queue.front().requested < *first))
-      first = n.queue.front().requested;
-  return std::max(free_bit_, bit_at(*first));
+  std::optional<std::uint64_t> first;
+  for (const Node& n : nodes_) {
+    if (n.queue.empty() || n.unplugged || n.conf.state == BusState::BusOff) continue;
+    const std::uint64_t at =
+        std::max({free_bit_, bit_at(n.queue.front().requested), n.suspend_until});
+    if (!first || at < *first) first = at;
+  }
+  return first;
+}
+
+std::optional<std::uint64_t> TimedBus::next_recovery() const {
+  if (on_bus_) return std::nullopt;
+  std::optional<std::uint64_t> first;
+  for (const Node& n : nodes_) {
+    if (!n.present || n.conf.state != BusState::BusOff || !n.run_from) continue;
+    const std::uint64_t at = *n.run_from + (kRecoveryRuns - n.recessive_runs) * kRecessiveRun;
+    if (!first || at < *first) first = at;
+  }
+  return first;
 }
 
 std::optional<Time> TimedBus::next_deadline() const {
   if (on_bus_) return on_bus_->end;
-  if (const auto s = next_start()) return time_of(*s);
+  const auto s = next_start();
+  const auto r = next_recovery();
+  if (r && (!s || *r <= *s)) return time_of(*r);
+  if (s) return time_of(*s);
   return std::nullopt;
 }
 
@@ -77,8 +124,31 @@ void TimedBus::advance(Time now) {
       continue;
     }
     const auto s = next_start();
+    const auto r = next_recovery();
+    if (r && (!s || *r <= *s)) {
+      if (time_of(*r) > now) return;
+      recover(*r);
+      continue;
+    }
     if (!s || time_of(*s) > now) return;
     start(*s);
+  }
+}
+
+// Bosch CAN 2.0 part B §8 rule 12: after 128 occurrences of 11 consecutive recessive bits a
+// bus-off node is error active again with both counters 0.
+void TimedBus::recover(std::uint64_t bit) {
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    Node& n = nodes_[i];
+    if (n.conf.state != BusState::BusOff || !n.run_from ||
+        *n.run_from + (kRecoveryRuns - n.recessive_runs) * kRecessiveRun > bit)
+      continue;
+    n.conf.tec = n.conf.rec = 0;
+    n.recessive_runs = 0;
+    n.run_from.reset();
+    n.suspend_until = 0;
+    n.conf.state = BusState::Ok;
+    if (on_state_) on_state_(i, n.conf.state);
   }
 }
 
@@ -91,7 +161,12 @@ void TimedBus::start(std::uint64_t bit) {
   std::uint32_t best = 0;
   for (std::size_t i = 0; i < nodes_.size(); ++i) {
     Node& n = nodes_[i];
-    if (n.queue.empty() || n.queue.front().requested > at) continue;
+    // A bus-off node counts the recessive run this start of frame ends.
+    if (n.conf.state == BusState::BusOff && n.run_from) {
+      n.recessive_runs += static_cast<std::uint32_t>((bit - *n.run_from) / kRecessiveRun);
+      n.run_from.reset();
+    }
+    if (!contends(n, bit)) continue;
     const std::uint32_t key = arbitration_key(n.queue.front().frame);
     if (!winner || key < best) {
       winner = &n;
@@ -100,12 +175,27 @@ void TimedBus::start(std::uint64_t bit) {
     }
   }
   const Pending p = winner->queue.front();
+  const Error error = error_of(index, p.frame, at);
+  std::uint32_t bits = frame_bits_exact(p.frame);
+  if (error != Error::None) {
+    // The frame occupies the bus up to its error, then the error frame; it stays at the head of
+    // its queue and contends again (automatic retransmission).
+    const std::uint32_t stuffed = bits - kTrailerBits;
+    const std::uint32_t detect = error == Error::WrongBitrate ? kWrongBitrateDetectBits
+                                 : error == Error::Ack        ? stuffed + kAckDetectAfterCrc
+                                                              : stuffed;
+    bits = detect + kErrorFrameBits;
+  }
+  on_bus_ = OnBus{index, p.frame, bit, bit + bits, p.requested, at, time_of(bit + bits), error};
+  count_bits(bit, bits);
+  if (error != Error::None) {
+    ++error_frames_;
+    if (on_start_) on_start_(*on_bus_);
+    return;
+  }
   winner->queue.pop_front();
   --pending_;
-  const std::uint32_t bits = frame_bits_exact(p.frame);
-  on_bus_ = OnBus{index, p.frame, bit, bit + bits, p.requested, at, time_of(bit + bits)};
   ++frames_;
-  count_bits(bit, bits);
 
   IdStatistics& s = ids_[best];
   s.id = ident_of(p.frame);
@@ -126,11 +216,109 @@ void TimedBus::start(std::uint64_t bit) {
   if (on_start_) on_start_(*on_bus_);
 }
 
+TimedBus::Error TimedBus::error_of(std::size_t node, const Frame& frame, Time at) {
+  Error error = Error::None;
+  // Every fault that matches the frame counts it; expired ones go.
+  for (auto it = faults_.begin(); it != faults_.end();) {
+    ErrorFault& f = *it;
+    if (f.until && at >= *f.until) {
+      it = faults_.erase(it);
+      continue;
+    }
+    const bool match = f.node ? *f.node == node : (!f.id || *f.id == ident_of(frame));
+    if (match && f.matched++ % std::max<std::uint32_t>(f.every, 1) == 0) {
+      error = Error::Injected;
+      if (!f.until && --f.count == 0) {
+        it = faults_.erase(it);
+        continue;
+      }
+    }
+    ++it;
+  }
+  if (nodes_[node].wrong_bitrate) return Error::WrongBitrate;
+  if (error != Error::None || !check_ack_) return error;
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    if (i != node && receives(i) && nodes_[i].acknowledges) return Error::None;
+  return Error::Ack;
+}
+
 void TimedBus::finish() {
   const OnBus done = *on_bus_;
   on_bus_.reset();
   free_bit_ = done.end_bit;
+  confine(done.node, done);
+  // The frame's last 11 bits (ACK delimiter, end of frame, intermission; or error delimiter and
+  // intermission) are recessive: a bus-off node's run starts there.
+  for (Node& n : nodes_)
+    if (n.conf.state == BusState::BusOff) n.run_from = done.end_bit - kRecessiveRun;
   if (on_end_) on_end_(done);
+}
+
+// Bosch CAN 2.0 part B §8 (ISO 11898-1 fault confinement), the rules this model uses:
+// a transmitter's error TEC += 8 (rule 3), except an error-passive transmitter's ACK error
+// (exception 1 of rule 3); a receiver's error REC += 1 (rule 1); a frame sent without error
+// TEC −1 (rule 7); received without error REC −1, or from above 127 back to 127 (rule 8).
+void TimedBus::confine(std::size_t tx, const OnBus& f) {
+  Node& t = nodes_[tx];
+  const bool error = f.error != Error::None;
+  if (!t.present) return;
+  if (error) {
+    ++t.conf.error_frames_sent;
+    if (!(f.error == Error::Ack && t.conf.state == BusState::ErrorPassive))
+      t.conf.tec += kTecOnError;
+  } else if (t.conf.tec > 0) {
+    --t.conf.tec;
+  }
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    Node& n = nodes_[i];
+    if (i == tx || !n.present || n.unplugged || n.conf.state == BusState::BusOff) continue;
+    if (error || n.wrong_bitrate) {
+      ++n.conf.rec;
+      ++n.conf.error_frames_seen;
+    } else if (n.conf.rec > kRecAfterPassive) {
+      n.conf.rec = kRecAfterPassive;
+    } else if (n.conf.rec > 0) {
+      --n.conf.rec;
+    }
+    set_state(i);
+  }
+  set_state(tx);
+  if (t.conf.state == BusState::BusOff) {
+    // A bus-off controller's transmit buffer is emptied (docs/faults.md "CAN controller state").
+    t.conf.discarded += t.queue.size();
+    pending_ -= t.queue.size();
+    t.queue.clear();
+  } else if (t.conf.state == BusState::ErrorPassive) {
+    t.suspend_until = f.end_bit + kSuspendBits;
+  }
+}
+
+// Bosch CAN 2.0 part B §8: error warning at 96 (the controllers' status flag), error passive at
+// 128, bus-off when TEC exceeds 255; bus-off lasts until its recovery (recover()).
+void TimedBus::set_state(std::size_t node) {
+  Node& n = nodes_[node];
+  if (n.conf.state == BusState::BusOff) return;
+  const std::uint32_t worst = std::max(n.conf.tec, n.conf.rec);
+  const BusState s = n.conf.tec > kBusOffLimit ? BusState::BusOff
+                     : worst >= kPassiveLimit  ? BusState::ErrorPassive
+                     : worst >= kWarningLimit  ? BusState::Warning
+                                               : BusState::Ok;
+  if (s == n.conf.state) return;
+  n.conf.state = s;
+  if (s == BusState::BusOff) {
+    ++n.conf.bus_off;
+    n.recessive_runs = 0;
+  }
+  if (on_state_) on_state_(node, s);
+}
+
+void TimedBus::clear_faults(std::optional<std::size_t> node) {
+  std::erase_if(faults_, [&](const ErrorFault& f) { return !node || f.node == node; });
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    if (node && i != *node) continue;
+    nodes_[i].unplugged = false;
+    nodes_[i].wrong_bitrate = false;
+  }
 }
 
 // Second k of bus time holds bits [k·bitrate, (k+1)·bitrate): a frame across the boundary counts

@@ -13,8 +13,15 @@
 // (load over each second of bus time, frames, lost) and per identifier (frames, period, jitter,
 // queueing latency from request to start of frame).
 //
-// Pure: no sockets, no clock, no threads; time passed in. Error frames, acknowledgement and error
-// confinement are not modelled (every frame is received without error).
+// Error confinement (docs/can-bus.md "Error confinement", ISO 11898-1 / Bosch CAN 2.0 part B §8):
+// per node a transmit and a receive error counter and the state they give (error active, warning,
+// error passive, bus-off and its recovery); a frame in error occupies the bus up to its error, then
+// the error frame, and is retransmitted. Errors come from faults set on cue (error frames on an
+// identifier or a node, noise, a node unplugged or at a wrong bit rate) and, once
+// check_acknowledgement(true), from frames nobody else acknowledges. Without them every frame is
+// received without error, as before.
+//
+// Pure: no sockets, no clock, no threads; time passed in.
 #pragma once
 
 #include <cstddef>
@@ -23,8 +30,10 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <string>
 #include <vector>
 
+#include "can/channel.hpp"
 #include "can/frame.hpp"
 #include "common/time.hpp"
 
@@ -32,13 +41,37 @@ namespace candp2::can {
 
 class TimedBus {
  public:
-  // A frame on the bus: its sender (node index), its first bit and its end (after intermission),
-  // in bit times from the origin, and their time stamps.
+  // Why a frame ends in an error frame (docs/can-bus.md "Error confinement"), by where the error is
+  // detected: the sender at a wrong bit rate (at the sixth bit), a fault on cue (at the last CRC
+  // bit), nobody acknowledged (at the ACK slot).
+  enum class Error : std::uint8_t { None, WrongBitrate, Injected, Ack };
+  // A frame on the bus: its sender (node index), its first bit and its end (after intermission;
+  // after the error frame's intermission when it is in error), in bit times from the origin, and
+  // their time stamps. A frame in error is not received and stays at the head of its queue.
   struct OnBus {
     std::size_t node = 0;
     Frame frame;
     std::uint64_t start_bit = 0, end_bit = 0;
     Time requested{0}, start{0}, end{0};
+    Error error = Error::None;
+  };
+  // A node's error confinement (ISO 11898-1 fault confinement).
+  struct Confinement {
+    std::uint32_t tec = 0, rec = 0;
+    BusState state = BusState::Ok;
+    std::uint64_t error_frames_sent = 0;  // error frames in its own frames
+    std::uint64_t error_frames_seen = 0;  // error frames in the others' frames it took part in
+    std::uint64_t bus_off = 0;            // times it went bus-off
+    std::uint64_t discarded = 0;          // frames its queue held when it went bus-off
+  };
+  // Error frames on cue: on the frames of `node` or of `id` (neither: every frame, noise), one in
+  // every `every` of them, `count` times, or every such frame that starts before `until`.
+  struct ErrorFault {
+    std::optional<std::size_t> node;
+    std::optional<Ident> id;
+    std::uint32_t count = 1, every = 1;
+    std::optional<Time> until;
+    std::uint64_t matched = 0;  // frames of it seen so far
   };
   // Called when a frame starts (it won arbitration) and when it has ended (its receivers get it).
   using Hook = std::function<void(const OnBus&)>;
@@ -67,16 +100,50 @@ class TimedBus {
 
   // A node with a transmit queue of `depth` frames (FIFO: its head contends).
   std::size_t add_node(std::size_t depth);
+  // The node's name (status documents; the engine does not use it).
+  void set_name(std::size_t node, std::string name) { nodes_.at(node).name = std::move(name); }
+  const std::string& name(std::size_t node) const { return nodes_.at(node).name; }
+  bool present(std::size_t node) const { return nodes_.at(node).present; }
   // A new depth for the node's queue (frames already queued beyond it stay).
   void set_depth(std::size_t node, std::size_t depth) { nodes_.at(node).depth = depth; }
   // The node left the bus: its queue is emptied (a frame on the bus still ends).
   void remove_node(std::size_t node);
   // The node asks to send `frame` at `now` (not before the last advance). False: its queue is full
-  // and the frame is lost.
+  // and the frame is lost (counted in lost()), or the node is bus-off (not counted: its owner
+  // refuses to send while bus-off).
   bool request(std::size_t node, const Frame& frame, Time now);
 
   void on_start(Hook hook) { on_start_ = std::move(hook); }
   void on_end(Hook hook) { on_end_ = std::move(hook); }
+  // Called when a node's confinement state changes (after the frame that changed it, or at its
+  // bus-off recovery).
+  void on_state(std::function<void(std::size_t node, BusState)> hook) {
+    on_state_ = std::move(hook);
+  }
+
+  // ---- error confinement and faults on cue (docs/can-bus.md "Error confinement") -----------
+  // With it, a frame that no other node acknowledges (present, plugged, at the bus's bit rate,
+  // not bus-off) is an ACK error. Without it (the default) every frame is acknowledged: the bus
+  // as a timing model alone.
+  void check_acknowledgement(bool on) { check_ack_ = on; }
+  // Error frames on cue (at each start of frame from now on).
+  void inject_errors(const ErrorFault& fault) { faults_.push_back(fault); }
+  // The node sends nothing (its queue waits), acknowledges nothing, gets nothing.
+  void set_unplugged(std::size_t node, bool on) { nodes_.at(node).unplugged = on; }
+  // The node runs at another bit rate: its frames are errors for all, the others' for it.
+  void set_wrong_bitrate(std::size_t node, bool on) { nodes_.at(node).wrong_bitrate = on; }
+  bool wrong_bitrate(std::size_t node) const { return nodes_.at(node).wrong_bitrate; }
+  // A node that receives but never acknowledges (a listen-only analyser): false.
+  void set_acknowledges(std::size_t node, bool on) { nodes_.at(node).acknowledges = on; }
+  // Cancels a node's faults (error frames on it, unplugged, wrong bit rate), or with nullopt
+  // every fault on the bus.
+  void clear_faults(std::optional<std::size_t> node);
+  const Confinement& confinement(std::size_t node) const { return nodes_.at(node).conf; }
+  // The node takes a frame that ends without error: present, plugged, at the bus's bit rate and
+  // not bus-off.
+  bool receives(std::size_t node) const;
+  std::uint64_t error_frames() const { return error_frames_; }
+  std::size_t nodes() const { return nodes_.size(); }
 
   // When the bus next needs advancing: the end of the frame on it, or the start of the next.
   std::optional<Time> next_deadline() const;
@@ -91,6 +158,7 @@ class TimedBus {
   bool busy() const { return on_bus_.has_value(); }
   std::size_t queued(std::size_t node) const { return nodes_.at(node).queue.size(); }
 
+  // Frames put on the bus without error (a frame in error counts in error_frames()).
   std::uint64_t frames() const { return frames_; }
   std::uint64_t lost() const { return lost_; }
   std::uint64_t busy_bits() const { return busy_bits_; }
@@ -108,11 +176,28 @@ class TimedBus {
     std::size_t depth = 0;
     bool present = true;
     std::deque<Pending> queue;
+    bool unplugged = false, wrong_bitrate = false, acknowledges = true;
+    std::string name;
+    Confinement conf;
+    std::uint64_t suspend_until = 0;  // error passive: no start of frame before this bit
+    // Bus-off recovery: occurrences of 11 recessive bits counted, and where the current recessive
+    // run began (nullopt while a frame is on the bus).
+    std::uint32_t recessive_runs = 0;
+    std::optional<std::uint64_t> run_from;
   };
+  // The node may start a frame at `bit` (present, plugged, not bus-off, not suspended, a frame
+  // requested by then).
+  bool contends(const Node& n, std::uint64_t bit) const;
   // The bit the next frame may start at (nullopt: nothing queued).
   std::optional<std::uint64_t> next_start() const;
+  // The first bit a bus-off node recovers at, if the bus stays idle.
+  std::optional<std::uint64_t> next_recovery() const;
+  void recover(std::uint64_t bit);
   void start(std::uint64_t bit);
+  Error error_of(std::size_t node, const Frame& frame, Time at);
   void finish();
+  void confine(std::size_t node, const OnBus& f);
+  void set_state(std::size_t node);
   void count_bits(std::uint64_t from, std::uint64_t bits);
 
   std::uint32_t bitrate_;
@@ -122,6 +207,10 @@ class TimedBus {
   std::uint64_t free_bit_ = 0;  // the first bit after the last frame
   std::size_t pending_ = 0;     // frames in all queues
   Hook on_start_, on_end_;
+  std::function<void(std::size_t, BusState)> on_state_;
+  bool check_ack_ = false;
+  std::vector<ErrorFault> faults_;
+  std::uint64_t error_frames_ = 0;
   std::uint64_t frames_ = 0, lost_ = 0, busy_bits_ = 0;
   std::uint64_t window_ = 0;       // the second of bus time being counted
   std::uint64_t window_bits_ = 0;  // busy bits in it

@@ -12,9 +12,54 @@ VirtualEndpoint::~VirtualEndpoint() {
   if (bus_) bus_->detach(this);
 }
 
+// On a bus in time: the worse of the forced state and the node's error confinement
+// (docs/can-bus.md "Error confinement").
 BusState VirtualEndpoint::bus_state() const {
-  if (state_override_) return *state_override_;
-  return bus_ ? bus_->bus_state() : BusState::BusOff;
+  if (!bus_) return BusState::BusOff;
+  const BusState forced = state_override_ ? *state_override_ : bus_->bus_state();
+  if (const auto* c = confinement()) return std::max(forced, c->state);
+  return forced;
+}
+
+const TimedBus::Confinement* VirtualEndpoint::confinement() const {
+  if (!bus_ || !bus_->timed_) return nullptr;
+  return &bus_->timed_->confinement(node_);
+}
+
+void VirtualEndpoint::set_unplugged(bool on) {
+  if (!bus_ || !bus_->timed_) return;
+  bus_->timed_->set_unplugged(node_, on);
+  bus_->changed();
+}
+
+void VirtualEndpoint::set_wrong_bitrate(bool on) {
+  wrong_bitrate_cue_ = on;
+  apply_wrong_bitrate();
+}
+
+void VirtualEndpoint::set_own_bitrate(std::optional<std::uint32_t> bitrate) {
+  const bool wrong = bus_ && bus_->timed_ && bitrate && *bitrate != bus_->timed_->bitrate();
+  if (wrong == wrong_bitrate_own_) return;
+  wrong_bitrate_own_ = wrong;
+  apply_wrong_bitrate();
+}
+
+void VirtualEndpoint::apply_wrong_bitrate() {
+  if (!bus_ || !bus_->timed_) return;
+  bus_->timed_->set_wrong_bitrate(node_, wrong_bitrate_cue_ || wrong_bitrate_own_);
+  bus_->changed();
+}
+
+void VirtualEndpoint::clear_faults() {
+  if (!bus_ || !bus_->timed_) return;
+  bus_->timed_->clear_faults(node_);
+  wrong_bitrate_cue_ = false;
+  apply_wrong_bitrate();
+}
+
+void VirtualEndpoint::set_acknowledges(bool on) {
+  acknowledges_ = on;
+  if (bus_ && bus_->timed_) bus_->timed_->set_acknowledges(node_, on);
 }
 
 void VirtualEndpoint::send(const Frame& frame) {
@@ -59,11 +104,16 @@ void VirtualBus::set_bitrate(std::uint32_t bitrate, Time origin) {
   timed_ = std::make_unique<TimedBus>(bitrate, origin);
   timed_->on_start([this](const TimedBus::OnBus& f) { started(f); });
   timed_->on_end([this](const TimedBus::OnBus& f) { ended(f); });
+  // docs/can-bus.md "Error confinement": a frame nobody else acknowledges is an ACK error.
+  timed_->check_acknowledgement(true);
+  timed_->on_state([this](std::size_t, BusState) { changed(); });
   for (auto* ep : endpoints_) attach_timed(ep);
 }
 
 void VirtualBus::attach_timed(VirtualEndpoint* ep) {
   ep->node_ = timed_->add_node(ep->tx_queue_.depth);
+  timed_->set_acknowledges(ep->node_, ep->acknowledges_);
+  timed_->set_name(ep->node_, ep->name_);
   nodes_.push_back(ep);
 }
 
@@ -72,18 +122,39 @@ void VirtualEndpoint::set_tx_queue(TxQueue q) {
   if (bus_ && bus_->timed_) bus_->timed_->set_depth(node_, q.depth);
 }
 
-// The frame won arbitration: it is on the bus from its start of frame (the taps' time stamp).
+// The frame won arbitration: it is on the bus from its start of frame (the taps' time stamp). A
+// frame that ends in an error frame is nobody's frame: the taps see it when it gets through.
 void VirtualBus::started(const TimedBus::OnBus& f) {
+  if (f.error != TimedBus::Error::None) return;
   ++frames_sent_;
   const VirtualEndpoint* from = nodes_[f.node];
   const std::string_view sender = from ? std::string_view(from->name()) : std::string_view();
   for (const auto& tap : taps_) tap(f.frame, f.start, sender);
 }
 
-// Its last bit has passed: every other node has it.
+// Its last bit has passed: every other node that takes part in traffic has it (not one unplugged,
+// at a wrong bit rate or bus-off); a frame in error nobody has.
 void VirtualBus::ended(const TimedBus::OnBus& f) {
   changed();
+  if (f.error != TimedBus::Error::None) return;
   deliver_all(nodes_[f.node], f.frame);
+}
+
+bool VirtualBus::inject_errors(const TimedBus::ErrorFault& fault) {
+  if (!timed_) return false;
+  timed_->inject_errors(fault);
+  changed();
+  return true;
+}
+
+void VirtualBus::clear_faults() {
+  if (!timed_) return;
+  timed_->clear_faults(std::nullopt);
+  for (auto* ep : endpoints_) {
+    ep->wrong_bitrate_cue_ = false;
+    ep->apply_wrong_bitrate();
+  }
+  changed();
 }
 
 void VirtualEndpoint::inject_rx_lost(std::uint32_t n) {
@@ -116,6 +187,7 @@ void VirtualBus::deliver_all(VirtualEndpoint* from, const Frame& frame) {
   for (std::size_t i = 0; i < endpoints_.size(); ++i) {
     VirtualEndpoint* ep = endpoints_[i];
     if (ep == from && !ep->receive_own_) continue;
+    if (timed_ && ep != from && !timed_->receives(ep->node_)) continue;
     ep->deliver(frame);
   }
 }

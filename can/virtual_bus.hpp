@@ -68,6 +68,21 @@ class VirtualEndpoint final : public Channel {
   // Fault injection for this endpoint's controller only; nullopt follows the bus state.
   void set_bus_state_override(std::optional<BusState> s);
 
+  // ---- on a bus in time (docs/can-bus.md "Error confinement"; ideal bus: no effect) ---------
+  // The node's error confinement (nullptr on an ideal bus or a detached endpoint).
+  const TimedBus::Confinement* confinement() const;
+  std::size_t timed_node() const { return node_; }
+  // Faults on cue: the node unplugged, at a wrong bit rate; clear_faults() cancels them and the
+  // error frames on cue on this node.
+  void set_unplugged(bool on);
+  void set_wrong_bitrate(bool on);
+  void clear_faults();
+  // The bit rate the node's controller was set to (a gateway's Set_Prm); one other than the bus's
+  // makes it a node at a wrong bit rate, as on a real bus. nullopt: not set (no effect).
+  void set_own_bitrate(std::optional<std::uint32_t> bitrate);
+  // False: the node receives but never acknowledges (a listen-only analyser).
+  void set_acknowledges(bool on);
+
  private:
   friend class VirtualBus;
   VirtualEndpoint(VirtualBus* bus, std::string name, bool receive_own, std::size_t limit);
@@ -83,6 +98,9 @@ class VirtualEndpoint final : public Channel {
   std::uint32_t rx_lost_ = 0;
   std::uint32_t tx_dropped_ = 0;
   std::optional<BusState> state_override_;
+  bool wrong_bitrate_cue_ = false, wrong_bitrate_own_ = false;
+  bool acknowledges_ = true;
+  void apply_wrong_bitrate();
 };
 
 class VirtualBus {
@@ -127,6 +145,12 @@ class VirtualBus {
   void set_bitrate(std::uint32_t bitrate, Time origin);
   // The engine (statistics); nullptr on an ideal bus.
   const TimedBus* timed() const { return timed_.get(); }
+  // Error frames on cue on the bus in time (docs/can-bus.md "Error confinement"); false on an
+  // ideal bus. A fault on a node names its endpoint's timed_node().
+  bool inject_errors(const TimedBus::ErrorFault& fault);
+  // Cancels every fault on the bus in time (error frames, noise, nodes unplugged or at a wrong
+  // bit rate on cue).
+  void clear_faults();
   // When the bus in time next needs advancing; nullopt on an ideal bus.
   std::optional<Time> next_deadline() const {
     return timed_ ? timed_->next_deadline() : std::nullopt;

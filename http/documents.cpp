@@ -175,6 +175,24 @@ void MetricsBuild::timed_buses() {
   each([&](const std::string& bus, const can::TimedBus& t) {
     line("candp2_bus_tx_lost_total", "bus=\"" + bus + "\"", t.lost());
   });
+  family("candp2_bus_error_frames_total", "counter",
+         "bus in time: error frames (frames that ended in an error and were sent again)");
+  each([&](const std::string& bus, const can::TimedBus& t) {
+    line("candp2_bus_error_frames_total", "bus=\"" + bus + "\"", t.error_frames());
+  });
+  // docs/can-bus.md "Error confinement": each node's error counters.
+  auto per_node = [&](std::string_view name, std::string_view help, auto value) {
+    family(name, "gauge", help);
+    each([&](const std::string& bus, const can::TimedBus& t) {
+      for (std::size_t n = 0; n < t.nodes(); ++n)
+        if (t.present(n))
+          line(name, "bus=\"" + bus + "\",node=\"" + t.name(n) + "\"", value(t.confinement(n)));
+    });
+  };
+  per_node("candp2_can_node_tec", "bus in time: the node's transmit error counter",
+           [](const can::TimedBus::Confinement& c) { return std::uint64_t{c.tec}; });
+  per_node("candp2_can_node_rec", "bus in time: the node's receive error counter",
+           [](const can::TimedBus::Confinement& c) { return std::uint64_t{c.rec}; });
   auto per_id = [&](std::string_view name, std::string_view type, std::string_view help,
                     auto value) {
     family(name, type, help);

@@ -379,11 +379,23 @@ json StatusModel::timed_json(const can::TimedBus& t, Time now) {
                     {{"last", ms(s.latency_last)},
                      {"mean", ms(s.latency_mean())},
                      {"max", ms(s.latency_max)}}}});
+  // docs/can-bus.md "Error confinement": each node present on the bus, its counters and state.
+  json nodes = json::array();
+  for (std::size_t n = 0; n < t.nodes(); ++n) {
+    if (!t.present(n)) continue;
+    const can::TimedBus::Confinement& c = t.confinement(n);
+    nodes.push_back({{"name", t.name(n)},
+                     {"tec", c.tec},
+                     {"rec", c.rec},
+                     {"state", std::string(can::to_string(c.state))}});
+  }
   return {{"timed_bitrate", t.bitrate()},
           {"load", {{"last_pct", load.last_pct}, {"max_pct", load.max_pct}}},
           {"frames_on_bus", t.frames()},
           {"tx_lost", t.lost()},
-          {"identifiers", std::move(ids)}};
+          {"error_frames", t.error_frames()},
+          {"identifiers", std::move(ids)},
+          {"nodes", std::move(nodes)}};
 }
 
 json StatusModel::drive_json(std::size_t i) const {

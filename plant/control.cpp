@@ -163,10 +163,76 @@ bool Plant::line_fault(const LineFault& fault, Time now, std::string_view origin
 
 bool Plant::can_fault(const CanFault& fault, Time now, std::string_view origin) {
   set_now(now);
-  // Not applied yet: the timed bus's error confinement takes it (docs/faults.md "CAN faults").
-  log_.warn("CAN fault " + std::string(to_string(fault.kind)) + " requested " +
-            std::string(origin) + " ignored: CAN faults on cue are not applied yet");
-  return false;
+  // docs/faults.md "CAN faults on cue": the node (a gateway by DP address, a drive by name) or the
+  // bus, then its bus in time.
+  can::VirtualEndpoint* node = nullptr;
+  std::string name = fault.bus;
+  BusUnit* b = fault.bus.empty() ? nullptr : bus(fault.bus);
+  auto refuse = [&](const std::string& why) {
+    log_.warn("CAN fault " + std::string(to_string(fault.kind)) + " requested " +
+              std::string(origin) + " ignored: " + why);
+    return false;
+  };
+  if (fault.node.gateway) {
+    GatewayUnit* g = gateway_at(*fault.node.gateway);
+    if (!g) return refuse("no gateway at DP address " + std::to_string(*fault.node.gateway));
+    if (!g->endpoint_) return refuse("gateway " + g->name() + " is not on a virtual bus");
+    node = g->endpoint_;
+    name = g->name();
+    if (!b) b = g->bus_;
+    if (b != g->bus_) return refuse("gateway " + g->name() + " is not on bus " + fault.bus);
+  } else if (!fault.node.drive.empty()) {
+    DriveUnit* d = drive(fault.node.drive);
+    if (!d) return refuse("no drive \"" + fault.node.drive + "\"");
+    node = d->endpoint_.get();
+    name = d->name();
+    BusUnit* db = bus(d->config().bus);
+    if (!b) b = db;
+    if (b != db) return refuse("drive " + d->name() + " is not on bus " + fault.bus);
+  }
+  if (!b)
+    return refuse(fault.bus.empty() ? "it names no bus and no node"
+                                    : "no bus \"" + fault.bus + "\"");
+  can::VirtualBus* vb = b->virtual_bus();
+  if (!vb || !vb->timed())
+    return refuse("bus " + b->name() + " has no bit rate ($.buses." + b->name() +
+                  ".bitrate, docs/can-bus.md)");
+  const bool needs_node =
+      fault.kind == CanFaultKind::Unplugged || fault.kind == CanFaultKind::WrongBitrate;
+  if (needs_node && !node) return refuse("it names no node (a gateway or a drive)");
+  std::string what = "CAN fault " + std::string(to_string(fault.kind));
+  can::TimedBus::ErrorFault e;
+  switch (fault.kind) {
+    case CanFaultKind::None:
+      node ? node->clear_faults() : vb->clear_faults();
+      break;
+    case CanFaultKind::Unplugged:
+      node->set_unplugged(true);
+      break;
+    case CanFaultKind::WrongBitrate:
+      node->set_wrong_bitrate(true);
+      break;
+    case CanFaultKind::ErrorFrames:
+    case CanFaultKind::Noise:
+      if (fault.kind == CanFaultKind::Noise && !fault.duration)
+        return refuse("noise needs a duration (for_ms)");
+      if (fault.kind == CanFaultKind::ErrorFrames) {
+        if (node) e.node = node->timed_node();
+        e.id = fault.id;
+        e.count = fault.count;
+        e.every = fault.every;
+        if (fault.id) what += " on " + can::ident_text(*fault.id);
+      }
+      if (fault.duration) e.until = now_ + *fault.duration;
+      vb->inject_errors(e);
+      what += fault.duration ? " for " + std::to_string(fault.duration->count() / 1000) + " ms"
+                             : ", " + std::to_string(fault.count) + " frame(s)";
+      if (fault.every > 1) what += ", one in every " + std::to_string(fault.every);
+      break;
+  }
+  log_.warn(name + ": " + what + " " + std::string(origin));
+  tap_note(name + ": " + what, now_);
+  return true;
 }
 
 bool Plant::line_noise(Duration duration, std::string_view origin) {

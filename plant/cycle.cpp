@@ -21,6 +21,10 @@ void GatewayUnit::receive(const can::Frame& frame, Time now) {
 }
 
 void GatewayUnit::update_controller() {
+  // docs/can-bus.md "Error confinement": a gateway whose Set_Prm bit rate is not its timed bus's
+  // cannot talk on it (its frames and the others' are errors to it).
+  if (endpoint_ && gateway_->user_prm())
+    endpoint_->set_own_bitrate(gw::bitrate_bps(gateway_->user_prm()->bitrate_index));
   // Given again only when it changed: the same state twice changes nothing in the engine, nor
   // what it waits for.
   const std::pair state{faults_.state(channel_->bus_state()), faults_.rx_lost(channel_->rx_lost())};

@@ -136,16 +136,30 @@ std::string expect_field_text(const Step& st, std::string s) {
   return s + " +" + std::to_string(st.offset) + ": " + st.pattern.text() + within(st);
 }
 
+// The line faults' and CAN faults' shared vocabulary: for a time or a count, one in every.
+std::string amount_text(const std::optional<Duration>& duration, std::uint32_t count,
+                        std::uint32_t every) {
+  std::string s = duration ? " for " + ms_text(*duration) : " count " + std::to_string(count);
+  if (every > 1) s += " every " + std::to_string(every);
+  return s;
+}
 std::string line_fault_text(const Step& st, std::string s) {
   const plant::LineFault& f = st.line_fault;
   s += ' ';  // not `" " + ...`: GCC 12 -O3 false -Wrestrict
   s += plant::to_string(f.kind);
   if (f.kind != plant::LineFaultKind::Noise) s += " station " + std::to_string(f.station);
-  if (f.duration)
-    s += " for " + ms_text(*f.duration);
-  else
-    s += " count " + std::to_string(f.count);
-  if (f.every > 1) s += " every " + std::to_string(f.every);
+  return s + amount_text(f.duration, f.count, f.every);
+}
+std::string can_fault_text(const Step& st, std::string s) {
+  const plant::CanFault& f = st.can_fault;
+  s += ' ';
+  s += plant::to_string(f.kind);
+  if (f.node.gateway) s += " gateway " + std::to_string(*f.node.gateway);
+  if (!f.node.drive.empty()) s += " drive " + f.node.drive;
+  if (!f.bus.empty()) s += " bus " + f.bus;
+  if (f.id) s += " id " + can::ident_text(*f.id);
+  if (f.kind == plant::CanFaultKind::ErrorFrames || f.kind == plant::CanFaultKind::Noise)
+    s += amount_text(f.duration, f.count, f.every);
   return s;
 }
 std::string expect_line_text(const Step& st, std::string s) {
@@ -338,6 +352,14 @@ constexpr ActionSpec kTable[] = {
      line_fault_text},
     {Action::ExpectLine, "expect_line", K::ExpectPolled, T::None, kWithin, parse_expect_line,
      &Sim::expect_line, expect_line_text},
+    {Action::CanFault,
+     "can_fault",
+     K::Act,
+     T::None,
+     {},
+     parse_can_fault,
+     &Sim::can_fault,
+     can_fault_text},
 };
 
 // One row per action, in the enum's order, each with its key; an expectation names its window key.

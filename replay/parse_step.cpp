@@ -306,6 +306,95 @@ void parse_line_fault(Step& s, const StepInput& in) {
   f.every = get_uint<std::uint32_t>(w, "every", 1, 1, 65535, "requests");
 }
 
+// can_fault: {"bus", "gateway", "drive", "id", "kind", "count", "every", "for_ms"}
+// (docs/replay-format.md, docs/faults.md "CAN faults on cue").
+void parse_can_fault(Step& s, const StepInput& in) {
+  const Object w(in.value, in.path,
+                 {"bus", "gateway", "drive", "id", "kind", "count", "every", "for_ms"});
+  const std::string kind = as_string(w.at("kind"), w.path("kind"), "a fault kind");
+  const auto parsed = plant::can_fault_kind(kind);
+  if (!parsed)
+    fail(w.path("kind"),
+         "expected none, error_frames, unplugged, wrong_bitrate or noise, got \"" + kind + "\"");
+  plant::CanFault& f = s.can_fault;
+  f.kind = *parsed;
+  const auto& inst = in.scenario.installation;
+  std::string node_bus;
+  if (w.has("gateway") && w.has("drive"))
+    fail(w.path("drive"), "give \"gateway\" or \"drive\", not both");
+  if (w.has("gateway")) {
+    const auto a = static_cast<std::uint8_t>(
+        as_uint(w.at("gateway"), w.path("gateway"), 0, 126, "(a DP address)"));
+    const auto g = std::find_if(inst.gateways.begin(), inst.gateways.end(),
+                                [&](const auto& c) { return c.dp_address() == a; });
+    if (g == inst.gateways.end())
+      fail(w.path("gateway"),
+           "no gateway of the configuration has DP address " + std::to_string(a));
+    f.node.gateway = a;
+    node_bus = g->bus;
+  }
+  if (w.has("drive")) {
+    f.node.drive = as_string(w.at("drive"), w.path("drive"), "a drive's name");
+    const auto d = std::find_if(inst.drives.begin(), inst.drives.end(),
+                                [&](const auto& c) { return c.name == f.node.drive; });
+    if (d == inst.drives.end())
+      fail(w.path("drive"), "no drive of the configuration is named \"" + f.node.drive + "\"");
+    node_bus = d->bus;
+  }
+  if (w.has("bus")) {
+    f.bus = as_string(w.at("bus"), w.path("bus"), "a bus's name");
+    if (!node_bus.empty() && node_bus != f.bus)
+      fail(w.path("bus"), "the node is on bus \"" + node_bus + "\", not \"" + f.bus + "\"");
+  } else if (node_bus.empty()) {
+    fail(in.path, "needs \"bus\", \"gateway\" or \"drive\"");
+  }
+  const std::string bus_name = f.bus.empty() ? node_bus : f.bus;
+  const auto b = std::find_if(inst.buses.begin(), inst.buses.end(),
+                              [&](const auto& c) { return c.name == bus_name; });
+  if (b == inst.buses.end()) fail(w.path("bus"), "no bus \"" + bus_name + "\"");
+  if (!b->timed_bitrate)
+    fail(in.path, "needs a bus in time: give bus \"" + bus_name + "\" a bit rate ($.buses." +
+                      bus_name + ".bitrate, docs/can-bus.md)");
+  if (w.has("id")) {
+    const std::string text = as_string(w.at("id"), w.path("id"), "an identifier like \"201\"");
+    const auto r = can::parse_candump(text + "#");
+    if (!r)
+      fail(w.path("id"),
+           "expected an identifier as candump writes it (\"201\", \"18FF0001\"), got \"" + text +
+               "\"");
+    f.id = can::ident_of(*r.frame);
+  }
+  if (w.has("for_ms")) f.duration = as_ms(w.at("for_ms"), w.path("for_ms"));
+  const bool node = f.node.any();
+  const bool counted = f.kind == plant::CanFaultKind::ErrorFrames;
+  if (!counted)
+    for (const char* k : {"count", "every"})
+      if (w.has(k)) fail(w.path(k), "only error_frames takes \"" + std::string(k) + "\"");
+  switch (f.kind) {
+    case plant::CanFaultKind::None:
+    case plant::CanFaultKind::Unplugged:
+    case plant::CanFaultKind::WrongBitrate:
+      if (w.has("id")) fail(w.path("id"), kind + " is a node's (or the bus's): no \"id\"");
+      if (w.has("for_ms")) fail(w.path("for_ms"), kind + " lasts until a can_fault none");
+      if (f.kind != plant::CanFaultKind::None && !node)
+        fail(in.path, kind + " needs a node: \"gateway\" or \"drive\"");
+      break;
+    case plant::CanFaultKind::Noise:
+      for (const char* k : {"gateway", "drive", "id"})
+        if (w.has(k)) fail(w.path(k), "noise is on the whole bus: give \"bus\" and \"for_ms\"");
+      if (!f.duration) fail(in.path, "noise needs \"for_ms\"");
+      break;
+    case plant::CanFaultKind::ErrorFrames:
+      if (node && f.id) fail(w.path("id"), "give a node or \"id\", not both");
+      if (!node && !f.id) fail(in.path, "error_frames needs \"gateway\", \"drive\" or \"id\"");
+      if (w.has("count") && f.duration)
+        fail(w.path("count"), "give \"count\" or \"for_ms\", not both");
+      f.count = get_uint<std::uint32_t>(w, "count", 1, 1, 65535, "frames");
+      f.every = get_uint<std::uint32_t>(w, "every", 1, 1, 65535, "frames");
+      break;
+  }
+}
+
 // expect_line: {"station", the counters of fdl::kStationCounters, "live", "bus_cycle_us":
 // {"max_le"}} (docs/replay-format.md).
 void parse_expect_line(Step& s, const StepInput& in) {

@@ -19,6 +19,7 @@
 #include "common/time.hpp"
 #include "config/config.hpp"
 #include "gateway/page_mode.hpp"
+#include "plant/can_fault.hpp"
 #include "plant/line_fault.hpp"
 #include "plc/page_driver.hpp"
 #include "profibus_sim/dp/dp_slave.hpp"
@@ -94,7 +95,9 @@ enum class Action : std::uint8_t {
   // The line in time (docs/faults.md "Line faults", docs/profibus.md "Line statistics").
   LineFault,   // line_fault: a station's answers corrupt/silent/late/double_address, or noise
   ExpectLine,  // expect_line: a station's line counters and live state, the bus cycle
-  Count,       // not an action: the number of actions (the action table's size)
+  // The CAN bus in time (docs/faults.md "CAN faults on cue", docs/can-bus.md).
+  CanFault,  // can_fault: error frames on a node or an identifier, unplugged, wrong bit rate, noise
+  Count,     // not an action: the number of actions (the action table's size)
 };
 std::string_view to_string(Action a);
 
@@ -130,6 +133,8 @@ struct Step {
   std::vector<std::pair<std::string, std::uint32_t>> counters;
   // line_fault (docs/replay-format.md): the fault as the plant takes it, kind parsed once.
   plant::LineFault line_fault;
+  // can_fault (docs/replay-format.md): the fault as the plant takes it.
+  plant::CanFault can_fault;
   // expect_line: the station's DP address (none: only the bus cycle), the bus cycle's bound in µs.
   std::optional<std::uint8_t> station;
   std::optional<Duration> duration;

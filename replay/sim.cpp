@@ -35,6 +35,9 @@ Sim::Sim(const Scenario& sc, RunResult& res, LogLevel level)
   for (auto& b : plant_->buses()) {
     testers_.push_back(b->virtual_bus()->endpoint(std::string(kTesterNode)));
     testers_.back()->set_tx_queue(can::kTesterTxQueue);
+    // docs/can-bus.md "Error confinement": the tester listens like an analyser in listen-only
+    // mode; a gateway alone on its bus with it is alone (nobody acknowledges its frames).
+    testers_.back()->set_acknowledges(false);
   }
   if (sc.driver) setup_driver(*sc.driver);
 }

@@ -75,6 +75,7 @@ class Sim final : private plant::Tap {
   void field_write(const Step& s, StepResult& r);
   void expect_field(const Step& s, StepResult& r);
   void line_fault(const Step& s, StepResult& r);
+  void can_fault(const Step& s, StepResult& r);
   void expect_line(const Step& s, StepResult& r);
 
  private:

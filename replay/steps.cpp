@@ -400,6 +400,15 @@ void Sim::line_fault(const Step& s, StepResult& r) {
   }
 }
 
+// ------------------------------------------------- the CAN bus in time (docs/faults.md)
+
+void Sim::can_fault(const Step& s, StepResult& r) {
+  if (!plant_->can_fault(s.can_fault, now_, kOrigin)) {
+    r.passed = false;
+    r.detail = "the plant refused the CAN fault (see the log)";
+  }
+}
+
 // The station's counters as an analyser on the line counts them (docs/profibus.md "Line
 // statistics"), its live state and the measured bus cycle.
 void Sim::expect_line(const Step& s, StepResult& r) {

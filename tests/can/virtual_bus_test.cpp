@@ -149,6 +149,60 @@ TEST(VirtualBusInTime, LostPastTheQueueCountedWhereTheDeviceCountsIt) {
   EXPECT_EQ(bus.timed()->lost(), 2u);
 }
 
+// docs/can-bus.md "Error confinement": an endpoint's state is the worse of the forced one and its
+// node's; a node at its own bit rate other than the bus's gets nothing and its frames are errors;
+// a node that does not acknowledge leaves a sender alone.
+// A 125 kbit/s bus on its own clock, advanced event by event (at most `events`).
+struct Clocked {
+  VirtualBus bus;
+  Time now{0};
+  Clocked() {
+    bus.use_clock(&now);
+    bus.set_bitrate(125000, Time(0));
+  }
+  void run(int events) {
+    for (int k = 0; k < events && bus.next_deadline(); ++k) {
+      now = *bus.next_deadline();
+      bus.advance(now);
+    }
+  }
+};
+
+TEST(VirtualBusInTime, AnEndpointsStateIsTheWorseOfForcedAndConfinement) {
+  Clocked c;
+  VirtualBus& bus = c.bus;
+  auto a = bus.endpoint("a");
+  auto b = bus.endpoint("b");
+  auto tester = bus.endpoint("tester");
+  tester->set_acknowledges(false);
+  a->set_bus_state_override(BusState::Warning);
+  EXPECT_EQ(a->bus_state(), BusState::Warning);  // forced, confinement ok
+  a->set_bus_state_override(std::nullopt);
+  b->set_own_bitrate(125000);  // its Set_Prm says the bus's rate: no effect
+  a->set_own_bitrate(250000);  // another rate: a node at a wrong bit rate
+  const std::uint64_t before = bus.changes();
+  b->send(*parse_candump("080#").frame);
+  c.run(200);
+  EXPECT_GT(bus.changes(), before);
+  // b's frame: nobody acknowledges (a at a wrong rate, the tester listen-only): ACK errors to
+  // error passive; a's REC rises with each, the tester's too, and neither gets the frame.
+  EXPECT_EQ(b->bus_state(), BusState::ErrorPassive);
+  EXPECT_EQ(b->confinement()->tec, 128u);
+  EXPECT_GE(a->confinement()->rec, 16u);
+  EXPECT_FALSE(a->receive());
+  EXPECT_FALSE(tester->receive());
+  EXPECT_EQ(bus.frames_sent(), 0u);
+  // a back at the bus's rate acknowledges: b's next attempt gets through, to a and the tester.
+  a->set_own_bitrate(125000);
+  c.run(1000);
+  EXPECT_EQ(format_candump(*a->receive()), "080#");
+  EXPECT_EQ(format_candump(*tester->receive()), "080#");
+  EXPECT_EQ(b->confinement()->tec, 127u);
+  EXPECT_EQ(b->bus_state(), BusState::Warning);
+  a->set_bus_state_override(BusState::BusOff);
+  EXPECT_EQ(a->bus_state(), BusState::BusOff);  // forced worse than its confinement
+}
+
 TEST(VirtualBusInTime, IdealBusHasNoDeadline) {
   VirtualBus bus;
   auto a = bus.endpoint("a");

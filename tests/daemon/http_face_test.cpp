@@ -183,6 +183,12 @@ struct TimedFace : Face {
     std::string t = kConfig;
     const std::string bus = R"("can0": { "type": "virtual" })";
     t.replace(t.find(bus), bus.size(), R"("can0": { "type": "virtual", "bitrate": "125k" })");
+    // docs/can-bus.md "Error confinement": gw3 at the bus's bit rate, and a drive beside it that
+    // acknowledges its frames (alone, each would be an ACK error); it listens on 0x27F only.
+    const std::string rate = R"("can_bitrate": "500k" },)";
+    t.replace(t.find(rate), rate.size(), R"("can_bitrate": "125k" },)");
+    t.replace(t.rfind("] }"), 3, R"(] }],
+  "drives": [ { "type": "unitek", "name": "ack", "bus": "can0", "rx_id": "0x27F", "tx_id": "0x1FF" })");
     return t;
   }
 };
@@ -221,6 +227,15 @@ TEST_F(TimedFace, TheStatusAndTheMetricsShowTheBusInTime) {
             std::string::npos);
   EXPECT_NE(text.find("candp2_can_id_frames_total{bus=\"can0\",id=\"513\"} 1\n"),
             std::string::npos);
+  EXPECT_NE(text.find("candp2_bus_error_frames_total{bus=\"can0\"} 0\n"), std::string::npos);
+  EXPECT_NE(text.find("candp2_can_node_tec{bus=\"can0\",node=\"gw:gw3\"} 0\n"), std::string::npos);
+  // The nodes' error confinement (docs/can-bus.md "Error confinement").
+  const json& nodes = later["buses"][0]["nodes"];
+  ASSERT_EQ(nodes.size(), 2u) << nodes.dump();
+  EXPECT_EQ(nodes[0]["name"], "gw:gw3");
+  EXPECT_EQ(nodes[0]["state"], "ok");
+  EXPECT_EQ(nodes[1]["name"], "drive:ack");
+  EXPECT_EQ(later["buses"][0]["error_frames"], 0);
 }
 
 using test::run_round;

@@ -128,6 +128,8 @@ TEST(ReplayGolden, TheParsersAnswers) {
       R"({"expect_field": {"offset": 1, "bytes": "01"}})",
       R"({"line_fault": {"station": 5, "kind": "corrupt"}})",
       R"({"expect_line": {"station": 5, "repeats": 0}})",
+      R"({"can_fault": {"gateway": 5, "kind": "bogus"}})",
+      R"({"can_fault": {"gateway": 5, "kind": "unplugged"}})",
   };
   std::string out;
   for (const char* step : steps) {

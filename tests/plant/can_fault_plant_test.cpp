@@ -1,0 +1,105 @@
+// CAN faults on cue and error confinement in the plant (docs/faults.md "CAN faults on cue",
+// docs/can-bus.md "Error confinement"): a gateway's Set_Prm bit rate against its timed bus's,
+// Plant::can_fault resolving a gateway to its node, and its refusals.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <variant>
+
+#include "config/config.hpp"
+#include "plant/plant.hpp"
+
+namespace candp2 {
+namespace {
+
+// gw3 with one output slot (sent at its first Data_Exchange) on a 125 kbit/s bus; `rate` its
+// Set_Prm bit rate.
+std::string config(const char* rate, const char* bus_rate) {
+  return std::string(R"({
+  "master": { "address": 1, "cycle_ms": 10 },
+  "buses": { "can0": { "type": "virtual")") +
+         (bus_rate ? std::string(", \"bitrate\": \"") + bus_rate + "\"" : std::string()) +
+         R"( } },
+  "gateways": [ { "name": "gw3", "address": 3, "bus": "can0",
+                  "parameters": { "can_bitrate": ")" +
+         rate + R"(" },
+                  "slots": [ { "io": "output", "address": 0, "length": 2, "comment": "02,01,00" } ] } ]
+})";
+}
+
+struct Bench {
+  config::DaemonConfig cfg;
+  std::unique_ptr<plant::Plant> plant;
+  std::unique_ptr<can::VirtualEndpoint> listener;
+  explicit Bench(const std::string& text) {
+    auto parsed = config::parse_daemon(text, "bus.json");
+    cfg = std::get<config::DaemonConfig>(parsed);
+    std::string error;
+    plant = plant::Plant::build(cfg, plant::Options{}, Time{0}, &error);
+    // A second node on the bus: it acknowledges gw3's frames.
+    listener = plant->buses().at(0)->virtual_bus()->endpoint("listener");
+  }
+  void until(Time t) {
+    while (const auto next = plant->next_deadline()) {
+      if (*next > t) break;
+      plant->advance(*next);
+    }
+  }
+  plant::GatewayUnit& gw() { return *plant->gateways().at(0); }
+  const can::TimedBus& bus() { return *plant->buses().at(0)->virtual_bus()->timed(); }
+};
+
+TEST(CanFaultInThePlant, AGatewayAtTheBussBitRateTalks) {
+  Bench r(config("125k", "125k"));
+  r.until(Time{200'000});
+  EXPECT_EQ(r.gw().channel().bus_state(), can::BusState::Ok);
+  EXPECT_GE(r.bus().frames(), 1u);
+  EXPECT_EQ(r.bus().error_frames(), 0u);
+  EXPECT_TRUE(r.listener->receive().has_value());
+}
+
+// Set_Prm says 250 kbit/s on a 125 kbit/s bus: every frame it sends is an error (its TEC rises to
+// bus-off), nobody gets it.
+TEST(CanFaultInThePlant, AGatewayAtAnotherBitRateCannotTalk) {
+  Bench r(config("250k", "125k"));
+  r.until(Time{200'000});
+  EXPECT_EQ(r.bus().frames(), 0u);
+  EXPECT_GE(r.bus().error_frames(), 32u);
+  EXPECT_EQ(r.bus().name(0), "gw:gw3");
+  EXPECT_GE(r.bus().confinement(0).bus_off, 1u);
+  EXPECT_FALSE(r.listener->receive().has_value());
+}
+
+TEST(CanFaultInThePlant, CanFaultResolvesAGatewayAndRefusesWhatItCannot) {
+  Bench r(config("125k", "125k"));
+  r.until(Time{200'000});
+  plant::CanFault f;
+  f.kind = plant::CanFaultKind::ErrorFrames;
+  f.node.gateway = 3;
+  f.count = 13;
+  EXPECT_TRUE(r.plant->can_fault(f, Time{200'000}, "(test)"));
+  plant::CanFault none;
+  none.node.gateway = 9;  // no such gateway
+  EXPECT_FALSE(r.plant->can_fault(none, Time{200'000}, "(test)"));
+  plant::CanFault unplugged;
+  unplugged.kind = plant::CanFaultKind::Unplugged;
+  unplugged.bus = "can0";  // a node's fault without a node
+  EXPECT_FALSE(r.plant->can_fault(unplugged, Time{200'000}, "(test)"));
+  // Thirteen error frames on its next frame, then it gets through: TEC 13 × 8 − 1 = 103, warning.
+  r.gw().channel().send(*can::parse_candump("201#0102").frame);
+  r.until(Time{300'000});
+  EXPECT_EQ(r.bus().error_frames(), 13u);
+  EXPECT_EQ(r.bus().confinement(0).tec, 103u);
+  EXPECT_EQ(r.gw().channel().bus_state(), can::BusState::Warning);
+}
+
+TEST(CanFaultInThePlant, WithoutABitRateACanFaultIsRefused) {
+  Bench r(config("125k", nullptr));
+  plant::CanFault f;
+  f.kind = plant::CanFaultKind::ErrorFrames;
+  f.node.gateway = 3;
+  EXPECT_FALSE(r.plant->can_fault(f, Time{0}, "(test)"));
+}
+
+}  // namespace
+}  // namespace candp2
