@@ -41,5 +41,6 @@ void parse_alarm(Step& s, const StepInput& in);        // slave_alarm
 void parse_field(Step& s, const StepInput& in);        // field_write, expect_field
 void parse_line_fault(Step& s, const StepInput& in);   // line_fault
 void parse_expect_line(Step& s, const StepInput& in);  // expect_line
+void parse_expect_bus(Step& s, const StepInput& in);   // expect_bus
 
 }  // namespace candp2::replay::parse

@@ -76,6 +76,7 @@ class Sim final : private plant::Tap {
   void expect_field(const Step& s, StepResult& r);
   void line_fault(const Step& s, StepResult& r);
   void expect_line(const Step& s, StepResult& r);
+  void expect_bus(const Step& s, StepResult& r);
 
  private:
   void on_can(const plant::CanRecord& r) override;

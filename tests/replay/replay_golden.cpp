@@ -128,6 +128,7 @@ TEST(ReplayGolden, TheParsersAnswers) {
       R"({"expect_field": {"offset": 1, "bytes": "01"}})",
       R"({"line_fault": {"station": 5, "kind": "corrupt"}})",
       R"({"expect_line": {"station": 5, "repeats": 0}})",
+      R"({"expect_bus": {"tx_lost": 0}})",
   };
   std::string out;
   for (const char* step : steps) {
