@@ -21,15 +21,12 @@ enum class BusScope : std::uint8_t {
   Identifier,  // the identifier the step names ("id")
 };
 
-enum class BusValue : std::uint8_t {
-  Count,    // a counter or the load: 0 before anything happened
-  Measure,  // a measurement of frames (latency, period): none before the identifier's first frame
-};
-
 struct BusFigure {
   std::string_view key;  // expect_bus's key
   BusScope scope;
-  BusValue value;
+  // How many of the identifier's frames the figure needs to have a value: 0 for a count (0
+  // before anything happened), 1 for a latency, 2 for a period or the jitter.
+  std::uint8_t frames_needed;
   std::string_view meaning;  // for docs and errors
   // The figure at `now`; `id` is the identifier's statistics (Identifier rows only, never null).
   double (*get)(const can::TimedBus& bus, const can::TimedBus::IdStatistics* id, Time now);

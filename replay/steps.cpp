@@ -468,8 +468,11 @@ void Sim::expect_bus(const Step& s, StepResult& r) {
         for (const auto& c : s.bus_checks) {
           d += (d.empty() ? "" : ", ") + std::string(c.figure->key) + " ";
           const bool of_id = c.figure->scope == BusScope::Identifier;
-          if (of_id && !id && c.figure->value == BusValue::Measure) {
-            d += "none (no frame of " + can::ident_text(*s.can_id) + " yet)";
+          const std::uint64_t frames = id ? id->frames : 0;
+          if (of_id && frames < c.figure->frames_needed) {
+            d += frames == 0 ? "none (no frame of " + can::ident_text(*s.can_id) + " yet)"
+                             : "none (one frame of " + can::ident_text(*s.can_id) +
+                                   " so far: it needs two)";
             all = false;
             continue;
           }

@@ -70,6 +70,21 @@ TEST(ExpectBus, AFailedStepSaysWhatWasMeasured) {
   EXPECT_EQ(r.steps[2].detail, "got frames 0, latency_max_ms none (no frame of 300 yet)");
 }
 
+// config/timed-bus-drive.json: the drive's request 0x201 goes on the bus once, after the write.
+TEST(ExpectBus, APeriodNeedsTwoFrames) {
+  const RunResult r = run_steps("timed-bus-drive.json", R"(
+      {"expect_dp_state": "data_exch", "gateway": "plc", "within_ms": 100},
+      {"write": {"address": 0, "bytes": "3D E2 00 00 00"}, "gateway": "plc"},
+      {"advance_ms": 30},
+      {"expect_bus": {"id": "0x201", "frames": 1, "latency_max_ms": {"min": 9},
+                      "period_ms": {"max": 1000}}})");
+  ASSERT_EQ(r.steps.size(), 4u);
+  EXPECT_FALSE(r.steps[3].passed);
+  EXPECT_EQ(r.steps[3].detail,
+            "got frames 1, period_ms none (one frame of 201 so far: it needs two), latency_max_ms "
+            "9.032");
+}
+
 TEST(ExpectBus, ItIsPolledOverItsWindow) {
   const RunResult r = run_steps(kOverload, R"({"expect_bus": {"frames_on_bus": {"min": 24}},
       "within_ms": 100})");
