@@ -351,7 +351,9 @@ json StatusModel::bus_json(std::size_t i, Time now, bool trace) {
   if (b.monitor) {
     e["frames"] = b.monitor->frames();
     e["bits"] = b.monitor->bits();
-    e["load_pct"] = load_[i].load * 100.0;
+    // docs/daemon.md "Bus load": an estimate on an ideal bus, the exact load of the last second on
+    // a bus in time (the same number as its `load.last_pct`).
+    e["load_pct"] = b.timed ? b.timed->load(now).last_pct : load_[i].load * 100.0;
     e["frames_per_s"] = load_[i].fps;
     if (b.timed) e.update(timed_json(*b.timed, now));
     if (trace) {

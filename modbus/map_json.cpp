@@ -6,6 +6,7 @@
 #include "faults/drive_fault.hpp"
 #include "gateway/gateway.hpp"
 #include "modbus/modbus_map.hpp"
+#include "plant/can_fault.hpp"
 #include "profibus_sim/dp/dp_slave.hpp"
 #include "profibus_sim/dp/dp_telegram.hpp"
 #include "profibus_sim/master/dp_master.hpp"
@@ -203,6 +204,30 @@ json line_json(const config::DaemonConfig& config) {
            {{"table", table_name(Table::HoldingRegisters)},
             {"registers", std::move(registers)},
             {"kinds", std::move(kinds)}}}};
+}
+
+// docs/modbus.md "CAN fault block": the registers (kCanFaultFields), the kinds by their code
+// (plant::CanFaultKind) and the units that have the block (the gateways on a bus in time).
+json can_faults_json(const config::DaemonConfig& config) {
+  json registers = json::array();
+  for (std::size_t i = 0; i < kCanFaultFields.size(); ++i)
+    registers.push_back({{"name", kCanFaultFields[i].name},
+                         {"register", kCanFaultBase + i},
+                         {"meaning", kCanFaultFields[i].meaning}});
+  json kinds = json::array();
+  for (std::size_t k = 0; k < plant::kCanFaultNames.size(); ++k)
+    kinds.push_back({{"name", plant::kCanFaultNames[k]}, {"value", k}});
+  json units = json::array();
+  for (const auto& g : config.gateways)
+    for (const auto& b : config.buses)
+      if (b.name == g.bus && b.timed_bitrate) units.push_back(g.dp_address());
+  return {{"table", table_name(Table::HoldingRegisters)},
+          {"unit", "the DP address of a gateway on a bus in time"},
+          {"units", std::move(units)},
+          {"first", kCanFaultBase},
+          {"count", can_fault::kRegisters},
+          {"registers", std::move(registers)},
+          {"kinds", std::move(kinds)}};
 }
 
 // docs/modbus.md "Host block": the host stalls, in every unit.
@@ -414,6 +439,7 @@ nlohmann::ordered_json map_json(const config::DaemonConfig& config) {
       {"drives", drives_json(config)},
   };
   if (has_line_block(config)) j["line"] = line_json(config);  // an ideal line's map as before
+  if (has_can_fault_block(config)) j["can_faults"] = can_faults_json(config);  // ideal buses: idem
   return j;
 }
 

@@ -98,6 +98,15 @@ std::string map_text(const config::DaemonConfig& config) {
         << " every, " << kLineBase + line::kFaultForMs << " for_ms, "
         << kLineBase + line::kNoiseForMs << " noise on the line for_ms\n";
   }
+  if (has_can_fault_block(config)) {  // docs/modbus.md "CAN fault block"
+    out << "\nCAN fault block (holding registers, unit ID = the DP address of a gateway on a bus "
+           "in "
+           "time; docs/modbus.md \"CAN fault block\"):\n";
+    for (std::size_t i = 0; i < kCanFaultFields.size(); ++i) {
+      std::snprintf(line, sizeof line, "  %zu        ", kCanFaultBase + i);
+      out << line << kCanFaultFields[i].name << ": " << kCanFaultFields[i].meaning << "\n";
+    }
+  }
   out << "\nHost block (any unit; docs/modbus.md \"Host block\"), input registers:\n";
   for (std::size_t i = 0; i < kHostFields.size(); ++i) {
     std::snprintf(line, sizeof line, "  %zu..%zu  ", kHostBase + 2 * i, kHostBase + 2 * i + 1);

@@ -113,6 +113,13 @@ std::optional<DecodeFailure> ProcessImageMap::read_registers(Table t, GatewayFac
           g.dp_address(), static_cast<std::uint16_t>(address + i - kLineBase), now);
     return std::nullopt;
   }
+  if (g.can_faults() && t == Table::HoldingRegisters &&
+      within(address, count, kCanFaultBase, can_fault::kRegisters)) {
+    for (std::uint32_t i = 0; i < count; ++i)
+      out.registers[i] = g.can_faults()->fault_register(
+          g.dp_address(), static_cast<std::uint16_t>(address + i - kCanFaultBase));
+    return std::nullopt;
+  }
   if (t == Table::HoldingRegisters && g.has_slave_faults() &&
       within(address, count, kSlaveFaultBase, kSlaveFaultRegisters)) {
     for (std::uint32_t i = 0; i < count; ++i)
@@ -256,7 +263,9 @@ std::optional<DecodeFailure> ProcessImageMap::write_registers(GatewayFace& g, co
   const bool control = within(wa, wc, kControlRegister, kControlRegisters);
   const bool slave = g.has_slave_faults() && within(wa, wc, kSlaveFaultBase, kSlaveFaultRegisters);
   const bool line = g.line() && within(wa, wc, kLineBase, line::kFaultRegisters);
-  if (!image && !control && !slave && !line) return address_error(Table::HoldingRegisters, wa, wc);
+  const bool can = g.can_faults() && within(wa, wc, kCanFaultBase, can_fault::kRegisters);
+  if (!image && !control && !slave && !line && !can)
+    return address_error(Table::HoldingRegisters, wa, wc);
   if (image && outputs_read_only_) return read_only_error();
   // FC 23: both ranges are checked before anything is written (all or nothing).
   if (r.function == Function::ReadWriteMultipleRegisters &&
@@ -275,6 +284,8 @@ std::optional<DecodeFailure> ProcessImageMap::write_registers(GatewayFace& g, co
         image                        ? image_register(q, wa)
         : line                       ? g.line()->fault_register(g.dp_address(),
                                                                 static_cast<std::uint16_t>(wa - kLineBase), now)
+        : can                        ? g.can_faults()->fault_register(g.dp_address(),
+                                                                      static_cast<std::uint16_t>(wa - kCanFaultBase))
         : slave                      ? g.slave_fault(wa - kSlaveFaultBase)
         : wa == kControlRegister     ? last_control(g.dp_address())
         : wa == kForcedStateRegister ? g.forced_bus_state()
@@ -286,6 +297,10 @@ std::optional<DecodeFailure> ProcessImageMap::write_registers(GatewayFace& g, co
   } else if (line) {
     if (auto failure = g.line()->write_faults(
             g.dp_address(), static_cast<std::uint16_t>(wa - kLineBase), values, now))
+      return failure;
+  } else if (can) {
+    if (auto failure = g.can_faults()->write_faults(
+            g.dp_address(), static_cast<std::uint16_t>(wa - kCanFaultBase), values, now))
       return failure;
   } else if (slave) {
     if (auto failure =

@@ -33,6 +33,17 @@ class LineAccess {
                                                     Time now) = 0;
 };
 
+// The CAN fault block (docs/modbus.md "CAN fault block") of the gateways on a bus in time.
+class CanFaultAccess {
+ public:
+  virtual ~CanFaultAccess() = default;
+  virtual std::uint16_t fault_register(std::uint8_t address, std::uint16_t offset) const = 0;
+  // Checked first, applied after (all or nothing); writing the kind applies the fault.
+  virtual std::optional<DecodeFailure> write_faults(std::uint8_t address, std::uint16_t offset,
+                                                    std::span<const std::uint16_t> values,
+                                                    Time now) = 0;
+};
+
 // One gateway as the map sees it.
 class GatewayFace {
  public:
@@ -40,6 +51,9 @@ class GatewayFace {
   // Its line block; null: no line statistics (those addresses are outside the map).
   LineAccess* line() const { return line_; }
   void set_line(LineAccess* line) { line_ = line; }
+  // Its CAN fault block; null: not on a bus in time (those addresses are outside the map).
+  CanFaultAccess* can_faults() const { return can_faults_; }
+  void set_can_faults(CanFaultAccess* access) { can_faults_ = access; }
   virtual std::uint8_t dp_address() const = 0;
   virtual StatusBlock status(Time now) = 0;
   virtual void control(Control command, Time now) = 0;
@@ -71,6 +85,7 @@ class GatewayFace {
 
  private:
   LineAccess* line_ = nullptr;
+  CanFaultAccess* can_faults_ = nullptr;
 };
 
 // A generic slave's field side on its own unit ID (docs/slaves.md "Field side"): holding registers

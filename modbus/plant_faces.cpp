@@ -274,6 +274,61 @@ std::optional<DecodeFailure> PlantLineAccess::write_faults(std::uint8_t address,
   return std::nullopt;
 }
 
+// ----------------------------------------------------------- CAN fault block (docs/modbus.md)
+
+std::uint16_t PlantCanFaults::fault_register(std::uint8_t address, std::uint16_t offset) const {
+  const Registers& r = registers_.at(address);
+  const std::array<std::uint16_t, can_fault::kRegisters> values{r.kind, r.count, r.every, r.for_ms};
+  return offset < values.size() ? values[offset] : 0;
+}
+
+std::optional<DecodeFailure> PlantCanFaults::write_faults(std::uint8_t address,
+                                                          std::uint16_t offset,
+                                                          std::span<const std::uint16_t> values,
+                                                          Time now) {
+  const auto bus = buses_.find(address);
+  if (bus == buses_.end())
+    return DecodeFailure{Exception::IllegalDataAddress, "no gateway on a bus in time here"};
+  // Checked first, applied after: all or nothing (docs/modbus.md "CAN fault block").
+  Registers r = registers_.at(address);
+  std::optional<std::uint16_t> kind;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const std::uint16_t v = values[i];
+    const std::size_t at = offset + i;
+    if (at == can_fault::kKind && v >= plant::kCanFaultNames.size())
+      return DecodeFailure{Exception::IllegalDataValue,
+                           "CAN fault kind " + std::to_string(v) +
+                               " (0 none, 1 error_frames, 2 unplugged, 3 wrong_bitrate, 4 noise)"};
+    if (at == can_fault::kEvery && v == 0)
+      return DecodeFailure{Exception::IllegalDataValue,
+                           "CAN fault every: one frame in every 1..65535, got 0"};
+    if (at == can_fault::kKind) kind = v;
+    if (at == can_fault::kCount) r.count = v;
+    if (at == can_fault::kEvery) r.every = v;
+    if (at == can_fault::kForMs) r.for_ms = v;
+  }
+  plant::CanFault f;
+  f.kind = static_cast<plant::CanFaultKind>(kind.value_or(0));
+  f.bus = bus->second;
+  if (kind && f.kind == plant::CanFaultKind::Noise && r.for_ms == 0)
+    return DecodeFailure{Exception::IllegalDataValue, "CAN noise needs for_ms (8413) above 0"};
+  if (kind && f.kind != plant::CanFaultKind::None && r.count == 0 && r.for_ms == 0)
+    return DecodeFailure{Exception::IllegalDataValue,
+                         "CAN fault: give a count (8411) or for_ms (8413) above 0"};
+  if (kind) {
+    if (f.kind != plant::CanFaultKind::Noise) f.node.gateway = address;
+    f.count = r.count;
+    f.every = r.every;
+    if (r.for_ms) f.duration = milliseconds(r.for_ms);
+    if (!control_.can_fault(f, now, kOrigin))
+      return DecodeFailure{Exception::ServerDeviceFailure,
+                           "the plant refused the CAN fault (its log says why)"};
+    r.kind = *kind;
+  }
+  registers_.at(address) = r;
+  return std::nullopt;
+}
+
 // ------------------------------------------------------------------------------------- all
 
 std::vector<GatewayFace*> PlantFaces::gateway_list() const {
@@ -302,8 +357,16 @@ PlantFaces make_faces(plant::Plant& plant, BitrateFn bitrate) {
     for (const auto& sc : plant.config().slaves)
       f.gateways.push_back(std::make_unique<RemoteStationFace>(plant, sc.address, sc.name));
   } else {
-    for (auto& g : plant.gateways())
+    std::map<std::uint8_t, std::string> timed;  // docs/modbus.md "CAN fault block"
+    for (const auto& g : plant.gateways())
+      for (const auto& b : plant.config().buses)
+        if (b.name == g->config().bus && b.timed_bitrate) timed[g->config().dp_address()] = b.name;
+    if (!timed.empty()) f.can_faults = std::make_unique<PlantCanFaults>(plant, timed);
+    for (auto& g : plant.gateways()) {
       f.gateways.push_back(std::make_unique<PlantGatewayFace>(plant, *g, bitrate));
+      if (timed.contains(g->config().dp_address()))
+        f.gateways.back()->set_can_faults(f.can_faults.get());
+    }
     for (auto& s : plant.slaves()) {
       f.gateways.push_back(std::make_unique<GenericSlaveFace>(plant, *s));
       if (s->config().field_unit) f.fields.push_back(std::make_unique<SlaveFieldFace>(*s));

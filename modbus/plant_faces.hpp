@@ -7,6 +7,7 @@
 #include <array>
 #include <cstddef>
 #include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -139,8 +140,32 @@ class PlantLineAccess final : public LineAccess {
   std::array<Pending, 128> pending_{};  // count, every, for_ms as last written, per address
 };
 
+// The CAN fault block of the gateways on a bus in time (docs/modbus.md "CAN fault block"): their
+// faults as plant::CanFault through the plant's control surface. Reads give the kind last applied
+// and count, every, for_ms as last written (the plant's progress through a fault is not read
+// back).
+class PlantCanFaults final : public CanFaultAccess {
+ public:
+  // `buses`: the bus in time of the gateway at each DP address that has one.
+  PlantCanFaults(plant::ControlSurface& control, std::map<std::uint8_t, std::string> buses)
+      : control_(control), buses_(std::move(buses)) {}
+  std::uint16_t fault_register(std::uint8_t address, std::uint16_t offset) const override;
+  std::optional<DecodeFailure> write_faults(std::uint8_t address, std::uint16_t offset,
+                                            std::span<const std::uint16_t> values,
+                                            Time now) override;
+
+ private:
+  struct Registers {
+    std::uint16_t kind = 0, count = 1, every = 1, for_ms = 0;
+  };
+  plant::ControlSurface& control_;
+  std::map<std::uint8_t, std::string> buses_;
+  std::array<Registers, 128> registers_{};  // per DP address
+};
+
 struct PlantFaces {
-  std::unique_ptr<PlantLineAccess> line;  // with line statistics only
+  std::unique_ptr<PlantLineAccess> line;       // with line statistics only
+  std::unique_ptr<PlantCanFaults> can_faults;  // with a gateway on a bus in time only
   std::vector<std::unique_ptr<GatewayFace>> gateways;
   std::vector<std::unique_ptr<DriveFace>> drives;
   std::vector<std::unique_ptr<FieldFace>> fields;

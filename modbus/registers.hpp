@@ -152,6 +152,37 @@ inline bool has_line_block(const config::DaemonConfig& c) {
   return c.line.has_value() || c.remote_gateways();
 }
 
+// The CAN fault block (docs/modbus.md "CAN fault block"): holding registers of a gateway's unit
+// whose bus is a bus in time (docs/can-bus.md "The bus in time"), next to the line faults and with
+// their semantics: the kind applies the fault with count, every and for_ms as last written, on
+// the gateway's node (its CAN controller), or on its whole bus (noise). Elsewhere these addresses
+// answer exception 0x02. The kinds are plant::CanFaultKind's codes (plant/can_fault.hpp).
+inline constexpr std::uint16_t kCanFaultBase = 8410;
+struct CanFaultField {
+  std::string_view name;
+  std::string_view meaning;
+};
+inline constexpr std::array<CanFaultField, 4> kCanFaultFields = {{
+    {"kind",
+     "the CAN fault (docs/faults.md \"CAN faults\"): 0 none (cancels), 1 error_frames (the "
+     "gateway's next frames end in an error frame), 2 unplugged, 3 wrong_bitrate, 4 noise (the "
+     "whole bus); applied when written, with the others as last written"},
+    {"count", "how many frames (default 1)"},
+    {"every", "one frame in every K (1..65535, default 1; 0 is exception 0x03)"},
+    {"for_ms", "instead of a count, this long (0 = use the count; noise needs it)"},
+}};
+namespace can_fault {
+inline constexpr std::uint16_t kKind = 0;  // offsets from kCanFaultBase, the table's order
+inline constexpr std::uint16_t kCount = 1;
+inline constexpr std::uint16_t kEvery = 2;
+inline constexpr std::uint16_t kForMs = 3;
+inline constexpr std::uint16_t kRegisters = kCanFaultFields.size();  // 8410..8413
+}  // namespace can_fault
+static_assert(kLineBase + line::kFaultRegisters <= kCanFaultBase,
+              "the CAN fault block follows the line faults (docs/modbus.md)");
+static_assert(kCanFaultFields[can_fault::kKind].name == "kind" &&
+              kCanFaultFields[can_fault::kForMs].name == "for_ms");
+
 // The host block (docs/modbus.md "Host block"): input registers of every unit, the host stalls
 // candp2d's simulated clock kept from the world (docs/daemon.md "Host stalls"), 32 bit each, high
 // word first, saturating: how many, their time in all (ms), the longest (ms). Zeros where the
@@ -172,6 +203,14 @@ inline constexpr std::array<HostField, 3> kHostFields = {{
 }};
 inline constexpr std::uint16_t kHostRegisters = 2 * kHostFields.size();  // 8440..8445
 static_assert(kLineBase + line::kCount <= kHostBase, "the host block follows the line block");
+static_assert(kCanFaultBase + can_fault::kRegisters <= kHostBase);
+// Whether a configuration's gateways have the CAN fault block: one of them is on a bus in time.
+inline bool has_can_fault_block(const config::DaemonConfig& c) {
+  for (const auto& g : c.gateways)
+    for (const auto& b : c.buses)
+      if (b.name == g.bus && b.timed_bitrate) return true;
+  return false;
+}
 using HostBlock = std::array<std::uint16_t, kHostRegisters>;
 HostBlock encode_host_stalls(const HostStalls& h);
 

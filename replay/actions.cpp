@@ -173,6 +173,25 @@ std::string expect_line_text(const Step& st, std::string s) {
   return s + within(st);
 }
 
+std::string expect_bus_text(const Step& st, std::string s) {
+  s += ' ';  // not `" " + ...`: GCC 12 -O3 false -Wrestrict
+  s += st.bus_name;
+  // The bus's figures, then the identifier's after it (the table's order): "can0 tx_lost = 0;
+  // 181 latency_max_ms ≤ 2.5".
+  std::string c;
+  bool id_named = false;
+  for (const auto& check : st.bus_checks) {
+    const bool of_id = check.figure->scope == BusScope::Identifier;
+    c += c.empty() ? " " : of_id && !id_named ? "; " : ", ";
+    if (of_id && !id_named) {
+      c += can::ident_text(*st.can_id) + (st.can_remote ? " remote " : " ");
+      id_named = true;
+    }
+    c += std::string(check.figure->key) + " " + check.bound.text();
+  }
+  return s + c + within(st);
+}
+
 // ------------------------------------------------------------------------------- the table
 
 using namespace parse;
@@ -360,6 +379,8 @@ constexpr ActionSpec kTable[] = {
      parse_can_fault,
      &Sim::can_fault,
      can_fault_text},
+    {Action::ExpectBus, "expect_bus", K::ExpectPolled, T::None, kWithin, parse_expect_bus,
+     &Sim::expect_bus, expect_bus_text},
 };
 
 // One row per action, in the enum's order, each with its key; an expectation names its window key.

@@ -42,5 +42,6 @@ void parse_field(Step& s, const StepInput& in);        // field_write, expect_fi
 void parse_line_fault(Step& s, const StepInput& in);   // line_fault
 void parse_expect_line(Step& s, const StepInput& in);  // expect_line
 void parse_can_fault(Step& s, const StepInput& in);    // can_fault
+void parse_expect_bus(Step& s, const StepInput& in);   // expect_bus
 
 }  // namespace candp2::replay::parse

@@ -431,6 +431,86 @@ void parse_expect_line(Step& s, const StepInput& in) {
 
 namespace {
 
+// A figure's range: a number (exactly it) or {"min", "max"} (replay/bus_figures.hpp).
+Bound as_bound(const json& j, const std::string& path) {
+  auto number = [](const json& v, const std::string& p) {
+    if (!v.is_number()) fail(p, "expected a number, got " + kind_of(v));
+    return v.get<double>();
+  };
+  Bound b;
+  if (j.is_number()) {
+    b.min = b.max = j.get<double>();
+    return b;
+  }
+  if (!j.is_object())
+    fail(path, "expected a number (exactly it) or {\"min\": …, \"max\": …}, got " + kind_of(j));
+  const Object o(j, path, {"min", "max"});
+  if (o.has("min")) b.min = number(o.at("min"), o.path("min"));
+  if (o.has("max")) b.max = number(o.at("max"), o.path("max"));
+  if (!b.min && !b.max) fail(path, "give \"min\", \"max\" or both");
+  if (b.min && b.max && *b.min > *b.max) fail(o.path("min"), "\"min\" lies above \"max\"");
+  return b;
+}
+
+// expect_bus's "bus": a bus of the configuration with a bit rate; without the key, the only bus.
+void expect_bus_bus(Step& s, const Object& w, const StepInput& in) {
+  const auto& buses = in.scenario.installation.buses;
+  std::vector<std::string> names;
+  for (const auto& b : buses) names.push_back("\"" + b.name + "\"");
+  const std::string where = w.has("bus") ? w.path("bus") : in.path;
+  if (w.has("bus")) {
+    const std::string name = as_string(w.at("bus"), w.path("bus"), "a bus name");
+    const auto it = std::find_if(buses.begin(), buses.end(),
+                                 [&](const config::BusConfig& b) { return b.name == name; });
+    if (it == buses.end()) fail(where, "no bus \"" + name + "\" (the buses: " + join(names) + ")");
+    s.bus = static_cast<std::size_t>(it - buses.begin());
+  } else if (buses.size() != 1) {
+    fail(in.path, "give \"bus\", one of " + join(names));
+  }
+  s.bus_name = buses.at(s.bus).name;
+  if (!buses[s.bus].timed_bitrate)
+    fail(where, "bus \"" + s.bus_name +
+                    "\" has no \"bitrate\": expect_bus needs a bus in time (docs/can-bus.md "
+                    "\"The bus in time\")");
+}
+
+}  // namespace
+
+// expect_bus: {"bus", "id", "extended", "rtr", the figures of replay/bus_figures.hpp}
+// (docs/replay-format.md "The CAN bus in time").
+void parse_expect_bus(Step& s, const StepInput& in) {
+  std::vector<std::string> figures;
+  for (const auto& f : bus_figures()) figures.emplace_back(f.key);
+  std::vector<std::string> keys = {"bus", "id", "extended", "rtr"};
+  keys.insert(keys.end(), figures.begin(), figures.end());
+  const Object w(in.value, in.path, keys);
+  expect_bus_bus(s, w, in);
+  if (w.has("id")) {
+    const bool ext = w.has("extended") && as_bool(w.at("extended"), w.path("extended"));
+    s.can_id = can::Ident{static_cast<std::uint32_t>(as_uint(
+                              w.at("id"), w.path("id"), 0, ext ? can::kMaxExtId : can::kMaxStdId,
+                              ext ? "(29-bit identifier)"
+                                  : "(11-bit identifier; set \"extended\": true for 29-bit)")),
+                          ext};
+    s.can_remote = w.has("rtr") && as_bool(w.at("rtr"), w.path("rtr"));
+  } else {
+    for (const char* k : {"extended", "rtr"})
+      if (w.has(k)) fail(w.path(k), "qualifies an identifier: give \"id\"");
+  }
+  for (const auto& f : bus_figures()) {
+    const std::string k(f.key);
+    if (!w.has(k)) continue;
+    if (f.scope == BusScope::Identifier && !s.can_id)
+      fail(w.path(k),
+           "is an identifier's figure: give \"id\"" +
+               std::string(k == "frames" ? " (the bus's frames: \"frames_on_bus\")" : ""));
+    s.bus_checks.push_back({&f, as_bound(w.at(k), w.path(k))});
+  }
+  if (s.bus_checks.empty()) fail(in.path, "give at least one figure (" + join(figures) + ")");
+}
+
+namespace {
+
 std::string quoted_names(const std::vector<std::string>& names) {
   std::vector<std::string> q;
   for (const auto& n : names) q.push_back("\"" + n + "\"");

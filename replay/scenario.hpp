@@ -23,6 +23,7 @@
 #include "plant/line_fault.hpp"
 #include "plc/page_driver.hpp"
 #include "profibus_sim/dp/dp_slave.hpp"
+#include "replay/bus_figures.hpp"
 
 namespace candp2::replay {
 
@@ -97,7 +98,9 @@ enum class Action : std::uint8_t {
   ExpectLine,  // expect_line: a station's line counters and live state, the bus cycle
   // The CAN bus in time (docs/faults.md "CAN faults on cue", docs/can-bus.md).
   CanFault,  // can_fault: error frames on a node or an identifier, unplugged, wrong bit rate, noise
-  Count,     // not an action: the number of actions (the action table's size)
+  // The CAN bus in time (docs/can-bus.md "Seen from outside").
+  ExpectBus,  // expect_bus: a timed bus's load, frames, lost frames; an identifier's latency
+  Count,      // not an action: the number of actions (the action table's size)
 };
 std::string_view to_string(Action a);
 
@@ -140,11 +143,17 @@ struct Step {
   std::optional<Duration> duration;
   std::string live;  // expect_line: "ok", "missing", "phantom", "none"; empty: not checked
   std::optional<std::uint64_t> bus_cycle_max_le;
+  // expect_bus: the identifier whose figures it checks (its remote frames apart) and the figures'
+  // ranges (replay/bus_figures.hpp); the bus is `bus`, named `bus_name`.
+  std::optional<can::Ident> can_id;
+  bool can_remote = false;
+  std::vector<BusCheck> bus_checks;
   // The gateway the step concerns (index into Scenario::installation.gateways) and, for inject,
   // the bus the frames enter (index into installation.buses).
   std::size_t gateway = 0;
   std::string gateway_name;
   std::size_t bus = 0;
+  std::string bus_name;
   // A step about a generic slave instead ("slave": NAME; index into installation.slaves).
   std::optional<std::size_t> slave;
   std::string slave_name;

@@ -77,6 +77,7 @@ class Sim final : private plant::Tap {
   void line_fault(const Step& s, StepResult& r);
   void can_fault(const Step& s, StepResult& r);
   void expect_line(const Step& s, StepResult& r);
+  void expect_bus(const Step& s, StepResult& r);
 
  private:
   void on_can(const plant::CanRecord& r) override;

@@ -4,6 +4,7 @@
 // surface, the one candp2d's Modbus face uses.
 #include <algorithm>
 
+#include "can/frame_bits.hpp"
 #include "common/hex.hpp"
 #include "faults/drive_fault.hpp"
 #include "plant/station_status.hpp"
@@ -442,6 +443,51 @@ void Sim::expect_line(const Step& s, StepResult& r) {
         if (s.bus_cycle_max_le) {
           const auto max = static_cast<std::uint64_t>(line->bus_cycle().max.count());
           add("bus cycle max " + std::to_string(max) + " µs", max <= *s.bus_cycle_max_le);
+        }
+        return all;
+      },
+      r.detail);
+  if (!r.passed) r.detail = "got " + r.detail;
+}
+
+// ------------------------------------------------- the CAN bus in time (docs/can-bus.md)
+
+// The bus's figures and one identifier's as GET /api/v1/status shows them (docs/can-bus.md "Seen
+// from outside"); the report says what each measured.
+void Sim::expect_bus(const Step& s, StepResult& r) {
+  can::VirtualBus* vbus = plant_->buses().at(s.bus)->virtual_bus();
+  const can::TimedBus* bus = vbus ? vbus->timed() : nullptr;
+  if (!bus) {  // the parser allows only a bus with a bit rate
+    r.passed = false;
+    r.detail = "bus " + s.bus_name + " is not in time";
+    return;
+  }
+  r.passed = poll(
+      s,
+      [&](std::string& d) {
+        const can::TimedBus::IdStatistics* id = nullptr;
+        if (s.can_id) {
+          const auto& ids = bus->identifiers();
+          const auto it = ids.find(can::arbitration_key(*s.can_id, s.can_remote));
+          if (it != ids.end()) id = &it->second;
+        }
+        const can::TimedBus::IdStatistics none{};
+        d.clear();
+        bool all = true;
+        for (const auto& c : s.bus_checks) {
+          d += (d.empty() ? "" : ", ") + std::string(c.figure->key) + " ";
+          const bool of_id = c.figure->scope == BusScope::Identifier;
+          const std::uint64_t frames = id ? id->frames : 0;
+          if (of_id && frames < c.figure->frames_needed) {
+            d += frames == 0 ? "none (no frame of " + can::ident_text(*s.can_id) + " yet)"
+                             : "none (one frame of " + can::ident_text(*s.can_id) +
+                                   " so far: it needs two)";
+            all = false;
+            continue;
+          }
+          const double v = c.figure->get(*bus, of_id ? (id ? id : &none) : nullptr, now_);
+          d += figure_text(v);
+          all = all && c.bound.holds(v);
         }
         return all;
       },

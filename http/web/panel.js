@@ -332,10 +332,20 @@ function makeBus(b) {
   x.pause.onclick = () => { x.paused = !x.paused; x.pause.textContent = x.paused ? 'resume' : 'pause'; x.pause.className = x.paused ? 'paused' : ''; };
   x.filter.oninput = () => renderTrace(x);
   x.body = el('tbody');
+  // A bus in time (docs/can-bus.md "Seen from outside"): its exact load, a point a second, and
+  // its identifiers' frames, period, jitter and queueing latency; hidden on an ideal bus.
+  x.loads = []; x.loadAt = 0;
+  x.loadCanvas = el('canvas'); x.ids = el('tbody');
+  x.timed = el('div', { class: 'timed', hidden: '' },
+    el('div', {}, el('h3', { text: 'Exact load, last minute' }), x.loadCanvas),
+    el('div', {}, el('h3', { text: 'Identifiers (times in ms)' }),
+      el('div', { class: 'trace' }, el('table', { class: 'ids' }, el('thead', {}, el('tr', {},
+        ...['identifier', 'frames', 'period', 'jitter', 'latency last', 'mean', 'max'].map(t => el('th', { text: t })))), x.ids))));
   x.root = el('div', { class: 'card bus', id: 'bus-' + b.name },
     el('div', {}, el('h2', { text: 'Bus ' + b.name }), el('h3', { text: 'Bus load' }), el('div', { class: 'meter' }, x.load), x.loadText, x.info),
     el('div', {}, el('div', { class: 'tracebar' }, el('h3', { text: 'Live trace', style: 'margin:0' }), x.filter, x.pause),
-      el('div', { class: 'trace' }, el('table', {}, el('thead', {}, el('tr', {}, ...['time', 'identifier', 'dlc', 'data'].map(t => el('th', { text: t })))), x.body))));
+      el('div', { class: 'trace' }, el('table', {}, el('thead', {}, el('tr', {}, ...['time', 'identifier', 'dlc', 'data'].map(t => el('th', { text: t })))), x.body))),
+    x.timed);
   document.getElementById('panel').append(x.root);
   return x;
 }
@@ -352,7 +362,27 @@ function updateBus(x, b) {
   const pct = b.load_pct || 0;
   x.load.style.width = Math.min(100, pct) + '%';
   setText(x.loadText, pct.toFixed(1) + ' % of ' + (b.bitrate / 1000) + ' kbit/s');
-  kvSet(x.info, [['type', b.type], ['frames', b.frames], ['frames/s', Math.round(b.frames_per_s || 0)]]);
+  const timed = b.timed_bitrate !== undefined;
+  kvSet(x.info, [['type', b.type], ['frames', b.frames], ['frames/s', Math.round(b.frames_per_s || 0)],
+    ...(timed ? [['max load', b.load.max_pct.toFixed(1) + ' %'], ['lost', b.tx_lost]] : [])]);
+  x.timed.hidden = !timed;
+  if (timed) updateTimed(x, b);
+}
+// docs/can-bus.md "Seen from outside": load_pct is then the exact load of the last second.
+function updateTimed(x, b) {
+  const now = Date.now();
+  if (now - x.loadAt >= 1000) {
+    x.loadAt = now;
+    x.loads.push(b.load.last_pct);
+    if (x.loads.length > 60) x.loads.shift();
+  }
+  x.loadCanvas.dataset.points = String(x.loads.length);
+  plot(x.loadCanvas, [{ data: x.loads, color: '#35e06b' }], { points: 60, label: '60 s, %', max: 100 });
+  const ms = v => v.toFixed(3);
+  x.ids.replaceChildren(...b.identifiers.map(i => el('tr', { id: 'bus-' + b.name + '-id-' + i.id.toString(16).toUpperCase() + (i.rtr ? 'R' : '') },
+    el('td', { class: 'mono', text: ident(i.id, i.ext) + (i.rtr ? ' R' : '') }),
+    ...[String(i.frames), ms(i.period_ms), ms(i.jitter_ms), ms(i.latency_ms.last), ms(i.latency_ms.mean), ms(i.latency_ms.max)]
+      .map(t => el('td', { class: 'mono', text: t })))));
 }
 // New frames of the trace (each event carries only the frames since the last one).
 function addTrace(x, frames) {

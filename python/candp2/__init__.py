@@ -26,14 +26,16 @@ from .registers import RegisterMap
 from .replay import ReplayResult, ReplayStep, replay
 from .slave import DiagBlock, FieldImage, Slave, SlaveDiagnosis, SlaveFaults
 from .station import Image, Station
+from .timing import BusLoad, BusTiming, IdentifierTiming, NotTimed
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "Bus", "BusCycle", "Candp2Error", "CfgFault", "ConfigError", "Connection", "Counters", "Daemon",
-    "DaemonError", "DiagBlock", "Diagnosis", "Drive", "DriveState", "FieldImage", "FrameNotSeen",
-    "Gateway", "HostStalls", "Image", "Led", "Leds", "Line", "LineFault", "LineStation", "LiveList",
-    "ModbusError", "NoLine", "PrmFault", "Recorder", "RegisterMap", "ReplayResult", "ReplayStep",
+    "Bus", "BusCycle", "BusLoad", "BusTiming", "Candp2Error", "CfgFault", "ConfigError",
+    "Connection", "Counters", "Daemon", "DaemonError", "DiagBlock", "Diagnosis", "Drive",
+    "DriveState", "FieldImage", "FrameNotSeen", "Gateway", "HostStalls", "IdentifierTiming",
+    "Image", "Led", "Leds", "Line", "LineFault", "LineStation", "LiveList", "ModbusError",
+    "NoLine", "NotTimed", "PrmFault", "Recorder", "RegisterMap", "ReplayResult", "ReplayStep",
     "Slave", "SlaveDiagnosis", "SlaveFaults", "Slot", "Station", "UnexpectedFrame", "WaitTimeout",
     "candump_line", "connect", "example", "find_binary", "find_example", "find_tool", "frame_text",
     "replay", "running_daemons",

@@ -3,7 +3,9 @@ of a virtual bus, docs/configuration.md), raw mode.
 
 `Bus` is a `can.BusABC` (python-can's one bus contract: recv(), send(), filters, iteration,
 send_periodic(), Notifier) plus what a test needs: `expect()` a frame or fail listing what was
-seen, `expect_no_frame()`, `drain()`, `record()` a candump -L log.
+seen, `expect_no_frame()`, `drain()`, `record()` a candump -L log; and from `daemon.bus()`, on a
+bus in time, what the daemon measures of it (`timing()`, `load`, `identifiers`, ...;
+candp2.timing) and CAN faults on cue (`fault()`).
 
 Why not python-can's own `interface="socketcand"`: the python-can of Debian 12 (4.1.0) loses a
 frame whenever a TCP read ends inside one and marks every received frame as extended (both fixed
@@ -20,13 +22,17 @@ import select
 import socket
 import threading
 import time
-from typing import IO, Any, Callable, Deque, Iterable
+from typing import IO, TYPE_CHECKING, Any, Callable, Deque, Iterable, Mapping
 
 from can.bus import BusABC  # python3-can
 from can.exceptions import CanError, CanInitializationError, CanOperationError
 from can.message import Message
 
 from .errors import Candp2Error, FrameNotSeen, UnexpectedFrame
+from .timing import BusLoad, BusTiming, IdentifierTiming, can_fault_request
+
+if TYPE_CHECKING:
+    from .connection import Connection
 
 #: Longest element we accept (a `< frame ... >` with 8 data bytes has about 50 characters).
 MAX_ELEMENT = 256
@@ -221,10 +227,14 @@ class Bus(BusABC):
 
     def __init__(self, channel: str, host: str, port: int, timeout: float = 5.0,
                  can_filters: Any = None, *, explain: Callable[[int], str] | None = None,
+                 daemon: Connection | None = None, name: str | None = None,
                  **kwargs: object) -> None:
         #: `explain(can_id)`: what of the daemon uses that identifier, for a failed expect()
         #: (`daemon.bus()` gives one: the slots and drives using it, the drives' state).
         self.explain = explain
+        #: The daemon and its name of the bus (`daemon.bus()` gives them): timing and faults.
+        self.daemon = daemon
+        self.name = name if name is not None else channel
         self.host = host
         self.port = port
         self.timeout = timeout
@@ -325,6 +335,66 @@ class Bus(BusABC):
             what = "any frame" if can_id is None else "a frame %03X#*" % can_id
             raise UnexpectedFrame("%s on %s within %.1f s: saw %s" % (
                 what, self.channel, duration, _listing(seen)), list(seen))
+
+    # ---- the bus in time (docs/can-bus.md "Seen from outside") -------------------------------
+
+    def _daemon(self) -> Connection:
+        if self.daemon is None:
+            raise Candp2Error("this Bus was not opened by daemon.bus(): it has no daemon to read "
+                              "the bus's timing from or to send faults to")
+        return self.daemon
+
+    def timing(self) -> BusTiming:
+        """What the daemon measured of this bus, read now (GET /api/v1/status): bit rate, exact
+        load, frames, lost frames, each identifier's period, jitter and latency (ms). On an
+        ideal bus NotTimed says that it needs a bit rate."""
+        for b in self._daemon().http_status().get("buses", []):
+            if b.get("name") == self.name:
+                return BusTiming.from_status(b)
+        raise Candp2Error("the status document has no bus %r" % self.name)
+
+    @property
+    def timed_bitrate(self) -> int:
+        """The bus's bit rate (bit/s), read now."""
+        return self.timing().timed_bitrate
+
+    @property
+    def load(self) -> BusLoad:
+        """The exact load of the last complete second and of the most loaded one (%), read now."""
+        return self.timing().load
+
+    @property
+    def frames_on_bus(self) -> int:
+        """Frames that started on the bus, read now."""
+        return self.timing().frames_on_bus
+
+    @property
+    def tx_lost(self) -> int:
+        """Frames lost past a full transmit queue (any node), read now."""
+        return self.timing().tx_lost
+
+    @property
+    def identifiers(self) -> Mapping[int, IdentifierTiming]:
+        """Each identifier's data frames: frames, period, jitter, latency (ms), read now; read
+        `timing()` once for several figures of one moment."""
+        return self.timing().identifiers
+
+    def fault(self, kind: str, count: int | None = None, every: int = 1,
+              for_ms: int | None = None, gateway: int | None = None) -> None:
+        """A CAN fault on cue (docs/faults.md "CAN faults"): `kind` one of "error_frames" (the
+        gateway's next frames end in an error frame), "unplugged", "wrong_bitrate", "noise" (the
+        whole bus; needs `for_ms`), "none" (cancels), for the next `count` frames (default 1)
+        or for `for_ms` milliseconds, one frame in every `every`; on the node of `gateway` (a DP
+        address; default the first gateway on the bus). Written to the Modbus CAN fault block
+        (docs/modbus.md "CAN fault block") in one request; NotTimed on an ideal bus, ValueError
+        for a bad kind or value (naming the good ones), ModbusError when the daemon refuses."""
+        daemon = self._daemon()
+        rm = daemon.register_map
+        gateways = [g.dp_address for g in rm.gateways
+                    if g.bus == self.name and g.dp_address in rm.can_fault_units]
+        request = can_fault_request(rm.can_fault_registers, rm.can_fault_kinds, gateways,
+                                    self.name, kind, count, every, for_ms, gateway)
+        daemon.modbus.write_registers(request.register, request.values, request.unit)
 
     def record(self, path: str | os.PathLike[str]) -> Recorder:
         """Starts writing every frame on the bus to `path` as a `candump -L` log (readable by

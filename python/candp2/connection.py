@@ -136,14 +136,15 @@ class Connection:
 
     def bus(self, name: str, timeout: float = 5.0) -> Bus:
         """A python-can bus on the socketcand export of bus `name` (closed with the
-        connection)."""
+        connection); on a bus in time also its timing and CAN faults (`Bus.timing()`,
+        `Bus.fault()`, docs/python.md "A bus in time")."""
         address = self.socketcand.get(name, self._any_bus)
         if address is None:
             raise KeyError("bus %r has no socketcand export (exported: %s)"
                            % (name, ", ".join(sorted(self.socketcand)) or "none"))
         host, port = address
         bus = Bus(self.channels.get(name, name), host, port, timeout=timeout,
-                  explain=lambda can_id: self.who_uses(name, can_id))
+                  explain=lambda can_id: self.who_uses(name, can_id), daemon=self, name=name)
         self._buses.append(bus)
         return bus
 

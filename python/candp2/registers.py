@@ -174,6 +174,9 @@ class RegisterMap:
     tables of a slave's field side), `line_fault_table`, `line_fault_registers` (by name: "kind",
     "count", "every", "for_ms", "noise_for_ms") and `line_fault_kinds` (names by code),
     `line_counters` (a line station's counters in table order),
+    `can_fault_registers` (by name: "kind", "count", "every", "for_ms"), `can_fault_kinds`
+    (names by code) and `can_fault_units` (the DP addresses of the gateways on a bus in time;
+    all three empty where the map has no CAN fault block),
     `gateways`, `slaves`, `drives`, and `document` (the parsed JSON).
     """
 
@@ -240,6 +243,14 @@ class RegisterMap:
         self.drives = tuple(DriveMap(d["name"], d["bus"], int(d["rx_id"]), int(d["tx_id"]),
                                      None if d["unit"] is None else int(d["unit"]))
                             for d in document["drives"])
+        # docs/modbus.md "CAN fault block": only where a gateway is on a bus in time.
+        can = document.get("can_faults") or {}
+        self.can_fault_registers: dict[str, int] = {
+            r["name"]: int(r["register"]) for r in can.get("registers", ())}
+        self.can_fault_kinds: tuple[str, ...] = tuple(
+            name for _, name in sorted((int(k["value"]), str(k["name"]))
+                                       for k in can.get("kinds", ())))
+        self.can_fault_units: tuple[int, ...] = tuple(int(u) for u in can.get("units", ()))
 
     def _line_faults(self, j: Mapping[str, Any]) -> None:
         self.line_fault_table = str(j["table"])

@@ -216,6 +216,9 @@ TEST_F(TimedFace, TheStatusAndTheMetricsShowTheBusInTime) {
   const json later = model->status(now);
   EXPECT_DOUBLE_EQ(later["buses"][0]["load"]["last_pct"].get<double>(),
                    100.0 * 2 * bits / 125000.0);
+  // docs/daemon.md "Bus load": load_pct of a bus in time is its exact load, not the estimate
+  // (which counts the worst case of stuff bits, more than these two frames have).
+  EXPECT_DOUBLE_EQ(later["buses"][0]["load_pct"].get<double>(), 100.0 * 2 * bits / 125000.0);
 
   http::MetricsBuild build(*model, 0);
   while (!build.step(now)) {

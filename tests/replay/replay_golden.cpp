@@ -130,6 +130,7 @@ TEST(ReplayGolden, TheParsersAnswers) {
       R"({"expect_line": {"station": 5, "repeats": 0}})",
       R"({"can_fault": {"gateway": 5, "kind": "bogus"}})",
       R"({"can_fault": {"gateway": 5, "kind": "unplugged"}})",
+      R"({"expect_bus": {"tx_lost": 0}})",
   };
   std::string out;
   for (const char* step : steps) {
