@@ -28,28 +28,13 @@
 #include "common/hex.hpp"
 #include "config/config.hpp"
 #include "plant/plant.hpp"
+#include "tests/virtual_time_plant.hpp"
 
 namespace candp2 {
 namespace {
 
-class ErrLog final : public LogSink {
- public:
-  bool enabled(LogLevel level) const override { return level >= LogLevel::Error; }
-  void write(LogLevel level, std::string_view component, std::string_view message) override {
-    std::fprintf(stderr, "%s %.*s: %.*s\n", std::string(to_string(level)).c_str(),
-                 static_cast<int>(component.size()), component.data(),
-                 static_cast<int>(message.size()), message.data());
-  }
-};
-
-void run_until(plant::Plant& p, Time until) {
-  while (true) {
-    const auto next = p.next_deadline();
-    if (!next || std::max(*next, p.now()) > until) break;
-    p.advance(std::max(*next, p.now()));
-  }
-  p.advance(until);
-}
+using test::run_until;
+using ErrLog = test::StderrErrors;
 
 // ---- The longest data of a frame --------------------------------------------------------------
 // A state after some bits: the CRC-15 register, the last bit and its run (1..4), packed

@@ -33,6 +33,7 @@
 #include "config/config.hpp"
 #include "gateway/user_prm.hpp"
 #include "plant/plant.hpp"
+#include "tests/virtual_time_plant.hpp"
 
 namespace candp2 {
 namespace {
@@ -40,25 +41,8 @@ namespace {
 // 2024-01-01 00:00:00 UTC as the capture's time origin: deterministic time stamps.
 constexpr Duration kEpoch = seconds(1'704'067'200);
 
-class ErrLog final : public LogSink {
- public:
-  bool enabled(LogLevel level) const override { return level >= LogLevel::Error; }
-  void write(LogLevel level, std::string_view component, std::string_view message) override {
-    std::fprintf(stderr, "%s %.*s: %.*s\n", std::string(to_string(level)).c_str(),
-                 static_cast<int>(component.size()), component.data(),
-                 static_cast<int>(message.size()), message.data());
-  }
-};
-
-// The plant in virtual time: every event at or before `until`, as replay runs it.
-void run_until(plant::Plant& p, Time until) {
-  while (true) {
-    const auto next = p.next_deadline();
-    if (!next || std::max(*next, p.now()) > until) break;
-    p.advance(std::max(*next, p.now()));
-  }
-  p.advance(until);
-}
+using test::run_until;
+using ErrLog = test::StderrErrors;
 
 // Q bytes as the README's mbpoll writes holding registers 0..2 (register r = Q 2r high, 2r+1 low).
 void write_q(plant::Plant& p, std::vector<std::uint8_t> q, const std::string& what) {
