@@ -13,7 +13,8 @@
 // bench/can_load.py). The run's wall time goes to stderr.
 //
 // Prints one JSON line: {"buses": {NAME: {bitrate, load_last_pct, load_max_pct, frames, lost,
-// identifiers: [{id, extended, remote, frames, latency_max_us, latency_mean_us}]}},
+// identifiers: [{id, extended, remote, frames, latency_max_us, latency_mean_us}]}} (an ideal bus:
+// {frames_sent}),
 // "slots": [{gateway, id, data_a, data_b, bits_a, bits_b}]}. Exit status 0; 1 on a bad command
 // line or configuration.
 #include <algorithm>
@@ -172,7 +173,10 @@ nlohmann::json bus_json(plant::Plant& p) {
   nlohmann::json buses = nlohmann::json::object();
   for (auto& b : p.buses()) {
     const can::TimedBus* t = b->virtual_bus() ? b->virtual_bus()->timed() : nullptr;
-    if (!t) continue;
+    if (!t) {  // an ideal bus: the frames sent on it
+      if (b->virtual_bus()) buses[b->name()] = {{"frames_sent", b->virtual_bus()->frames_sent()}};
+      continue;
+    }
     const auto load = t->load(p.now());
     nlohmann::json ids = nlohmann::json::array();
     for (const auto& [key, s] : t->identifiers())
