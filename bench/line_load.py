@@ -98,10 +98,13 @@ class Observer:
 
 
 class Run:
-    def __init__(self, binary, cycle_ms, workdir, baud=None):
+    """candp2d on `cfg` (default: config(cycle_ms, baud)), its Modbus and HTTP ports learnt from
+    its ready line (bench/can_load.py runs its own configuration)."""
+
+    def __init__(self, binary, cycle_ms, workdir, baud=None, cfg=None):
         self.path = os.path.join(workdir, "line.json")
         with open(self.path, "w") as f:
-            json.dump(config(cycle_ms, baud), f)
+            json.dump(cfg or config(cycle_ms, baud), f)
         self.log_path = os.path.join(workdir, "candp2d.log")
         self.log = open(self.log_path, "w")
         self.proc = subprocess.Popen([binary, "--config", self.path, "--log-level", "info"],
@@ -119,6 +122,13 @@ class Run:
                 self.proc.kill()
                 sys.exit("no ready line")
             time.sleep(0.05)
+
+    def wait_data_exch(self, timeout=60):
+        end = time.monotonic() + timeout
+        while not all(g["dp_state"] == "Data_Exch" for g in self.status()["gateways"]):
+            if time.monotonic() > end:
+                sys.exit("not every gateway reached Data_Exch")
+            time.sleep(0.2)
 
     def status(self):
         with urllib.request.urlopen("http://127.0.0.1:%d/api/v1/status" % self.http,
@@ -156,11 +166,7 @@ def measure(binary, cycle_ms, seconds, baud=None, observe=False):
         r = Run(binary, cycle_ms, d, baud)
         observer = None
         try:
-            end = time.monotonic() + 60
-            while not all(g["dp_state"] == "Data_Exch" for g in r.status()["gateways"]):
-                if time.monotonic() > end:
-                    sys.exit("not every gateway reached Data_Exch")
-                time.sleep(0.2)
+            r.wait_data_exch()
             stop = threading.Event()
 
             def writer():

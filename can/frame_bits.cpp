@@ -1,6 +1,8 @@
 // A classic CAN frame on the wire (docs/can-bus.md "Frames on the wire").
 #include "can/frame_bits.hpp"
 
+#include <algorithm>
+
 namespace candp2::can {
 
 void BitStream::push(std::uint32_t value, unsigned width) {
@@ -75,6 +77,56 @@ std::uint32_t stuff_bits(std::span<const std::uint8_t> bits) {
 std::uint32_t frame_bits_exact(const Frame& f) {
   const BitStream s = stuffed_region(f);
   return static_cast<std::uint32_t>(s.size) + stuff_bits(s.view()) + kTrailerBits;
+}
+
+std::uint32_t frame_bits_longest(const Frame& f) {
+  if (f.payload().empty()) return frame_bits_exact(f);
+  const BitStream s = crc_region(f);
+  const std::size_t free_bits = f.payload().size() * 8 + 15;  // data and CRC, chosen freely
+  const std::span<const std::uint8_t> header = s.view().first(s.size - f.payload().size() * 8);
+  // The stuffing state after the header: the last bit, the length of its run, the stuff bits.
+  std::uint32_t stuffed = 0;
+  unsigned run = 0;
+  std::uint8_t last = 2;
+  for (const auto b : header) {
+    run = b == last ? run + 1 : 1;
+    last = b;
+    if (run == kStuffRun) {
+      ++stuffed;
+      last = static_cast<std::uint8_t>(b ^ 1);
+      run = 1;
+    }
+  }
+  // The most stuff bits the free bits can add from each state (last bit, run 1..4): a dynamic
+  // programme over the run state, one step per free bit; -1 = state not reachable.
+  using States = std::array<std::array<int, kStuffRun>, 2>;
+  States most{};
+  for (auto& by_run : most) by_run.fill(-1);
+  most[last][run] = 0;
+  for (std::size_t i = 0; i < free_bits; ++i) {
+    States next{};
+    for (auto& by_run : next) by_run.fill(-1);
+    for (unsigned l = 0; l < 2; ++l)
+      for (unsigned r = 1; r < kStuffRun; ++r) {
+        if (most[l][r] < 0) continue;
+        for (unsigned b = 0; b < 2; ++b) {
+          unsigned nl = b, nr = b == l ? r + 1 : 1;
+          int gain = 0;
+          if (nr == kStuffRun) {  // a stuff bit: its complement starts the next run
+            nl = b ^ 1u;
+            nr = 1;
+            gain = 1;
+          }
+          next[nl][nr] = std::max(next[nl][nr], most[l][r] + gain);
+        }
+      }
+    most = next;
+  }
+  int best = 0;
+  for (const auto& by_run : most)
+    for (const int v : by_run) best = std::max(best, v);
+  return static_cast<std::uint32_t>(s.size + 15) + stuffed + static_cast<std::uint32_t>(best) +
+         kTrailerBits;
 }
 
 std::uint32_t frame_bits_unstuffed(bool extended, bool remote, std::uint8_t dlc) {

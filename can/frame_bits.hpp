@@ -62,6 +62,13 @@ std::uint32_t frame_bits_worst(bool extended, bool remote, std::uint8_t dlc);
 inline std::uint32_t frame_bits_worst(const Frame& f) {
   return frame_bits_worst(f.extended, f.remote, f.dlc);
 }
+// The longest a frame with this identifier, kind and DLC can be, whatever its data bytes: stuff
+// bits counted on its real header (SOF, arbitration and control fields) and on data and CRC bits
+// chosen to stuff the most (docs/can-bus.md "Frames on the wire"). The CRC follows from the data,
+// and this bound lets it free, so a real frame reaches it or falls short by a bit or two: never
+// below frame_bits_exact(f) with any data, never above frame_bits_worst(f). Without data bits (a
+// remote frame, DLC 0) the data is known: frame_bits_exact(f).
+std::uint32_t frame_bits_longest(const Frame& f);
 // `bits` bit times at `bitrate` bit/s.
 std::chrono::nanoseconds bits_duration(std::uint64_t bits, std::uint32_t bitrate);
 inline std::chrono::nanoseconds frame_duration(const Frame& f, std::uint32_t bitrate) {

@@ -20,7 +20,15 @@ std::int64_t ceil_div(std::int64_t a, std::int64_t b) {
 struct Prepared {
   std::uint32_t key = 0;  // arbitration_key: smaller wins
   std::int64_t c = 0, t = 0, j = 0;
+  std::uint32_t fifo = 0;  // RtaMessage::fifo
+  // The priority it is analysed at: its own, or in a FIFO queue the lowest of the queue's (a
+  // frame waits for the frames queued ahead of it, and those for every frame that beats them).
+  std::uint32_t level = 0;
 };
+
+bool same_fifo(const Prepared& a, const Prepared& b) {
+  return a.fifo != 0 && a.fifo == b.fifo;
+}
 
 // The iteration of one message m: the other messages that can win arbitration against it (hp),
 // and the step budget.
@@ -28,7 +36,7 @@ class Iteration {
  public:
   Iteration(const std::vector<Prepared>& all, std::size_t m) : self_(all[m]) {
     for (std::size_t k = 0; k < all.size(); ++k)
-      if (k != m && all[k].key <= self_.key) hp_.push_back(all[k]);
+      if (k != m && (all[k].key <= self_.level || same_fifo(all[k], self_))) hp_.push_back(all[k]);
   }
 
   // The share of the bus the messages of priority m and higher take.
@@ -84,8 +92,9 @@ RtaReport analyse_response_times(std::span<const RtaMessage> messages, std::uint
   std::vector<Prepared> all;
   for (const auto& m : messages) {
     const auto bits = frame_bits_worst(m.id.extended, m.remote, m.dlc);
-    all.push_back({arbitration_key(m.id, m.remote), bits_duration(bits, bitrate).count(),
-                   m.period.count(), std::max<std::int64_t>(0, m.jitter.count())});
+    const auto key = arbitration_key(m.id, m.remote);
+    all.push_back({key, bits_duration(bits, bitrate).count(), m.period.count(),
+                   std::max<std::int64_t>(0, m.jitter.count()), m.fifo, key});
     RtaResult res;
     res.frame_bits = bits;
     res.transmission = nanoseconds(all.back().c);
@@ -93,6 +102,9 @@ RtaReport analyse_response_times(std::span<const RtaMessage> messages, std::uint
     if (m.period.count() > 0)
       r.utilisation += static_cast<double>(all.back().c) / static_cast<double>(m.period.count());
   }
+  for (auto& p : all)
+    for (const auto& k : all)
+      if (same_fifo(p, k)) p.level = std::max(p.level, k.key);
   const bool analysable =
       bitrate > 0 && std::all_of(all.begin(), all.end(), [](const auto& p) { return p.t > 0; });
   if (!analysable) return r;
@@ -103,10 +115,11 @@ RtaReport analyse_response_times(std::span<const RtaMessage> messages, std::uint
   for (std::size_t m = 0; m < all.size(); ++m) {
     RtaResult& res = r.messages[m];
     const Prepared& p = all[m];
-    // Eq. 4: blocked by the longest frame of lower priority, which may have just won.
+    // Eq. 4: blocked by the longest frame of lower priority, which may have just won (lower than
+    // the level the message is analysed at; its own queue's frames are interference).
     std::int64_t b = 0;
     for (const auto& k : all)
-      if (k.key > p.key) b = std::max(b, k.c);
+      if (k.key > p.level && !same_fifo(k, p)) b = std::max(b, k.c);
     res.blocking = nanoseconds(b);
     Iteration it(all, m);
     // The busy period converges only while the bus is not saturated at this priority.

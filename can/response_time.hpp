@@ -26,6 +26,11 @@ struct RtaMessage {
   std::uint8_t dlc = 0;
   std::chrono::nanoseconds period{0};  // T; 0 or less: the message cannot be analysed
   std::chrono::nanoseconds jitter{0};  // J
+  // The node's transmit queue: 0, its frames contend in priority order (the paper's assumption);
+  // n > 0, the messages with the same n share one first-in-first-out queue, whose head alone
+  // contends (docs/can-bus.md "Response times": each is analysed at the lowest priority of its
+  // queue, with all of the queue's messages as interference).
+  std::uint32_t fifo = 0;
 };
 
 struct RtaResult {

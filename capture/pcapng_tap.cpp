@@ -59,7 +59,7 @@ std::optional<std::uint32_t> PcapngTap::interface(Side side, std::uint16_t index
   switch (side) {
     case Side::Can:
       idb = pcapng::interface_description(pcapng::kLinktypeCanSocketcan, name,
-                                          "CAN bus " + std::to_string(index));
+                                          "CAN bus " + std::to_string(index), speed);
       break;
     case Side::Dp:
       idb = pcapng::interface_description(options_.profibus == ProfibusLinktype::ProfibusDl
@@ -97,8 +97,10 @@ void PcapngTap::packet(std::uint32_t interface_id, std::uint64_t ns,
 void PcapngTap::on_can(const plant::CanRecord& r) {
   if (writer_.stopped()) return check_writer();
   const std::uint64_t ns = time_ns(r.time);
+  const std::uint32_t bitrate =
+      r.bus < options_.can_bitrates.size() ? options_.can_bitrates[r.bus] : 0;
   const auto id =
-      interface(Side::Can, r.bus, r.interface.empty() ? r.bus_name : r.interface, 0, ns);
+      interface(Side::Can, r.bus, r.interface.empty() ? r.bus_name : r.interface, bitrate, ns);
   if (!id) {
     ++not_announced_;
     return;

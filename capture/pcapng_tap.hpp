@@ -1,6 +1,8 @@
 // The plant's pcapng capture (docs/capture.md): a plant::Tap that writes what it is told into a
 // capture file (ring) Wireshark opens, one timeline for both buses of every gateway:
 //  - one interface per CAN bus, LINKTYPE_CAN_SOCKETCAN (227), named after the bus's interface;
+//    a bus in time states its bit rate (if_speed) and its frames are stamped at their start of
+//    frame (docs/can-bus.md "In the plant");
 //  - one interface per PROFIBUS side (the in-process master's, the `profibus` line), carrying
 //    each FDL telegram as on the wire: as exported PDUs for the "fdl" dissector of
 //    tools/wireshark/candp2.lua (LINKTYPE_WIRESHARK_UPPER_PDU, 252; the default, Wireshark 4.0
@@ -44,6 +46,9 @@ struct PcapngTapOptions {
   // Plant time + wall_offset = microseconds since the Unix epoch. candp2d: CLOCK_REALTIME minus
   // CLOCK_MONOTONIC, taken once at start; replay: any epoch the report names.
   Duration wall_offset{0};
+  // By bus index (CanRecord::bus): the bit rate of a bus in time, stated as its interface's
+  // if_speed; 0 or missing: an ideal bus, whose interface states none (docs/capture.md).
+  std::vector<std::uint32_t> can_bitrates{};
 };
 
 struct PcapngTapStats {

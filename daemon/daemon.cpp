@@ -324,6 +324,7 @@ void DaemonImpl::start_capture() {
                    ? capture::ProfibusLinktype::ProfibusDl
                    : capture::ProfibusLinktype::WiresharkUpperPdu;
   o.wall_offset = EventLoop::wall_now() - EventLoop::monotonic_now();
+  for (const auto& b : config_.buses) o.can_bitrates.push_back(b.timed_bitrate.value_or(0));
   pcapng_ = std::make_unique<capture::PcapngTap>(o, log_sink_);
   plant_->add_tap(pcapng_.get());
   log_.info("capture: " + c.pcapng +

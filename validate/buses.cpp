@@ -40,6 +40,16 @@ can::RtaMessage message_of(const can::Frame& f, nanoseconds period, nanoseconds 
       .id = can::ident_of(f), .remote = f.remote, .dlc = f.dlc, .period = period, .jitter = jitter};
 }
 
+// The longest frame of the message on the wire, whatever its data (docs/validate.md "CAN buses":
+// the load counts real frame lengths; a frame without data bits its exact length).
+std::uint32_t longest_bits(const can::RtaMessage& m) {
+  return can::frame_bits_longest(
+      m.remote
+          ? can::Frame::rtr(m.id.id, m.id.extended, m.dlc)
+          : can::Frame::data_frame(m.id.id, m.id.extended,
+                                   std::vector<std::uint8_t>(std::min<std::size_t>(m.dlc, 8))));
+}
+
 std::string ms_text(nanoseconds d) {
   char b[32];
   std::snprintf(b, sizeof b, "%.3f ms", static_cast<double>(d.count()) / 1e6);
@@ -145,8 +155,14 @@ BusReport check_bus(const BusInput& in, const std::vector<GatewayReport>& gatewa
     }
     add_gateway(r.messages, g, in);
   }
+  // docs/can-bus.md "Transmit queues": every node sends from one FIFO queue, so each sender's
+  // messages share one (analysed at its lowest priority, docs/can-bus.md "Response times").
   for (const auto& d : drives)
     if (d.bus == in.name) add_drive(r.messages, d);
+  std::uint32_t fifo = 0;
+  for (std::size_t i = 0; i < r.messages.size(); ++i)
+    r.messages[i].message.fifo =
+        i > 0 && r.messages[i].sender == r.messages[i - 1].sender ? fifo : ++fifo;
 
   // A reply is released when its command frame has been received: from the command's earliest
   // end (its length after release) to its latest (its worst response), so its jitter is the
@@ -175,10 +191,13 @@ BusReport check_bus(const BusInput& in, const std::vector<GatewayReport>& gatewa
     }
   }
 
+  // The load at the longest frames the messages can send (can::frame_bits_longest): the worst case
+  // of real frames, which a bus reaches with data that stuffs the most. The analysis above keeps
+  // Davis et al.'s bound, which no real frame reaches (docs/validate.md "CAN buses").
   double load = 0;
   for (std::size_t i = 0; i < r.messages.size(); ++i)
     if (!r.messages[i].once)
-      load += static_cast<double>(r.analysis.messages[i].transmission.count()) /
+      load += static_cast<double>(can::bits_duration(longest_bits(set[i]), in.bitrate).count()) /
               static_cast<double>(set[i].period.count());
   r.load_pct = load * 100.0;
 

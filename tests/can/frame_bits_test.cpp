@@ -7,7 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <random>
 #include <string_view>
+#include <vector>
 
 namespace candp2::can {
 namespace {
@@ -161,6 +164,47 @@ TEST(FrameBits, WorstCase) {
   for (const auto& f : {Frame::std_data(0x000, {}), Frame::std_data(0x7FF, kOnes),
                         Frame::ext_data(0x00000000, kZeros), Frame::rtr(0x1FFFFFFF, true, 8)})
     EXPECT_LE(frame_bits_exact(f), frame_bits_worst(f)) << format_candump(f);
+}
+
+// frame_bits_longest: the longest exact length a frame's identifier, kind and DLC allow, whatever
+// the data. Against every data value of DLC 1 and 2 (all 256 and 65 536): never below the longest
+// real frame, at most 2 bits above it (the CRC, which the bound lets free, follows from the data).
+TEST(FrameBits, LongestOverAllData) {
+  for (const std::uint32_t id : {0x000u, 0x123u, 0x555u, 0x7FFu})
+    for (const std::uint8_t dlc : {1, 2}) {
+      std::uint32_t longest_real = 0;
+      std::vector<std::uint8_t> data(dlc);
+      for (std::uint32_t v = 0; v < (1u << (8 * dlc)); ++v) {
+        for (std::size_t i = 0; i < dlc; ++i) data[i] = static_cast<std::uint8_t>(v >> (8 * i));
+        longest_real = std::max(longest_real, frame_bits_exact(Frame::std_data(id, data)));
+      }
+      const auto bound = frame_bits_longest(Frame::std_data(id, data));
+      EXPECT_GE(bound, longest_real) << std::hex << id << " DLC " << int{dlc};
+      EXPECT_LE(bound, longest_real + 2) << std::hex << id << " DLC " << int{dlc};
+    }
+  // Worked with a dynamic programme over the data and CRC bits (the real CRC): 0x123 DLC 1 reaches
+  // 60 bits, the bound says 61; 0x000 DLC 1 reaches 61, the bound 63; 0x101 DLC 8 reaches 131,
+  // the bound 132 (Davis et al.'s formula: 65 and 135).
+  EXPECT_EQ(frame_bits_longest(Frame::std_data(0x123, std::vector<std::uint8_t>{0})), 61u);
+  EXPECT_EQ(frame_bits_longest(Frame::std_data(0x000, std::vector<std::uint8_t>{0})), 63u);
+  EXPECT_EQ(frame_bits_longest(Frame::std_data(0x101, kZeros)), 132u);
+}
+
+// Without data bits the data is known: the exact length. Any frame: exact <= longest <= worst.
+TEST(FrameBits, LongestBetweenExactAndWorst) {
+  for (const auto& f : {Frame::std_data(0x080, {}), Frame::rtr(0x123, false, 4),
+                        Frame::rtr(0x1FFFFFFF, true, 8), Frame::ext_data(0x12345678, {})})
+    EXPECT_EQ(frame_bits_longest(f), frame_bits_exact(f)) << format_candump(f);
+  std::mt19937 rng(36);
+  for (int i = 0; i < 20000; ++i) {
+    const bool ext = rng() % 2 != 0;
+    const auto id = static_cast<std::uint32_t>(rng() & (ext ? 0x1FFFFFFFu : 0x7FFu));
+    std::vector<std::uint8_t> data(rng() % 9);
+    for (auto& b : data) b = static_cast<std::uint8_t>(rng());
+    const Frame f = ext ? Frame::ext_data(id, data) : Frame::std_data(id, data);
+    EXPECT_LE(frame_bits_exact(f), frame_bits_longest(f)) << format_candump(f);
+    EXPECT_LE(frame_bits_longest(f), frame_bits_worst(f)) << format_candump(f);
+  }
 }
 
 TEST(FrameBits, Duration) {

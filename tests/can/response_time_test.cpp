@@ -11,6 +11,7 @@
 #include <random>
 
 #include "can/frame_bits.hpp"
+#include "can/timed_bus.hpp"
 
 namespace candp2::can {
 namespace {
@@ -155,6 +156,27 @@ TEST(ResponseTime, ArbitrationDecidesBlockingAndInterference) {
   EXPECT_EQ(r.messages[0].response, microseconds(350));
 }
 
+// A node with one FIFO transmit queue (RtaMessage::fifo, docs/can-bus.md "Response times"): its
+// high-priority frame can wait behind its own low one, so each of its messages is analysed at the
+// queue's lowest priority with all of the queue's messages as interference. 125 kbit/s, DLC 0
+// (55 bits = 440 us), T = 10 ms; node 1 queues 0x100 and 0x300, node 2 (priority order) 0x200.
+//   0x100 alone in priority order: B = 440 (a lower frame), w = 440, R = 880.
+//   0x100 in the FIFO: level 0x300, hp = {0x300 (its queue), 0x200 (beats 0x300)}, B = 0 (nothing
+//   below 0x300): w(0): 0 -> 440 + 440 = 880 -> 880 (ceil(888/10000) = 1), R = 880 + 440 = 1320.
+//   0x200: B = 440 (0x300), hp = {0x100}: w = 440 + 440 = 880, R = 1320 in both cases.
+TEST(ResponseTime, FifoQueueAnalysedAtItsLowestPriority) {
+  std::vector<RtaMessage> set = {msg(0x100, 0, microseconds(10000)),
+                                 msg(0x300, 0, microseconds(10000)),
+                                 msg(0x200, 0, microseconds(10000))};
+  EXPECT_EQ(analyse_response_times(set, 125'000).messages[0].response, microseconds(880));
+  set[0].fifo = set[1].fifo = 1;
+  const RtaReport r = analyse_response_times(set, 125'000);
+  EXPECT_EQ(r.messages[0].blocking, microseconds(0));
+  EXPECT_EQ(r.messages[0].response, microseconds(1320));
+  EXPECT_EQ(r.messages[1].response, microseconds(1320));
+  EXPECT_EQ(r.messages[2].response, microseconds(1320));
+}
+
 // Paper, section 4: the busy period only ends below 100 % load at a priority. Over 100 % the lower
 // messages have no bound and the set is not schedulable; the higher ones are still analysed.
 TEST(ResponseTime, OverloadLeavesTheLowerMessagesUnbounded) {
@@ -249,6 +271,76 @@ TEST(ResponseTime, RandomSetsBoundTheSimulatedBus) {
   }
   EXPECT_GT(analysed, 300);
   EXPECT_GT(overloaded, 5);
+}
+
+// The analysis against can::TimedBus (docs/can-bus.md "The bus in time"), whose nodes have FIFO
+// transmit queues: random sets of messages spread over 1..3 nodes, released at random offsets and
+// then every period for 200 ms of bus time. With each node's queue declared (RtaMessage::fifo) no
+// frame's request-to-end is ever above its bound; analysed as if every node sent in priority
+// order, the bound is exceeded in some sets (a node's high frame behind its own low one).
+TEST(ResponseTime, FifoNodesBoundTheTimedBus) {
+  std::mt19937 rng(3611);
+  const std::int64_t periods[] = {2000, 2500, 5000, 10000, 20000};  // us
+  int analysed = 0, exceeded_without_fifo = 0;
+  for (int round = 0; round < 150; ++round) {
+    const int n = 2 + static_cast<int>(rng() % 7), nodes = 1 + static_cast<int>(rng() % 3);
+    std::vector<RtaMessage> set;
+    std::vector<std::uint32_t> ids;
+    for (int i = 0; i < n; ++i) {
+      std::uint32_t id = 0;
+      do id = static_cast<std::uint32_t>(rng() % 0x800);
+      while (std::find(ids.begin(), ids.end(), id) != ids.end());
+      ids.push_back(id);
+      set.push_back(
+          msg(id, static_cast<std::uint8_t>(rng() % 9), microseconds(periods[rng() % 5])));
+      set.back().fifo = 1 + static_cast<std::uint32_t>(rng() % static_cast<unsigned>(nodes));
+    }
+    const RtaReport r = analyse_response_times(set, 250'000);
+    std::vector<RtaMessage> priority_order = set;
+    for (auto& m : priority_order) m.fifo = 0;
+    const RtaReport naive = analyse_response_times(priority_order, 250'000);
+    if (!r.schedulable()) continue;
+    TimedBus bus(250'000, Time{0});
+    for (int k = 0; k < nodes; ++k) bus.add_node(64);
+    std::vector<Time> next;
+    for (int i = 0; i < n; ++i) next.push_back(Time{static_cast<std::int64_t>(rng() % 20000)});
+    const Time horizon{200'000};
+    for (;;) {
+      const Time release = *std::min_element(next.begin(), next.end());
+      const auto on_bus = bus.next_deadline();
+      if (release > horizon && (!on_bus || *on_bus > horizon)) break;
+      if (on_bus && *on_bus <= release) {
+        bus.advance(*on_bus);
+        continue;
+      }
+      bus.advance(release);
+      for (int i = 0; i < n; ++i)
+        if (next[i] == release) {
+          const auto& m = set[i];
+          ASSERT_TRUE(bus.request(
+              m.fifo - 1, Frame::std_data(m.id.id, std::vector<std::uint8_t>(m.dlc)), release));
+          next[i] += std::chrono::duration_cast<Duration>(m.period);
+        }
+    }
+    bool exceeded = false;
+    for (int i = 0; i < n; ++i) {
+      const auto& s = bus.identifiers().at(arbitration_key(set[i].id, false));
+      // Request to end: the queueing latency (to the start of frame, stamped to the microsecond
+      // at or after its bit) and the frame's exact length.
+      const auto end =
+          std::chrono::duration_cast<nanoseconds>(s.latency_max) +
+          frame_duration(Frame::std_data(set[i].id.id, std::vector<std::uint8_t>(set[i].dlc)),
+                         250'000);
+      ++analysed;
+      EXPECT_LE(end, *r.messages[i].response + microseconds(1))
+          << "round " << round << " message " << i << " 0x" << std::hex << set[i].id.id;
+      exceeded = exceeded || !naive.messages[i].response ||
+                 end > *naive.messages[i].response + microseconds(1);
+    }
+    exceeded_without_fifo += exceeded ? 1 : 0;
+  }
+  EXPECT_GT(analysed, 200);
+  EXPECT_GT(exceeded_without_fifo, 0);
 }
 
 }  // namespace

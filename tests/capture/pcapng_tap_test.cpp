@@ -122,6 +122,32 @@ TEST(PcapngTap, ProfibusDlCarriesTheTelegramAlone) {
   EXPECT_EQ(c.packets[4].data, std::vector<std::uint8_t>{0xE5});
 }
 
+// docs/capture.md: a CAN bus in time states its bit rate as its interface's if_speed; an ideal bus
+// (0, or no entry for its index) states none.
+TEST(PcapngTap, TimedCanBusStatesItsBitRate) {
+  const std::string path = temp_file("c.pcapng");
+  {
+    MemoryLog log;
+    PcapngTap tap({.writer = {.path = path}, .wall_offset = kOffset, .can_bitrates = {0, 125'000}},
+                  &log);
+    const auto f = can::Frame::std_data(0x101, std::vector<std::uint8_t>{1, 2});
+    for (std::uint16_t bus : {1, 0, 2})
+      tap.on_can({.time = Time(20 + bus),
+                  .bus = bus,
+                  .bus_name = "b",
+                  .interface = "b" + std::to_string(bus),
+                  .frame = f,
+                  .sender = "gw"});
+  }
+  const auto c = read_capture(slurp(path));
+  fs::remove(path);
+  ASSERT_TRUE(c.ok);
+  ASSERT_EQ(c.interfaces.size(), 3u);
+  EXPECT_EQ(c.interfaces[0].speed, std::optional<std::uint64_t>{125'000});
+  EXPECT_FALSE(c.interfaces[1].speed.has_value()) << "bus 0: ideal";
+  EXPECT_FALSE(c.interfaces[2].speed.has_value()) << "bus 2: no bit rate given";
+}
+
 // A disk that takes `room` bytes, then answers ENOSPC.
 class FullDisk final : public FileSystem {
  public:

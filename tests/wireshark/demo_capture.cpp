@@ -11,6 +11,12 @@
 //                                           power cycles, forced CAN controller states and two
 //                                           faulty gateways (a Prm and a Cfg fault), until the
 //                                           capture holds at least N packets
+//   demo_capture OUT.pcapng --config F --seconds S
+//                                           the configuration F alone for S s of virtual time
+//                                           (no walk-through); prints one JSON line with each bus
+//                                           in time's statistics (docs/can-bus.md "The bus in
+//                                           time": bitrate, load_last_pct, load_max_pct, frames,
+//                                           lost)
 //
 // Used by tests/wireshark/tshark_test.py (ctest) and for the screenshot of docs/capture.md.
 // Exit status 0, 1 on a bad command line or configuration, 2 when the capture failed.
@@ -27,6 +33,7 @@
 #include "config/config.hpp"
 #include "gateway/user_prm.hpp"
 #include "plant/plant.hpp"
+#include "tests/virtual_time_plant.hpp"
 
 namespace candp2 {
 namespace {
@@ -34,25 +41,8 @@ namespace {
 // 2024-01-01 00:00:00 UTC as the capture's time origin: deterministic time stamps.
 constexpr Duration kEpoch = seconds(1'704'067'200);
 
-class ErrLog final : public LogSink {
- public:
-  bool enabled(LogLevel level) const override { return level >= LogLevel::Error; }
-  void write(LogLevel level, std::string_view component, std::string_view message) override {
-    std::fprintf(stderr, "%s %.*s: %.*s\n", std::string(to_string(level)).c_str(),
-                 static_cast<int>(component.size()), component.data(),
-                 static_cast<int>(message.size()), message.data());
-  }
-};
-
-// The plant in virtual time: every event at or before `until`, as replay runs it.
-void run_until(plant::Plant& p, Time until) {
-  while (true) {
-    const auto next = p.next_deadline();
-    if (!next || std::max(*next, p.now()) > until) break;
-    p.advance(std::max(*next, p.now()));
-  }
-  p.advance(until);
-}
+using test::run_until;
+using ErrLog = test::StderrErrors;
 
 // Q bytes as the README's mbpoll writes holding registers 0..2 (register r = Q 2r high, 2r+1 low).
 void write_q(plant::Plant& p, std::vector<std::uint8_t> q, const std::string& what) {
@@ -125,19 +115,43 @@ bool more(plant::Plant& p, capture::PcapngTap& tap, std::uint64_t frames) {
   return true;
 }
 
+// The statistics of every bus in time, as one JSON line (the tshark test compares them with what
+// it computes from the capture).
+void print_timed_buses(plant::Plant& p) {
+  nlohmann::json buses = nlohmann::json::object();
+  for (auto& b : p.buses()) {
+    const can::TimedBus* t = b->virtual_bus() ? b->virtual_bus()->timed() : nullptr;
+    if (!t) continue;
+    const auto load = t->load(p.now());
+    buses[b->name()] = {{"bitrate", t->bitrate()},
+                        {"load_last_pct", load.last_pct},
+                        {"load_max_pct", load.max_pct},
+                        {"frames", t->frames()},
+                        {"lost", t->lost()}};
+  }
+  std::printf("%s\n", nlohmann::json{{"buses", buses}}.dump().c_str());
+}
+
 int run(int argc, char** argv) {
-  const std::string option = argc == 4 ? argv[2] : "";
-  if (argc != 2 && !(argc == 4 && (option == "--frames" || option == "--baud"))) {
-    std::fprintf(stderr, "usage: demo_capture OUT.pcapng [--frames N | --baud RATE]\n");
+  const std::string option = argc >= 4 ? argv[2] : "";
+  const bool timed_run = argc == 6 && option == "--config" && std::string(argv[4]) == "--seconds";
+  if (argc != 2 && !(argc == 4 && (option == "--frames" || option == "--baud")) && !timed_run) {
+    std::fprintf(stderr,
+                 "usage: demo_capture OUT.pcapng [--frames N | --baud RATE | --config F "
+                 "--seconds S]\n");
     return 1;
   }
   const bool long_run = option == "--frames";
-  std::ifstream demo(CANDP2_SOURCE_DIR "/config/demo.json");
+  std::ifstream demo(timed_run ? argv[3] : CANDP2_SOURCE_DIR "/config/demo.json");
+  if (!demo) {
+    std::fprintf(stderr, "cannot read %s\n", timed_run ? argv[3] : "config/demo.json");
+    return 1;
+  }
   auto json = nlohmann::json::parse(demo);
   if (long_run) add_faulty_gateways(json);
   // docs/profibus.md "The line in time": the walk-through on a line with a baud rate.
   if (option == "--baud") json["master"]["baud"] = std::strtoul(argv[3], nullptr, 10);
-  const auto loaded = config::parse_daemon(json.dump(), "demo.json");
+  const auto loaded = config::parse_daemon(json.dump(), timed_run ? argv[3] : "demo.json");
   if (const auto* e = std::get_if<config::ConfigError>(&loaded)) {
     std::fprintf(stderr, "%s\n", e->to_string().c_str());
     return 1;
@@ -149,6 +163,7 @@ int run(int argc, char** argv) {
   o.writer.application = "candp2 demo_capture";
   o.writer.buffer_bytes = std::size_t{64} << 20;
   o.wall_offset = kEpoch;
+  for (const auto& b : cfg.buses) o.can_bitrates.push_back(b.timed_bitrate.value_or(0));
   capture::PcapngTap tap(o, &log);
   std::string error;
   plant::Options po;
@@ -161,6 +176,12 @@ int run(int argc, char** argv) {
     return 1;
   }
   plant->add_tap(&tap);
+  if (timed_run) {
+    run_until(*plant, seconds(std::strtoll(argv[5], nullptr, 10)));
+    tap.sync();
+    print_timed_buses(*plant);
+    return tap.stats().stopped || tap.stats().dropped ? 2 : 0;
+  }
   walk_through(*plant);
   if (long_run && !more(*plant, tap, std::strtoull(argv[3], nullptr, 10))) return 2;
   tap.sync();

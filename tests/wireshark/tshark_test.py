@@ -16,6 +16,10 @@ own code writes (docs/capture.md "Tests"). One case per run:
               spec's telegrams: Set_Prm ident 04A4 and the Chk_Cfg slots decoded, both directions
   timed-line  demo_capture --baud 187500 (docs/profibus.md "The line in time"): telegrams never
               overlap, TSYN before every request, min_TSDR before every answer
+  timed-can   demo_capture --config of buses in time (docs/can-bus.md "The bus in time"): the
+              CAN interface's if_speed is the bit rate; consecutive frames never overlap, each
+              starts at least the exact length of the one before later (lengths computed here, not
+              by candp2); the load of each second computed from the capture equals the bus's
 
 Every tshark run is bounded (timeout) and checks that the Lua script loaded without an error.
 """
@@ -181,6 +185,142 @@ def case_timed_line(tmp):
     if tokens == 0:
         fail("no token (SD4) on the line")
     print(f"timed-line: {len(rows)} telegrams, {tokens} tokens, no overlap, TSYN and min_TSDR kept")
+
+
+def can_frame_bits(ident, ext, rtr, dlc, data):
+    """docs/can-bus.md "Frames on the wire", written again here so that the test does not share
+    candp2's arithmetic: the bits from start of frame through the CRC (CRC-15, polynomial 0x4599),
+    the stuff bits on that stream (after five equal bits one complementary bit, which starts the
+    next run), and the 13 unstuffed trailer bits through the intermission."""
+    def bits_of(value, n):
+        return [(value >> i) & 1 for i in range(n - 1, -1, -1)]
+    bits = [0]
+    if ext:
+        bits += bits_of(ident >> 18, 11) + [1, 1] + bits_of(ident & 0x3FFFF, 18) + [rtr, 0, 0]
+    else:
+        bits += bits_of(ident, 11) + [rtr, 0, 0]
+    bits += bits_of(dlc, 4)
+    if not rtr:
+        for byte in data[:min(dlc, 8)]:
+            bits += bits_of(byte, 8)
+    crc = 0
+    for b in bits:
+        top = ((crc >> 14) & 1) ^ b
+        crc = (crc << 1) & 0x7FFF
+        if top:
+            crc ^= 0x4599
+    bits += bits_of(crc, 15)
+    stuff, last, run = 0, None, 0
+    for b in bits:
+        run = run + 1 if b == last else 1
+        last = b
+        if run == 5:
+            stuff += 1
+            last, run = 1 - b, 1
+    return len(bits) + stuff + 13
+
+
+def check_can_frame_bits():
+    """The frames docs/can-bus.md's unit tests work by hand: this copy must agree with them."""
+    counting = [0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88]
+    cases = [((0x000, 0, 0, 0, []), 53), ((0x080, 0, 0, 0, []), 51),
+             ((0x123, 0, 0, 8, counting), 112), ((0x7FF, 0, 0, 8, [0xFF] * 8), 126),
+             ((0x123, 0, 1, 4, []), 47), ((0x12345678, 1, 0, 0, []), 69),
+             ((0x1FFFFFFF, 1, 1, 8, []), 74), ((0, 1, 0, 8, [0] * 8), 150)]
+    for args, bits in cases:
+        if can_frame_bits(*args) != bits:
+            fail(f"the test's frame length of {args} is {can_frame_bits(*args)}, not {bits}")
+
+
+def if_speeds(capture):
+    """{interface name: if_speed or None} from the capture's Interface Description Blocks."""
+    raw = open(capture, "rb").read()
+    speeds, pos = {}, 0
+    while pos + 12 <= len(raw):
+        kind, length = int.from_bytes(raw[pos:pos + 4], "little"), \
+            int.from_bytes(raw[pos + 4:pos + 8], "little")
+        if kind == 1:  # IDB: link type, reserved, snap length, then the options
+            opt, name, speed = pos + 16, None, None
+            while opt + 4 <= pos + length - 4:
+                code = int.from_bytes(raw[opt:opt + 2], "little")
+                size = int.from_bytes(raw[opt + 2:opt + 4], "little")
+                value = raw[opt + 4:opt + 4 + size]
+                if code == 0:
+                    break
+                if code == 2:
+                    name = value.decode()
+                if code == 8:
+                    speed = int.from_bytes(value, "little")
+                opt += 4 + (size + 3) // 4 * 4
+            speeds[name] = speed
+        pos += length
+    return speeds
+
+
+def case_timed_can(tmp):
+    """docs/can-bus.md "The bus in time" seen in a capture: every CAN frame stamped at its start of
+    frame (whole microseconds, the first at or after its bit), the interface's if_speed the bus's
+    bit rate. Consecutive frames never overlap: each starts at least the exact length of the one
+    before later. The load of each second computed from the capture's frames at their exact
+    lengths equals the bus's own (its last complete second and its most loaded) within 1 %.
+    Overloaded (timed-bus-125k, back to back) and loaded with drives' replies (timed-bus-drive)."""
+    check_can_frame_bits()
+    seconds = 4
+    for name in ("timed-bus-125k", "timed-bus-drive"):
+        cap = os.path.join(tmp, name + ".pcapng")
+        out = run([ARGS.demo_capture, cap, "--config",
+                   os.path.join(ARGS.source_dir, "config", name + ".json"),
+                   "--seconds", str(seconds)])
+        stats = json.loads(out.splitlines()[-1])["buses"]
+        speeds = if_speeds(cap)
+        for bus, st in stats.items():
+            rate = st["bitrate"]
+            if speeds.get(bus) != rate:
+                fail(f"{name}: interface {bus} states if_speed {speeds.get(bus)}, want {rate}")
+            rows = fields(cap, ["frame.time_epoch", "can.id", "can.flags.xtd", "can.flags.rtr",
+                                "can.len", "data.data", "candp2.can.data"],
+                          f'frame.interface_name == "{bus}"')
+            if len(rows) != st["frames"]:
+                fail(f"{name}: {len(rows)} frames in the capture, the bus counted {st['frames']}")
+            bit = 1.0 / rate
+            origin = None
+            prev_start, prev_bits = None, 0
+            busy = [0.0] * (seconds + 1)  # bit times per second of bus time
+            tightest = None
+            for r in rows:
+                t = float(r["frame.time_epoch"])
+                # The epoch of demo_capture's plant time 0, the bus's origin (docs/can-bus.md "In
+                # the plant": timed from the plant's start).
+                origin = origin if origin is not None else int(t)
+                # The payload: Wireshark's data, or the dissector's on a slot's identifier (one
+                # per slot that uses it: the first).
+                payload = (r["candp2.can.data"] or r["data.data"]).split(",")[0]
+                data = bytes.fromhex(payload.replace(":", ""))
+                rtr = r["can.flags.rtr"] in ("1", "True")
+                nbits = can_frame_bits(int(r["can.id"]), r["can.flags.xtd"] in ("1", "True"),
+                                       int(rtr), int(r["can.len"]), list(data))
+                if prev_start is not None:
+                    gap = t - prev_start - prev_bits * bit
+                    # Stamps are whole microseconds rounded up from the bit: 1 us of slack.
+                    if gap < -1.0e-6:
+                        fail(f"{name}: frame 0x{int(r['can.id']):X} at {t:.6f} starts "
+                             f"{-gap * 1e6:.1f} us before the frame before it ends")
+                    tightest = gap if tightest is None else min(tightest, gap)
+                start = (t - origin) * rate  # in bit times from the origin (to 1 us)
+                end = start + nbits
+                for sec in range(int(start // rate), min(int(end // rate), seconds) + 1):
+                    busy[sec] += max(0.0, min(end, (sec + 1) * rate) - max(start, sec * rate))
+                prev_start, prev_bits = t, nbits
+            loads = [100.0 * b / rate for b in busy[:seconds]]
+            for what, mine, theirs in (("last", loads[-1], st["load_last_pct"]),
+                                       ("max", max(loads), st["load_max_pct"])):
+                if abs(mine - theirs) > 1.0:
+                    fail(f"{name}: load {what} from the capture {mine:.2f} %, the bus's "
+                         f"{theirs:.2f} %")
+            print(f"timed-can {name}: {len(rows)} frames on {bus} at {rate} bit/s, none "
+                  f"overlapping (tightest gap {tightest * 1e6:.1f} us), load per second from the "
+                  f"capture {[round(x, 2) for x in loads]} %, the bus's last "
+                  f"{st['load_last_pct']:.2f} % max {st['load_max_pct']:.2f} %")
 
 
 PI_ERROR = 0x00800000  # Wireshark's expert severity "error" (epan/proto.h PI_ERROR)
@@ -426,7 +566,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("case", choices=["demo", "malformed", "sniff-file", "sniff-pty",
                                      "daemon-demo", "daemon-slaves", "timed-line",
-                                     "daemon-line-faults"])
+                                     "daemon-line-faults", "timed-can"])
     ap.add_argument("--candp2d")
     ap.add_argument("--tshark", default="tshark")
     ap.add_argument("--lua", required=True)
@@ -438,7 +578,7 @@ def main():
         {"demo": case_demo, "malformed": case_malformed, "sniff-file": case_sniff_file,
          "sniff-pty": case_sniff_pty, "daemon-demo": case_daemon_demo,
          "daemon-slaves": case_daemon_slaves, "timed-line": case_timed_line,
-         "daemon-line-faults": case_daemon_line_faults}[ARGS.case](tmp)
+         "daemon-line-faults": case_daemon_line_faults, "timed-can": case_timed_can}[ARGS.case](tmp)
     print(ARGS.case + ": ok")
     return 0
 
