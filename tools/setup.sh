@@ -307,6 +307,8 @@ stage_table() {  # TOTAL_SECONDS
 ctest_stage() {
   local dir=$1 rc=0
   shift
+  # ctest leaves an old list of failed tests in place when all pass: not to be reported again.
+  rm -f "$dir/Testing/Temporary/LastTestsFailed.log"
   ctest --test-dir "$dir" --output-on-failure -j "$jobs" --timeout 600 "$@" | tee "$dir/ctest.log" ||
     rc=$?
   stage_note=$(grep -o '[0-9]* tests failed out of [0-9]*' "$dir/ctest.log" | tail -1)
