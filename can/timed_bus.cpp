@@ -9,8 +9,6 @@ namespace candp2::can {
 
 namespace {
 constexpr std::uint64_t kMicrosPerSecond = 1'000'000;
-// An error frame: error flag (6), error delimiter (8), then the intermission (3).
-constexpr std::uint32_t kErrorFrameBits = 6 + 8 + 3;
 // Where an error is detected, in bits from start of frame to the first bit of the error flag
 // (docs/can-bus.md "Error confinement"): a sender at a wrong bit rate breaks the stuffing rule
 // within the first six bits the others sample; an error on cue is seen at the last CRC bit;

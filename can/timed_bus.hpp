@@ -55,6 +55,10 @@ class TimedBus {
     Time requested{0}, start{0}, end{0};
     Error error = Error::None;
   };
+  // An error frame: error flag (6), error delimiter (8), then the intermission (3).
+  static constexpr std::uint32_t kErrorFrameBits = 6 + 8 + 3;
+  // The first bit of the error flag of a frame in error.
+  static std::uint64_t error_flag_bit(const OnBus& f) { return f.end_bit - kErrorFrameBits; }
   // A node's error confinement (ISO 11898-1 fault confinement).
   struct Confinement {
     std::uint32_t tec = 0, rec = 0;

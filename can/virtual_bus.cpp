@@ -106,7 +106,10 @@ void VirtualBus::set_bitrate(std::uint32_t bitrate, Time origin) {
   timed_->on_end([this](const TimedBus::OnBus& f) { ended(f); });
   // docs/can-bus.md "Error confinement": a frame nobody else acknowledges is an ACK error.
   timed_->check_acknowledgement(true);
-  timed_->on_state([this](std::size_t, BusState) { changed(); });
+  timed_->on_state([this](std::size_t node, BusState s) {
+    changed();
+    state_changed(node, s);
+  });
   for (auto* ep : endpoints_) attach_timed(ep);
 }
 
@@ -125,7 +128,19 @@ void VirtualEndpoint::set_tx_queue(TxQueue q) {
 // The frame won arbitration: it is on the bus from its start of frame (the taps' time stamp). A
 // frame that ends in an error frame is nobody's frame: the taps see it when it gets through.
 void VirtualBus::started(const TimedBus::OnBus& f) {
-  if (f.error != TimedBus::Error::None) return;
+  in_frame_ = true;
+  frame_end_ = f.end;
+  if (f.error != TimedBus::Error::None) {
+    if (!error_tap_) return;
+    const auto& c = timed_->confinement(f.node);
+    const VirtualEndpoint* from = nodes_[f.node];
+    error_tap_(BusError{.time = timed_->time_of(TimedBus::error_flag_bit(f)),
+                        .error = f.error,
+                        .tec = c.tec,
+                        .rec = c.rec,
+                        .node = from ? std::string_view(from->name()) : std::string_view()});
+    return;
+  }
   ++frames_sent_;
   const VirtualEndpoint* from = nodes_[f.node];
   const std::string_view sender = from ? std::string_view(from->name()) : std::string_view();
@@ -135,9 +150,24 @@ void VirtualBus::started(const TimedBus::OnBus& f) {
 // Its last bit has passed: every other node that takes part in traffic has it (not one unplugged,
 // at a wrong bit rate or bus-off); a frame in error nobody has.
 void VirtualBus::ended(const TimedBus::OnBus& f) {
+  in_frame_ = false;
   changed();
   if (f.error != TimedBus::Error::None) return;
   deliver_all(nodes_[f.node], f.frame);
+}
+
+// docs/capture.md "Error frames": after a frame, at its end; else a bus-off recovery, now (the
+// plant advances the bus at its deadline).
+void VirtualBus::state_changed(std::size_t node, BusState s) {
+  if (!error_tap_) return;
+  const auto& c = timed_->confinement(node);
+  const VirtualEndpoint* ep = nodes_[node];
+  error_tap_(BusError{.time = in_frame_ ? frame_end_ : now(),
+                      .state = s,
+                      .recovered = !in_frame_ && s == BusState::Ok,
+                      .tec = c.tec,
+                      .rec = c.rec,
+                      .node = ep ? std::string_view(ep->name()) : std::string_view()});
 }
 
 bool VirtualBus::inject_errors(const TimedBus::ErrorFault& fault) {

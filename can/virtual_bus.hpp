@@ -28,6 +28,20 @@ namespace candp2::can {
 
 class VirtualBus;
 
+// What a controller on a bus in time reports as an error (docs/capture.md "Error frames"): a
+// frame that ended in an error frame (at the first bit of its error flag, `error` why), or a
+// node's change of confinement state (`state`, at the end of the frame that changed it or at its
+// bus-off recovery). `node` is the endpoint's name (the sender of the frame in error), tec and
+// rec its counters: at an error frame as they stand before it counts, at a change of state after.
+struct BusError {
+  Time time{0};
+  TimedBus::Error error = TimedBus::Error::None;  // None: a change of state
+  BusState state = BusState::Ok;                  // the new state (error None)
+  bool recovered = false;                         // bus-off recovery (error None)
+  std::uint32_t tec = 0, rec = 0;
+  std::string_view node{};
+};
+
 // An endpoint's transmit queue on a bus in time (docs/can-bus.md "Transmit queues").
 struct TxQueue {
   std::size_t depth = 4096;
@@ -125,6 +139,10 @@ class VirtualBus {
   Time now() const { return clock_ ? *clock_ : now_; }
 
   void add_tap(Tap tap) { taps_.push_back(std::move(tap)); }
+  // Observer of the errors of a bus in time (a capture's SocketCAN error frames); one at a time,
+  // an empty function detaches it. Never called on an ideal bus.
+  using ErrorTap = std::function<void(const BusError&)>;
+  void set_error_tap(ErrorTap tap) { error_tap_ = std::move(tap); }
 
   // Fault injection: the state every controller on the bus sees. In BusOff, nothing is sent.
   void set_bus_state(BusState s) {
@@ -168,11 +186,17 @@ class VirtualBus {
   void attach_timed(VirtualEndpoint* ep);
   void started(const TimedBus::OnBus& f);
   void ended(const TimedBus::OnBus& f);
+  void state_changed(std::size_t node, BusState s);
   void deliver_all(VirtualEndpoint* from, const Frame& frame);
 
   Options options_;
   std::vector<VirtualEndpoint*> endpoints_;
   std::vector<Tap> taps_;
+  ErrorTap error_tap_;
+  // The frame on the bus (between started() and ended()) and its end: a change of state in
+  // between comes at its end.
+  bool in_frame_ = false;
+  Time frame_end_{0};
   BusState state_ = BusState::Ok;
   std::uint64_t changes_ = 0;
   std::uint64_t* shared_changes_ = nullptr;

@@ -130,6 +130,64 @@ std::array<std::uint8_t, kSocketcanLen> socketcan(const can::Frame& frame) {
   return out;
 }
 
+// linux/can/error.h: an ACK error (CAN_ERR_ACK, on transmission, location ACK slot); a sender at a
+// wrong bit rate breaks the stuffing rule near the start of frame (CAN_ERR_PROT, stuff error); an
+// error on cue (noise) seen at the CRC (CAN_ERR_PROT, bit error, CRC sequence). A change of state:
+// bus-off (CAN_ERR_BUSOFF), its recovery (CAN_ERR_RESTARTED and active), warning and passive on the
+// counter that passed the limit (CAN_ERR_CRTL), back to error active (CAN_ERR_CRTL_ACTIVE).
+// The counters in data[6..7] as drivers give them (without CAN_ERR_CNT, which Wireshark 4.0 calls
+// reserved).
+std::array<std::uint8_t, kSocketcanLen> socketcan_error(const can::BusError& e) {
+  using Error = can::TimedBus::Error;
+  std::array<std::uint8_t, kSocketcanLen> out{};
+  std::array<std::uint8_t, 8> data{};
+  std::uint32_t id = kCanErrFlag;
+  switch (e.error) {
+    case Error::Ack:
+      id |= kCanErrAck | kCanErrProt;
+      data[2] = kCanErrProtTx;  // the transmitter sees it
+      data[3] = kCanErrProtLocAck;
+      break;
+    case Error::WrongBitrate:
+      id |= kCanErrProt;
+      data[2] = kCanErrProtStuff;
+      data[3] = kCanErrProtLocSof;
+      break;
+    case Error::Injected:
+      id |= kCanErrProt;
+      data[2] = kCanErrProtBit;
+      data[3] = kCanErrProtLocCrcSeq;
+      break;
+    case Error::None: {
+      const bool tx = e.tec >= e.rec;
+      switch (e.state) {
+        case can::BusState::BusOff:
+          id |= kCanErrBusoff;
+          break;
+        case can::BusState::ErrorPassive:
+          id |= kCanErrCrtl;
+          data[1] = tx ? kCanErrCrtlTxPassive : kCanErrCrtlRxPassive;
+          break;
+        case can::BusState::Warning:
+          id |= kCanErrCrtl;
+          data[1] = tx ? kCanErrCrtlTxWarning : kCanErrCrtlRxWarning;
+          break;
+        case can::BusState::Ok:
+          id |= kCanErrCrtl | (e.recovered ? kCanErrRestarted : 0);
+          data[1] = kCanErrCrtlActive;
+          break;
+      }
+      break;
+    }
+  }
+  data[6] = static_cast<std::uint8_t>(std::min<std::uint32_t>(e.tec, 255));
+  data[7] = static_cast<std::uint8_t>(std::min<std::uint32_t>(e.rec, 255));
+  for (int i = 0; i < 4; ++i) out[i] = static_cast<std::uint8_t>(id >> (24 - 8 * i));
+  out[4] = 8;
+  std::copy(data.begin(), data.end(), out.begin() + 8);
+  return out;
+}
+
 void exported_pdu(std::vector<std::uint8_t>& out, std::string_view dissector,
                   std::span<const std::uint8_t> pdu, std::string_view protocol_column) {
   // Each tag: type and length big-endian, the value padded with zero bytes to 4 (the padding

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "can/frame.hpp"
+#include "can/virtual_bus.hpp"
 
 namespace candp2::capture::pcapng {
 
@@ -46,6 +47,19 @@ inline constexpr std::uint16_t kLinktypeProfibusDl = 257;
 inline constexpr std::uint32_t kCanEffFlag = 0x80000000u;
 inline constexpr std::uint32_t kCanRtrFlag = 0x40000000u;
 inline constexpr std::size_t kSocketcanLen = 16;
+// SocketCAN error frames (linux/can/error.h): the flag, the classes in can_id, DLC 8.
+inline constexpr std::uint32_t kCanErrFlag = 0x20000000u;
+inline constexpr std::uint32_t kCanErrCrtl = 0x004;       // data[1]: controller problems
+inline constexpr std::uint32_t kCanErrProt = 0x008;       // data[2] type, data[3] location
+inline constexpr std::uint32_t kCanErrAck = 0x020;        // received no ACK on transmission
+inline constexpr std::uint32_t kCanErrBusoff = 0x040;     // bus off
+inline constexpr std::uint32_t kCanErrRestarted = 0x100;  // controller restarted
+inline constexpr std::uint8_t kCanErrCrtlRxWarning = 0x04, kCanErrCrtlTxWarning = 0x08,
+                              kCanErrCrtlRxPassive = 0x10, kCanErrCrtlTxPassive = 0x20,
+                              kCanErrCrtlActive = 0x40;
+inline constexpr std::uint8_t kCanErrProtBit = 0x01, kCanErrProtStuff = 0x04, kCanErrProtTx = 0x80;
+inline constexpr std::uint8_t kCanErrProtLocSof = 0x03, kCanErrProtLocCrcSeq = 0x08,
+                              kCanErrProtLocAck = 0x19;
 
 // Exported-PDU tags (Wireshark's wsutil/exported_pdu_tlvs.h, the format of LINKTYPE 252).
 inline constexpr std::uint16_t kExpPduEndOfOpt = 0;
@@ -73,6 +87,9 @@ void enhanced_packet(std::vector<std::uint8_t>& out, std::uint32_t interface_id,
 // LINKTYPE_CAN_SOCKETCAN: can_id (with EFF/RTR flags) big-endian, length (for a remote frame
 // the requested length), 3 bytes padding/reserved, 8 data bytes (zero past the length).
 std::array<std::uint8_t, kSocketcanLen> socketcan(const can::Frame& frame);
+// The same for an error on a bus in time (docs/capture.md "Error frames"): CAN_ERR_FLAG, DLC 8,
+// the class bits and data bytes a SocketCAN controller gives, TEC and REC in data[6..7].
+std::array<std::uint8_t, kSocketcanLen> socketcan_error(const can::BusError& error);
 // LINKTYPE_WIRESHARK_UPPER_PDU: the dissector-name tag, optionally the protocol-column tag, the
 // end tag, then the PDU. Appends to `out`.
 void exported_pdu(std::vector<std::uint8_t>& out, std::string_view dissector,

@@ -1,5 +1,7 @@
 #include "capture/pcapng_tap.hpp"
 
+#include "plant/plant.hpp"
+
 namespace candp2::capture {
 
 namespace {
@@ -94,19 +96,47 @@ void PcapngTap::packet(std::uint32_t interface_id, std::uint64_t ns,
   check_writer();
 }
 
-void PcapngTap::on_can(const plant::CanRecord& r) {
+void PcapngTap::write_can(Time time, std::uint16_t bus, std::string_view interface_name,
+                          std::span<const std::uint8_t> data, pcapng::Direction dir) {
   if (writer_.stopped()) return check_writer();
-  const std::uint64_t ns = time_ns(r.time);
-  const std::uint32_t bitrate =
-      r.bus < options_.can_bitrates.size() ? options_.can_bitrates[r.bus] : 0;
-  const auto id =
-      interface(Side::Can, r.bus, r.interface.empty() ? r.bus_name : r.interface, bitrate, ns);
+  const std::uint64_t ns = time_ns(time);
+  const std::uint32_t bitrate = bus < options_.can_bitrates.size() ? options_.can_bitrates[bus] : 0;
+  const auto id = interface(Side::Can, bus, interface_name, bitrate, ns);
   if (!id) {
     ++not_announced_;
     return;
   }
+  packet(*id, ns, data, dir, {});
+}
+
+void PcapngTap::on_can(const plant::CanRecord& r) {
   const auto data = pcapng::socketcan(r.frame);
-  packet(*id, ns, data, direction(r.from_emulation), {});
+  write_can(r.time, r.bus, r.interface.empty() ? r.bus_name : r.interface, data,
+            direction(r.from_emulation));
+}
+
+void PcapngTap::write_can_error(Time time, std::uint16_t bus, std::string_view interface_name,
+                                const can::BusError& error) {
+  const auto data = pcapng::socketcan_error(error);
+  write_can(time, bus, interface_name, data, pcapng::Direction::Unknown);
+}
+
+// docs/capture.md "Error frames": only buses in time have errors; the interface is the one the
+// bus's frames go to (plant::BusUnit::interface(), as the plant's tap names it).
+void PcapngTap::watch_bus_errors(plant::Plant& plant) {
+  for (auto& b : plant.buses()) {
+    can::VirtualBus* v = b->virtual_bus();
+    if (!v || !v->timed()) continue;
+    const plant::BusUnit* unit = b.get();
+    v->set_error_tap([this, unit](const can::BusError& e) {
+      write_can_error(e.time, unit->index(), unit->interface(), e);
+    });
+  }
+}
+
+void PcapngTap::unwatch_bus_errors(plant::Plant& plant) {
+  for (auto& b : plant.buses())
+    if (can::VirtualBus* v = b->virtual_bus()) v->set_error_tap(nullptr);
 }
 
 void PcapngTap::write_dp(Time time, std::uint16_t line, std::string_view line_name,

@@ -27,11 +27,16 @@
 #include <utility>
 #include <vector>
 
+#include "can/virtual_bus.hpp"
 #include "capture/capture_writer.hpp"
 #include "capture/pcapng.hpp"
 #include "common/log.hpp"
 #include "common/time.hpp"
 #include "plant/tap.hpp"
+
+namespace candp2::plant {
+class Plant;
+}
 
 namespace candp2::capture {
 
@@ -73,6 +78,13 @@ class PcapngTap final : public plant::Tap {
                 std::span<const std::uint8_t> telegram, bool from_emulation,
                 std::string_view comment, std::uint32_t baud = 0);
 
+  // Errors on the plant's buses in time as SocketCAN error frames on their interfaces
+  // (docs/capture.md "Error frames"); unwatch before the tap goes while the plant stays.
+  void watch_bus_errors(plant::Plant& plant);
+  void unwatch_bus_errors(plant::Plant& plant);
+  void write_can_error(Time time, std::uint16_t bus, std::string_view interface_name,
+                       const can::BusError& error);
+
   PcapngTapStats stats() const;
   // Waits until every packet so far is in the file (tests and shutdown; never the event loop).
   void sync() { writer_.sync(); }
@@ -86,6 +98,8 @@ class PcapngTap final : public plant::Tap {
   void packet(std::uint32_t interface_id, std::uint64_t time_ns, std::span<const std::uint8_t> data,
               pcapng::Direction direction, std::string_view comment);
   void check_writer();
+  void write_can(Time time, std::uint16_t bus, std::string_view interface_name,
+                 std::span<const std::uint8_t> data, pcapng::Direction dir);
   std::uint64_t time_ns(Time t) const;
 
   PcapngTapOptions options_;

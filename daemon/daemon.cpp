@@ -327,6 +327,7 @@ void DaemonImpl::start_capture() {
   for (const auto& b : config_.buses) o.can_bitrates.push_back(b.timed_bitrate.value_or(0));
   pcapng_ = std::make_unique<capture::PcapngTap>(o, log_sink_);
   plant_->add_tap(pcapng_.get());
+  pcapng_->watch_bus_errors(*plant_);
   log_.info("capture: " + c.pcapng +
             (c.max_mb ? ", ring of " + (c.files ? std::to_string(c.files) : std::string("all")) +
                             " files of " + std::to_string(c.max_mb) + " MB"
@@ -555,6 +556,7 @@ void DaemonImpl::shutdown() {
   log_.info("shut down after " + std::to_string(n) + " Data_Exchange cycles");
   if (pcapng_) {
     plant_->remove_tap(pcapng_.get());
+    pcapng_->unwatch_bus_errors(*plant_);
     const auto st = pcapng_->stats();
     pcapng_.reset();  // writes what is queued and closes the file
     log_.info("capture: " + std::to_string(st.packets) + " packets written" +

@@ -179,13 +179,18 @@ std::string expect_bus_text(const Step& st, std::string s) {
   // The bus's figures, then the identifier's after it (the table's order): "can0 tx_lost = 0;
   // 181 latency_max_ms ≤ 2.5".
   std::string c;
-  bool id_named = false;
+  bool id_named = false, node_named = false;
   for (const auto& check : st.bus_checks) {
     const bool of_id = check.figure->scope == BusScope::Identifier;
-    c += c.empty() ? " " : of_id && !id_named ? "; " : ", ";
+    const bool of_node = check.figure->scope == BusScope::Node;
+    c += c.empty() ? " " : (of_id && !id_named) || (of_node && !node_named) ? "; " : ", ";
     if (of_id && !id_named) {
       c += can::ident_text(*st.can_id) + (st.can_remote ? " remote " : " ");
       id_named = true;
+    }
+    if (of_node && !node_named) {
+      c += st.bus_node + " ";
+      node_named = true;
     }
     c += std::string(check.figure->key) + " " + check.bound.text();
   }

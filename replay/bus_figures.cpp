@@ -9,6 +9,7 @@ namespace candp2::replay {
 namespace {
 
 using Stats = can::TimedBus::IdStatistics;
+using Conf = can::TimedBus::Confinement;
 
 double ms(Duration d) {
   return static_cast<double>(d.count()) / 1000.0;
@@ -18,31 +19,44 @@ double ms(Duration d) {
 constexpr BusFigure kFigures[] = {
     {"load_pct", BusScope::Bus, 0,
      "the exact load of the last complete second of bus time, %",
-     [](const can::TimedBus& b, const Stats*, Time now) { return b.load(now).last_pct; }},
+     [](const can::TimedBus& b, const Stats*, const Conf*, Time now) { return b.load(now).last_pct; }},
     {"load_max_pct", BusScope::Bus, 0,
      "the load of the most loaded complete second so far, %",
-     [](const can::TimedBus& b, const Stats*, Time now) { return b.load(now).max_pct; }},
+     [](const can::TimedBus& b, const Stats*, const Conf*, Time now) { return b.load(now).max_pct; }},
     {"frames_on_bus", BusScope::Bus, 0, "frames that started on the bus",
-     [](const can::TimedBus& b, const Stats*, Time) { return static_cast<double>(b.frames()); }},
+     [](const can::TimedBus& b, const Stats*, const Conf*, Time) { return static_cast<double>(b.frames()); }},
     {"tx_lost", BusScope::Bus, 0, "frames lost past a full transmit queue",
-     [](const can::TimedBus& b, const Stats*, Time) { return static_cast<double>(b.lost()); }},
+     [](const can::TimedBus& b, const Stats*, const Conf*, Time) { return static_cast<double>(b.lost()); }},
+    {"error_frames", BusScope::Bus, 0,
+     "frames that ended in an error frame (docs/can-bus.md \"Error confinement\")",
+     [](const can::TimedBus& b, const Stats*, const Conf*, Time) {
+       return static_cast<double>(b.error_frames());
+     }},
     {"frames", BusScope::Identifier, 0, "the identifier's frames on the bus",
-     [](const can::TimedBus&, const Stats* s, Time) { return static_cast<double>(s->frames); }},
+     [](const can::TimedBus&, const Stats* s, const Conf*, Time) { return static_cast<double>(s->frames); }},
     {"period_ms", BusScope::Identifier, 2,
      "the mean time between two of its starts of frame, ms",
-     [](const can::TimedBus&, const Stats* s, Time) { return ms(s->period_mean()); }},
+     [](const can::TimedBus&, const Stats* s, const Conf*, Time) { return ms(s->period_mean()); }},
     {"jitter_ms", BusScope::Identifier, 2,
      "its longest period less its shortest, ms",
-     [](const can::TimedBus&, const Stats* s, Time) { return ms(s->jitter()); }},
+     [](const can::TimedBus&, const Stats* s, const Conf*, Time) { return ms(s->jitter()); }},
     {"latency_last_ms", BusScope::Identifier, 1,
      "its last frame's queueing latency (send request to start of frame), ms",
-     [](const can::TimedBus&, const Stats* s, Time) { return ms(s->latency_last); }},
+     [](const can::TimedBus&, const Stats* s, const Conf*, Time) { return ms(s->latency_last); }},
     {"latency_mean_ms", BusScope::Identifier, 1,
      "the mean queueing latency of its frames, ms",
-     [](const can::TimedBus&, const Stats* s, Time) { return ms(s->latency_mean()); }},
+     [](const can::TimedBus&, const Stats* s, const Conf*, Time) { return ms(s->latency_mean()); }},
     {"latency_max_ms", BusScope::Identifier, 1,
      "the longest queueing latency of its frames, ms",
-     [](const can::TimedBus&, const Stats* s, Time) { return ms(s->latency_max); }},
+     [](const can::TimedBus&, const Stats* s, const Conf*, Time) { return ms(s->latency_max); }},
+    {"tec", BusScope::Node, 0, "the node's transmit error counter",
+     [](const can::TimedBus&, const Stats*, const Conf* n, Time) {
+       return static_cast<double>(n->tec);
+     }},
+    {"rec", BusScope::Node, 0, "the node's receive error counter",
+     [](const can::TimedBus&, const Stats*, const Conf* n, Time) {
+       return static_cast<double>(n->rec);
+     }},
 };
 // clang-format on
 

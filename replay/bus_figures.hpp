@@ -19,6 +19,7 @@ namespace candp2::replay {
 enum class BusScope : std::uint8_t {
   Bus,         // the whole bus
   Identifier,  // the identifier the step names ("id")
+  Node,        // the node the step names ("node": its endpoint's name, "gw:NAME" for a gateway)
 };
 
 struct BusFigure {
@@ -28,8 +29,10 @@ struct BusFigure {
   // before anything happened), 1 for a latency, 2 for a period or the jitter.
   std::uint8_t frames_needed;
   std::string_view meaning;  // for docs and errors
-  // The figure at `now`; `id` is the identifier's statistics (Identifier rows only, never null).
-  double (*get)(const can::TimedBus& bus, const can::TimedBus::IdStatistics* id, Time now);
+  // The figure at `now`; `id` is the identifier's statistics (Identifier rows only, never null),
+  // `node` the node's error confinement (Node rows only, never null).
+  double (*get)(const can::TimedBus& bus, const can::TimedBus::IdStatistics* id,
+                const can::TimedBus::Confinement* node, Time now);
 };
 
 std::span<const BusFigure> bus_figures();

@@ -481,7 +481,7 @@ void expect_bus_bus(Step& s, const Object& w, const StepInput& in) {
 void parse_expect_bus(Step& s, const StepInput& in) {
   std::vector<std::string> figures;
   for (const auto& f : bus_figures()) figures.emplace_back(f.key);
-  std::vector<std::string> keys = {"bus", "id", "extended", "rtr"};
+  std::vector<std::string> keys = {"bus", "id", "extended", "rtr", "node"};
   keys.insert(keys.end(), figures.begin(), figures.end());
   const Object w(in.value, in.path, keys);
   expect_bus_bus(s, w, in);
@@ -497,6 +497,10 @@ void parse_expect_bus(Step& s, const StepInput& in) {
     for (const char* k : {"extended", "rtr"})
       if (w.has(k)) fail(w.path(k), "qualifies an identifier: give \"id\"");
   }
+  if (w.has("node")) {
+    s.bus_node = as_string(w.at("node"), w.path("node"), "a node's name (\"gw:NAME\")");
+    if (s.bus_node.empty()) fail(w.path("node"), "give a node's name (\"gw:NAME\")");
+  }
   for (const auto& f : bus_figures()) {
     const std::string k(f.key);
     if (!w.has(k)) continue;
@@ -504,6 +508,8 @@ void parse_expect_bus(Step& s, const StepInput& in) {
       fail(w.path(k),
            "is an identifier's figure: give \"id\"" +
                std::string(k == "frames" ? " (the bus's frames: \"frames_on_bus\")" : ""));
+    if (f.scope == BusScope::Node && s.bus_node.empty())
+      fail(w.path(k), "is a node's figure: give \"node\" (\"gw:NAME\")");
     s.bus_checks.push_back({&f, as_bound(w.at(k), w.path(k))});
   }
   if (s.bus_checks.empty()) fail(in.path, "give at least one figure (" + join(figures) + ")");

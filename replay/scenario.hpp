@@ -147,6 +147,7 @@ struct Step {
   // ranges (replay/bus_figures.hpp); the bus is `bus`, named `bus_name`.
   std::optional<can::Ident> can_id;
   bool can_remote = false;
+  std::string bus_node;  // expect_bus: the node whose counters it checks ("gw:NAME")
   std::vector<BusCheck> bus_checks;
   // The gateway the step concerns (index into Scenario::installation.gateways) and, for inject,
   // the bus the frames enter (index into installation.buses).

@@ -472,6 +472,9 @@ void Sim::expect_bus(const Step& s, StepResult& r) {
           if (it != ids.end()) id = &it->second;
         }
         const can::TimedBus::IdStatistics none{};
+        const can::TimedBus::Confinement* node = nullptr;
+        for (std::size_t n = 0; n < bus->nodes() && !s.bus_node.empty(); ++n)
+          if (bus->present(n) && bus->name(n) == s.bus_node) node = &bus->confinement(n);
         d.clear();
         bool all = true;
         for (const auto& c : s.bus_checks) {
@@ -485,7 +488,12 @@ void Sim::expect_bus(const Step& s, StepResult& r) {
             all = false;
             continue;
           }
-          const double v = c.figure->get(*bus, of_id ? (id ? id : &none) : nullptr, now_);
+          if (c.figure->scope == BusScope::Node && !node) {
+            d += "none (no node " + s.bus_node + " on the bus)";
+            all = false;
+            continue;
+          }
+          const double v = c.figure->get(*bus, of_id ? (id ? id : &none) : nullptr, node, now_);
           d += figure_text(v);
           all = all && c.bound.holds(v);
         }

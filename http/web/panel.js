@@ -333,14 +333,18 @@ function makeBus(b) {
   x.filter.oninput = () => renderTrace(x);
   x.body = el('tbody');
   // A bus in time (docs/can-bus.md "Seen from outside"): its exact load, a point a second, and
-  // its identifiers' frames, period, jitter and queueing latency; hidden on an ideal bus.
+  // its identifiers' frames, period, jitter and queueing latency, its nodes' error counters and
+  // state (docs/can-bus.md "Error confinement"); hidden on an ideal bus.
   x.loads = []; x.loadAt = 0;
-  x.loadCanvas = el('canvas'); x.ids = el('tbody');
+  x.loadCanvas = el('canvas'); x.ids = el('tbody'); x.nodes = el('tbody');
   x.timed = el('div', { class: 'timed', hidden: '' },
     el('div', {}, el('h3', { text: 'Exact load, last minute' }), x.loadCanvas),
     el('div', {}, el('h3', { text: 'Identifiers (times in ms)' }),
       el('div', { class: 'trace' }, el('table', { class: 'ids' }, el('thead', {}, el('tr', {},
-        ...['identifier', 'frames', 'period', 'jitter', 'latency last', 'mean', 'max'].map(t => el('th', { text: t })))), x.ids))));
+        ...['identifier', 'frames', 'period', 'jitter', 'latency last', 'mean', 'max'].map(t => el('th', { text: t })))), x.ids))),
+    el('div', {}, el('h3', { text: 'Nodes (error confinement)' }),
+      el('table', { class: 'nodes' }, el('thead', {}, el('tr', {},
+        ...['node', 'TEC', 'REC', 'state'].map(t => el('th', { text: t })))), x.nodes)));
   x.root = el('div', { class: 'card bus', id: 'bus-' + b.name },
     el('div', {}, el('h2', { text: 'Bus ' + b.name }), el('h3', { text: 'Bus load' }), el('div', { class: 'meter' }, x.load), x.loadText, x.info),
     el('div', {}, el('div', { class: 'tracebar' }, el('h3', { text: 'Live trace', style: 'margin:0' }), x.filter, x.pause),
@@ -364,7 +368,7 @@ function updateBus(x, b) {
   setText(x.loadText, pct.toFixed(1) + ' % of ' + (b.bitrate / 1000) + ' kbit/s');
   const timed = b.timed_bitrate !== undefined;
   kvSet(x.info, [['type', b.type], ['frames', b.frames], ['frames/s', Math.round(b.frames_per_s || 0)],
-    ...(timed ? [['max load', b.load.max_pct.toFixed(1) + ' %'], ['lost', b.tx_lost]] : [])]);
+    ...(timed ? [['max load', b.load.max_pct.toFixed(1) + ' %'], ['lost', b.tx_lost], ['error frames', b.error_frames]] : [])]);
   x.timed.hidden = !timed;
   if (timed) updateTimed(x, b);
 }
@@ -383,6 +387,9 @@ function updateTimed(x, b) {
     el('td', { class: 'mono', text: ident(i.id, i.ext) + (i.rtr ? ' R' : '') }),
     ...[String(i.frames), ms(i.period_ms), ms(i.jitter_ms), ms(i.latency_ms.last), ms(i.latency_ms.mean), ms(i.latency_ms.max)]
       .map(t => el('td', { class: 'mono', text: t })))));
+  x.nodes.replaceChildren(...(b.nodes || []).map(n => el('tr', {},
+    el('td', { class: 'mono', text: n.name }),
+    ...[String(n.tec), String(n.rec), n.state].map(t => el('td', { class: 'mono', text: t })))));
 }
 // New frames of the trace (each event carries only the frames since the last one).
 function addTrace(x, frames) {

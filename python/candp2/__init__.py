@@ -26,7 +26,7 @@ from .registers import RegisterMap
 from .replay import ReplayResult, ReplayStep, replay
 from .slave import DiagBlock, FieldImage, Slave, SlaveDiagnosis, SlaveFaults
 from .station import Image, Station
-from .timing import BusLoad, BusTiming, IdentifierTiming, NotTimed
+from .timing import BusLoad, BusTiming, IdentifierTiming, NodeCounters, NotTimed
 
 __version__ = "0.1.0"
 
@@ -34,8 +34,8 @@ __all__ = [
     "Bus", "BusCycle", "BusLoad", "BusTiming", "Candp2Error", "CfgFault", "ConfigError",
     "Connection", "Counters", "Daemon", "DaemonError", "DiagBlock", "Diagnosis", "Drive",
     "DriveState", "FieldImage", "FrameNotSeen", "Gateway", "HostStalls", "IdentifierTiming",
-    "Image", "Led", "Leds", "Line", "LineFault", "LineStation", "LiveList", "ModbusError",
-    "NoLine", "NotTimed", "PrmFault", "Recorder", "RegisterMap", "ReplayResult", "ReplayStep",
+    "Image", "Led", "Leds", "Line", "LineFault", "LineStation", "LiveList", "ModbusError", "NoLine",
+    "NodeCounters", "NotTimed", "PrmFault", "Recorder", "RegisterMap", "ReplayResult", "ReplayStep",
     "Slave", "SlaveDiagnosis", "SlaveFaults", "Slot", "Station", "UnexpectedFrame", "WaitTimeout",
     "candump_line", "connect", "example", "find_binary", "find_example", "find_tool", "frame_text",
     "replay", "running_daemons",

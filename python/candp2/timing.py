@@ -61,10 +61,23 @@ class IdentifierTiming:
 
 
 @dataclass(frozen=True)
+class NodeCounters:
+    """A node on the bus and its error confinement (docs/can-bus.md "Error confinement"): the
+    transmit and receive error counters and the state they give ("ok", "warning",
+    "error-passive", "bus-off", as the status document writes it)."""
+
+    tec: int
+    rec: int
+    state: str
+
+
+@dataclass(frozen=True)
 class BusTiming:
     """A bus in time when it was read: `timed_bitrate` (bit/s), `load`, `frames_on_bus`,
     `tx_lost`, and `identifiers`, the data frames' figures by identifier (`remote`: the remote
-    frames', by identifier), each in the bus's order of priority."""
+    frames', by identifier), each in the bus's order of priority; `error_frames`, the frames
+    that ended in an error frame, and `nodes`, each node's counters by its name on the bus
+    ("gw:NAME" for a gateway)."""
 
     name: str
     timed_bitrate: int
@@ -73,6 +86,8 @@ class BusTiming:
     tx_lost: int
     identifiers: Mapping[int, IdentifierTiming] = field(default_factory=dict)
     remote: Mapping[int, IdentifierTiming] = field(default_factory=dict)
+    error_frames: int = 0
+    nodes: Mapping[str, NodeCounters] = field(default_factory=dict)
 
     @classmethod
     def from_status(cls, bus: Mapping[str, Any]) -> BusTiming:
@@ -88,19 +103,26 @@ class BusTiming:
         return cls(name, int(bus["timed_bitrate"]),
                    BusLoad(float(bus["load"]["last_pct"]), float(bus["load"]["max_pct"])),
                    int(bus["frames_on_bus"]), int(bus["tx_lost"]),
-                   {i.id: i for i in ids if not i.remote}, {i.id: i for i in ids if i.remote})
+                   {i.id: i for i in ids if not i.remote}, {i.id: i for i in ids if i.remote},
+                   int(bus.get("error_frames", 0)),
+                   {str(n["name"]): NodeCounters(int(n["tec"]), int(n["rec"]), str(n["state"]))
+                    for n in bus.get("nodes", ())})
 
     def describe(self) -> str:
-        """The bus in a few lines: bit rate, load, frames, lost, each identifier's figures."""
-        lines = ["bus %s: %d bit/s, load %.1f %% (max %.1f %%), %d frames, %d lost" % (
-            self.name, self.timed_bitrate, self.load.last_pct, self.load.max_pct,
-            self.frames_on_bus, self.tx_lost)]
+        """The bus in a few lines: bit rate, load, frames, lost, error frames, each identifier's
+        figures, each node's counters."""
+        lines = ["bus %s: %d bit/s, load %.1f %% (max %.1f %%), %d frames, %d lost, "
+                 "%d error frames" % (self.name, self.timed_bitrate, self.load.last_pct,
+                                      self.load.max_pct, self.frames_on_bus, self.tx_lost,
+                                      self.error_frames)]
         for i in list(self.identifiers.values()) + list(self.remote.values()):
             lines.append("  %s%s: %d frames, period %.3f ms, jitter %.3f ms, latency last %.3f"
                          " / mean %.3f / max %.3f ms" % (
                              ("%08X" if i.extended else "%03X") % i.id, " remote" * i.remote,
                              i.frames, i.period_ms, i.jitter_ms, i.latency_last_ms,
                              i.latency_mean_ms, i.latency_max_ms))
+        for name, n in self.nodes.items():
+            lines.append("  node %s: TEC %d, REC %d, %s" % (name, n.tec, n.rec, n.state))
         return "\n".join(lines)
 
 

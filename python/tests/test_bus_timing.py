@@ -7,7 +7,7 @@ from typing import Any, Callable
 
 import pytest
 
-from candp2 import BusTiming, Daemon, ModbusError, NotTimed
+from candp2 import BusTiming, Daemon, ModbusError, NodeCounters, NotTimed
 from candp2.timing import can_fault_request
 
 from plants import MANUAL_514, settled
@@ -31,6 +31,11 @@ STATUS_BUS = {
         {"id": 0x181, "ext": False, "rtr": True, "frames": 1, "period_ms": 0.0,
          "jitter_ms": 0.0, "latency_ms": {"last": 0.0, "mean": 0.0, "max": 0.0}},
     ],
+    "error_frames": 17,
+    "nodes": [
+        {"name": "gw:g5", "tec": 128, "rec": 0, "state": "error-passive"},
+        {"name": "replay", "tec": 0, "rec": 16, "state": "ok"},
+    ],
 }
 
 
@@ -44,6 +49,13 @@ def test_the_timing_is_the_status_documents() -> None:
     assert (i.latency_last_ms, i.latency_mean_ms, i.latency_max_ms) == (0.25, 0.5, 0.75)
     assert t.remote[0x181].remote and t.remote[0x181].frames == 1
     assert "181: 2 frames, period 10.000 ms" in t.describe()
+    # docs/can-bus.md "Error confinement": the error frames and each node's counters.
+    assert t.error_frames == 17
+    assert list(t.nodes) == ["gw:g5", "replay"]
+    assert t.nodes["gw:g5"] == NodeCounters(128, 0, "error-passive")
+    assert t.nodes["replay"].rec == 16 and t.nodes["replay"].state == "ok"
+    assert "17 error frames" in t.describe()
+    assert "node gw:g5: TEC 128, REC 0, error-passive" in t.describe()
     ideal = {k: v for k, v in STATUS_BUS.items() if k in ("name", "type", "bitrate")}
     with pytest.raises(NotTimed, match=r"bus can0 is an ideal bus.*\"bitrate\""):
         BusTiming.from_status(ideal)

@@ -78,6 +78,32 @@ TEST(Pcapng, SocketcanHeader) {
   EXPECT_EQ(H(socketcan(rtr)), "40 00 01 81 06 00 00 00 00 00 00 00 00 00 00 00");
 }
 
+// docs/capture.md "Error frames": linux/can/error.h's classes and data bytes, TEC and REC in
+// data[6..7].
+TEST(Pcapng, SocketcanErrorFrames) {
+  using E = can::TimedBus::Error;
+  const auto err = [](can::BusError e) { return H(socketcan_error(e)); };
+  EXPECT_EQ(err({.error = E::Ack, .tec = 120}), "20 00 00 28 08 00 00 00 00 00 80 19 00 00 78 00");
+  EXPECT_EQ(err({.error = E::WrongBitrate, .tec = 8, .rec = 3}),
+            "20 00 00 08 08 00 00 00 00 00 04 03 00 00 08 03");
+  EXPECT_EQ(err({.error = E::Injected, .tec = 300}),
+            "20 00 00 08 08 00 00 00 00 00 01 08 00 00 FF 00");
+  EXPECT_EQ(err({.state = can::BusState::Warning, .tec = 96}),
+            "20 00 00 04 08 00 00 00 00 08 00 00 00 00 60 00");
+  EXPECT_EQ(err({.state = can::BusState::Warning, .rec = 96}),
+            "20 00 00 04 08 00 00 00 00 04 00 00 00 00 00 60");
+  EXPECT_EQ(err({.state = can::BusState::ErrorPassive, .tec = 128}),
+            "20 00 00 04 08 00 00 00 00 20 00 00 00 00 80 00");
+  EXPECT_EQ(err({.state = can::BusState::ErrorPassive, .tec = 8, .rec = 128}),
+            "20 00 00 04 08 00 00 00 00 10 00 00 00 00 08 80");
+  EXPECT_EQ(err({.state = can::BusState::BusOff, .tec = 256}),
+            "20 00 00 40 08 00 00 00 00 00 00 00 00 00 FF 00");
+  EXPECT_EQ(err({.state = can::BusState::Ok, .recovered = true}),
+            "20 00 01 04 08 00 00 00 00 40 00 00 00 00 00 00");
+  EXPECT_EQ(err({.state = can::BusState::Ok, .tec = 95}),
+            "20 00 00 04 08 00 00 00 00 40 00 00 00 00 5F 00");
+}
+
 TEST(Pcapng, ExportedPduTags) {
   std::vector<std::uint8_t> b;
   const std::uint8_t sc[] = {0xE5};

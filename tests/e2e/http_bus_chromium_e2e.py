@@ -4,7 +4,8 @@ outside", docs/daemon.md "HTTP face"): config/demo.json with its bus can0 at 500
 asked for its speed every 100 ms (so that the bus's figures change all the time). The
 gateway's panel shows under its bus the exact load, a point a second, and a table of the bus's
 identifiers (frames, period, jitter, queueing latency last/mean/max) from the stream, the rows
-those of the status document's `identifiers`. On an ideal bus none of it shows
+those of the status document's `identifiers`; its error frames and a table of its nodes (name,
+TEC, REC, state), the rows those of the status document's `nodes`. On an ideal bus none of it shows
 (http_chromium_e2e.py's demo). A screenshot is kept as $CANDP2_TEST_OUTPUT/front-panel-bus.png.
 Bounded: every wait has a deadline; chromium is killed at the end.
 """
@@ -18,6 +19,7 @@ from cdp import Browser  # noqa: E402
 from http_common import Daemon, demo_config  # noqa: E402
 
 ROWS = "Array.from(document.querySelectorAll('#bus-can0 .ids tbody tr'))"
+NODES = "Array.from(document.querySelectorAll('#bus-can0 .nodes tbody tr'))"
 
 
 def test_bus_view(candp2_binary, tmp_path):
@@ -59,6 +61,16 @@ def test_bus_view(candp2_binary, tmp_path):
                          timeout=15)
         info = browser.evaluate("document.querySelector('#bus-can0 .kv').textContent")
         assert "max load" in info and "lost" in info, info
+        # docs/can-bus.md "Error confinement": everyone acknowledges, no error frame; one row
+        # per node of the status document, in its order: name, TEC, REC, state.
+        assert "error frames0" in info, info
+        nodes = [[n["name"], str(n["tec"]), str(n["rec"]), n["state"]]
+                 for n in d.status()["buses"][0]["nodes"]]
+        assert any(n[0].startswith("gw:") for n in nodes), nodes
+        browser.wait_for("the nodes %s" % nodes,
+                         "JSON.stringify(%s.map(r => Array.from(r.cells).map(c => c.textContent)))"
+                         " === '%s'" % (NODES, json.dumps(nodes, separators=(",", ":"))),
+                         timeout=10)
         browser.keep_page(os.path.join(output_dir, "front-panel-bus.png"))
     finally:
         if browser:

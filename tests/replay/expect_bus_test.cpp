@@ -70,6 +70,26 @@ TEST(ExpectBus, AFailedStepSaysWhatWasMeasured) {
   EXPECT_EQ(r.steps[2].detail, "got frames 0, latency_max_ms none (no frame of 300 yet)");
 }
 
+// docs/replay-format.md "The CAN bus in time": the bus's error frames and a node's counters
+// (config/timed-bus-alone.json: a gateway nobody acknowledges, error passive at TEC 128 after 16
+// ACK errors); a node not on the bus is no value.
+TEST(ExpectBus, ErrorFramesAndANodesCounters) {
+  const RunResult r = run_steps("timed-bus-alone.json", R"({"advance_ms": 1000},
+      {"expect_bus": {"node": "gw:alone", "tec": 128, "rec": 0, "error_frames": {"min": 16}}},
+      {"expect_bus": {"node": "gw:alone", "tec": 127, "error_frames": 0}},
+      {"expect_bus": {"node": "gw:nobody", "tec": 0}})");
+  ASSERT_EQ(r.steps.size(), 4u);
+  EXPECT_TRUE(r.steps[1].passed) << r.steps[1].detail;
+  EXPECT_FALSE(r.steps[2].passed);
+  EXPECT_EQ(r.steps[2].detail.rfind("got error_frames ", 0), 0u) << r.steps[2].detail;
+  EXPECT_NE(r.steps[2].detail.find(", tec 128"), std::string::npos) << r.steps[2].detail;
+  EXPECT_FALSE(r.steps[3].passed);
+  EXPECT_EQ(r.steps[3].detail, "got tec none (no node gw:nobody on the bus)");
+  const auto e = error("timed-bus-alone.json", R"({"expect_bus": {"tec": 0}})");
+  EXPECT_EQ(e.json_path, "$.steps[0].expect_bus.tec");
+  EXPECT_NE(e.message.find("give \"node\""), std::string::npos) << e.to_string();
+}
+
 // config/timed-bus-drive.json: the drive's request 0x201 goes on the bus once, after the write.
 TEST(ExpectBus, APeriodNeedsTwoFrames) {
   const RunResult r = run_steps("timed-bus-drive.json", R"(

@@ -123,11 +123,9 @@ void print_timed_buses(plant::Plant& p) {
     const can::TimedBus* t = b->virtual_bus() ? b->virtual_bus()->timed() : nullptr;
     if (!t) continue;
     const auto load = t->load(p.now());
-    buses[b->name()] = {{"bitrate", t->bitrate()},
-                        {"load_last_pct", load.last_pct},
-                        {"load_max_pct", load.max_pct},
-                        {"frames", t->frames()},
-                        {"lost", t->lost()}};
+    buses[b->name()] = {{"bitrate", t->bitrate()},           {"load_last_pct", load.last_pct},
+                        {"load_max_pct", load.max_pct},      {"frames", t->frames()},
+                        {"error_frames", t->error_frames()}, {"lost", t->lost()}};
   }
   std::printf("%s\n", nlohmann::json{{"buses", buses}}.dump().c_str());
 }
@@ -176,6 +174,7 @@ int run(int argc, char** argv) {
     return 1;
   }
   plant->add_tap(&tap);
+  tap.watch_bus_errors(*plant);
   if (timed_run) {
     run_until(*plant, seconds(std::strtoll(argv[5], nullptr, 10)));
     tap.sync();

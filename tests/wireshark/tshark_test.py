@@ -20,6 +20,10 @@ own code writes (docs/capture.md "Tests"). One case per run:
               CAN interface's if_speed is the bit rate; consecutive frames never overlap, each
               starts at least the exact length of the one before later (lengths computed here, not
               by candp2); the load of each second computed from the capture equals the bus's
+  timed-can-errors  demo_capture --config config/timed-bus-alone.json (docs/capture.md "Error
+              frames"): a lone gateway's ACK errors as SocketCAN error frames, as many as the
+              bus's error_frames; its warning at TEC 96 and error passive at TEC 128 as controller
+              error frames; no frame gets through
 
 Every tshark run is bounded (timeout) and checks that the Lua script loaded without an error.
 """
@@ -255,6 +259,42 @@ def if_speeds(capture):
             speeds[name] = speed
         pos += length
     return speeds
+
+
+def case_timed_can_errors(tmp):
+    """docs/capture.md "Error frames": config/timed-bus-alone.json's gateway alone on its bus in
+    time, nobody acknowledging: every attempt is an ACK error written as a SocketCAN error frame
+    (CAN_ERR_FLAG, CAN_ERR_ACK, location ACK slot), as many as the bus counted; its state changes as
+    controller error frames with the counters in data[6..7]: TX warning at TEC 96, TX passive at
+    TEC 128, never bus-off; no data frame."""
+    cap = os.path.join(tmp, "alone.pcapng")
+    out = run([ARGS.demo_capture, cap, "--config",
+               os.path.join(ARGS.source_dir, "config", "timed-bus-alone.json"), "--seconds", "2"])
+    st = json.loads(out.splitlines()[-1])["buses"]["can0"]
+    if st["error_frames"] < 100 or st["frames"] != 0:
+        fail(f"timed-bus-alone: the bus counted {st['error_frames']} error frames and "
+             f"{st['frames']} frames, want ACK errors only")
+    acks = count(cap, 'frame.interface_name == "can0" && can.flags.err && can.err.ack == 1 '
+                      '&& can.err.prot.location == 0x19')
+    if acks != st["error_frames"]:
+        fail(f"timed-bus-alone: {acks} ACK error frames in the capture, the bus counted "
+             f"{st['error_frames']}")
+    if count(cap, "can && !can.flags.err"):
+        fail("timed-bus-alone: a data frame got through in the capture")
+    states = fields(cap, ["can.err.ctrl.tx_warning", "can.err.ctrl.tx_passive",
+                          "can.err.ctrl_specific"], "can.err.ctrl == 1")
+    got = [(r["can.err.ctrl.tx_warning"], r["can.err.ctrl.tx_passive"],
+            r["can.err.ctrl_specific"].replace(":", "").replace(" ", "")) for r in states]
+    # ctrl_specific: data[5..7]; TEC in data[6].
+    want = [("1", "0", "006000"), ("0", "1", "008000")]
+    if [(w in ("1", "True"), p in ("1", "True"), d) for w, p, d in got] != \
+            [(w == "1", p == "1", d) for w, p, d in want]:
+        fail(f"timed-bus-alone: controller error frames {got}, want TX warning at TEC 96 then "
+             f"TX passive at TEC 128")
+    if count(cap, "can.err.busoff == 1"):
+        fail("timed-bus-alone: bus-off in the capture, the gateway only goes error passive")
+    print(f"timed-can-errors: {acks} ACK error frames = the bus's error_frames, TX warning at TEC "
+          f"96 and TX passive at TEC 128, no data frame")
 
 
 def case_timed_can(tmp):
@@ -566,7 +606,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("case", choices=["demo", "malformed", "sniff-file", "sniff-pty",
                                      "daemon-demo", "daemon-slaves", "timed-line",
-                                     "daemon-line-faults", "timed-can"])
+                                     "daemon-line-faults", "timed-can", "timed-can-errors"])
     ap.add_argument("--candp2d")
     ap.add_argument("--tshark", default="tshark")
     ap.add_argument("--lua", required=True)
@@ -578,7 +618,8 @@ def main():
         {"demo": case_demo, "malformed": case_malformed, "sniff-file": case_sniff_file,
          "sniff-pty": case_sniff_pty, "daemon-demo": case_daemon_demo,
          "daemon-slaves": case_daemon_slaves, "timed-line": case_timed_line,
-         "daemon-line-faults": case_daemon_line_faults, "timed-can": case_timed_can}[ARGS.case](tmp)
+         "daemon-line-faults": case_daemon_line_faults, "timed-can": case_timed_can,
+         "timed-can-errors": case_timed_can_errors}[ARGS.case](tmp)
     print(ARGS.case + ": ok")
     return 0
 
