@@ -52,6 +52,7 @@ std::size_t TimedBus::add_node(std::size_t depth) {
   Node n;
   n.depth = depth;
   nodes_.push_back(std::move(n));
+  deadline_known_ = false;
   return nodes_.size() - 1;
 }
 
@@ -60,6 +61,7 @@ void TimedBus::remove_node(std::size_t node) {
   pending_ -= n.queue.size();
   n.queue.clear();
   n.present = false;
+  deadline_known_ = false;
 }
 
 bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
@@ -71,6 +73,7 @@ bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
   }
   n.queue.push_back(Pending{frame, now});
   ++pending_;
+  deadline_known_ = false;
   return true;
 }
 
@@ -108,6 +111,14 @@ std::optional<std::uint64_t> TimedBus::next_recovery() const {
 }
 
 std::optional<Time> TimedBus::next_deadline() const {
+  if (!deadline_known_) {
+    deadline_ = compute_deadline();
+    deadline_known_ = true;
+  }
+  return deadline_;
+}
+
+std::optional<Time> TimedBus::compute_deadline() const {
   if (on_bus_) return on_bus_->end;
   const auto s = next_start();
   const auto r = next_recovery();
@@ -117,6 +128,14 @@ std::optional<Time> TimedBus::next_deadline() const {
 }
 
 void TimedBus::advance(Time now) {
+  // Nothing due by now: the bus stays as it is (the loop below would return at once).
+  if (const auto d = next_deadline(); !d || *d > now) return;
+  run(now);
+  // Known again at the next ask (a hook may have asked while the bus was changing).
+  deadline_known_ = false;
+}
+
+void TimedBus::run(Time now) {
   while (true) {
     if (on_bus_) {
       if (on_bus_->end > now) return;
@@ -319,6 +338,7 @@ void TimedBus::clear_faults(std::optional<std::size_t> node) {
     nodes_[i].unplugged = false;
     nodes_[i].wrong_bitrate = false;
   }
+  deadline_known_ = false;
 }
 
 // Second k of bus time holds bits [k·bitrate, (k+1)·bitrate): a frame across the boundary counts

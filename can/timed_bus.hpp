@@ -129,7 +129,10 @@ class TimedBus {
   // Error frames on cue (at each start of frame from now on).
   void inject_errors(const ErrorFault& fault) { faults_.push_back(fault); }
   // The node sends nothing (its queue waits), acknowledges nothing, gets nothing.
-  void set_unplugged(std::size_t node, bool on) { nodes_.at(node).unplugged = on; }
+  void set_unplugged(std::size_t node, bool on) {
+    nodes_.at(node).unplugged = on;
+    deadline_known_ = false;
+  }
   // The node runs at another bit rate: its frames are errors for all, the others' for it.
   void set_wrong_bitrate(std::size_t node, bool on) { nodes_.at(node).wrong_bitrate = on; }
   bool wrong_bitrate(std::size_t node) const { return nodes_.at(node).wrong_bitrate; }
@@ -146,6 +149,7 @@ class TimedBus {
   std::size_t nodes() const { return nodes_.size(); }
 
   // When the bus next needs advancing: the end of the frame on it, or the start of the next.
+  // Kept until the bus changes (the plant asks for it at every step of every bus).
   std::optional<Time> next_deadline() const;
   // Runs every start and end of frame at or before `now`. When the bus goes idle at a bit, the
   // heads of the queues requested by then contend; the smallest arbitration_key wins.
@@ -192,6 +196,8 @@ class TimedBus {
   std::optional<std::uint64_t> next_start() const;
   // The first bit a bus-off node recovers at, if the bus stays idle.
   std::optional<std::uint64_t> next_recovery() const;
+  // advance()'s loop: every start, end and recovery due by `now`.
+  void run(Time now);
   void recover(std::uint64_t bit);
   void start(std::uint64_t bit);
   Error error_of(std::size_t node, const Frame& frame, Time at);
@@ -215,6 +221,10 @@ class TimedBus {
   std::uint64_t window_ = 0;       // the second of bus time being counted
   std::uint64_t window_bits_ = 0;  // busy bits in it
   double last_pct_ = 0, max_pct_ = 0;
+  // next_deadline() as of the last change (request, advance, a node leaving or unplugged).
+  mutable std::optional<Time> deadline_;
+  mutable bool deadline_known_ = false;
+  std::optional<Time> compute_deadline() const;
   std::map<std::uint32_t, IdStatistics> ids_;
 };
 
