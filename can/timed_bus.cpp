@@ -52,7 +52,7 @@ std::size_t TimedBus::add_node(std::size_t depth) {
   Node n;
   n.depth = depth;
   nodes_.push_back(std::move(n));
-  deadline_known_ = false;
+  moved();
   return nodes_.size() - 1;
 }
 
@@ -61,7 +61,7 @@ void TimedBus::remove_node(std::size_t node) {
   pending_ -= n.queue.size();
   n.queue.clear();
   n.present = false;
-  deadline_known_ = false;
+  moved();
 }
 
 bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
@@ -73,7 +73,7 @@ bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
   }
   n.queue.push_back(Pending{frame, now});
   ++pending_;
-  deadline_known_ = false;
+  moved();
   return true;
 }
 
@@ -110,6 +110,11 @@ std::optional<std::uint64_t> TimedBus::next_recovery() const {
   return first;
 }
 
+void TimedBus::moved() {
+  deadline_known_ = false;
+  if (on_moved_) on_moved_();
+}
+
 std::optional<Time> TimedBus::next_deadline() const {
   if (!deadline_known_) {
     deadline_ = compute_deadline();
@@ -132,7 +137,7 @@ void TimedBus::advance(Time now) {
   if (const auto d = next_deadline(); !d || *d > now) return;
   run(now);
   // Known again at the next ask (a hook may have asked while the bus was changing).
-  deadline_known_ = false;
+  moved();
 }
 
 void TimedBus::run(Time now) {
@@ -338,7 +343,7 @@ void TimedBus::clear_faults(std::optional<std::size_t> node) {
     nodes_[i].unplugged = false;
     nodes_[i].wrong_bitrate = false;
   }
-  deadline_known_ = false;
+  moved();
 }
 
 // Second k of bus time holds bits [k·bitrate, (k+1)·bitrate): a frame across the boundary counts

@@ -115,6 +115,10 @@ class TimedBus {
 
   void on_start(Hook hook) { on_start_ = std::move(hook); }
   void on_end(Hook hook) { on_end_ = std::move(hook); }
+  // Called when next_deadline() may have moved (a request, an advance, a node leaving or
+  // unplugged): the owner of many buses asks again only those (the plant, docs/can-bus.md
+  // "Performance").
+  void on_moved(std::function<void()> hook) { on_moved_ = std::move(hook); }
   // Called when a node's confinement state changes (after the frame that changed it, or at its
   // bus-off recovery).
   void on_state(std::function<void(std::size_t node, BusState)> hook) {
@@ -131,7 +135,7 @@ class TimedBus {
   // The node sends nothing (its queue waits), acknowledges nothing, gets nothing.
   void set_unplugged(std::size_t node, bool on) {
     nodes_.at(node).unplugged = on;
-    deadline_known_ = false;
+    moved();
   }
   // The node runs at another bit rate: its frames are errors for all, the others' for it.
   void set_wrong_bitrate(std::size_t node, bool on) { nodes_.at(node).wrong_bitrate = on; }
@@ -225,6 +229,8 @@ class TimedBus {
   mutable std::optional<Time> deadline_;
   mutable bool deadline_known_ = false;
   std::optional<Time> compute_deadline() const;
+  std::function<void()> on_moved_;
+  void moved();
   std::map<std::uint32_t, IdStatistics> ids_;
 };
 
