@@ -31,24 +31,49 @@ std::uint16_t crc15_bytes(std::span<const std::uint8_t> bytes) {
   return crc;
 }
 
+namespace {
+// The fields of the CRC region in the order they are sent, each as out(value, width).
+template <class Out>
+void region_fields(const Frame& f, Out&& out) {
+  const std::uint32_t rtr = f.remote ? 1 : 0;
+  out(0, 1);  // SOF (dominant)
+  if (f.extended) {
+    out(f.id >> 18, 11);  // base identifier
+    out(1, 1);            // SRR (recessive)
+    out(1, 1);            // IDE (recessive: extended)
+    out(f.id & 0x3FFFF, 18);
+    out(rtr, 1);
+    out(0, 2);  // r1, r0
+  } else {
+    out(f.id, 11);
+    out(rtr, 1);
+    out(0, 2);  // IDE (dominant: base format), r0
+  }
+  out(f.dlc, 4);
+  for (const auto byte : f.payload()) out(byte, 8);
+}
+
+// A transmitter's stuffing: after kStuffRun equal bits one complementary bit, which itself starts
+// the next run.
+struct Stuffer {
+  std::uint32_t stuffed = 0;
+  unsigned run = 0;
+  std::uint8_t last = 2;  // no bit yet
+  void bit(std::uint8_t b) {
+    run = b == last ? run + 1 : 1;
+    last = b;
+    if (run == kStuffRun) {  // the complement goes out next and starts a run of its own
+      ++stuffed;
+      last = static_cast<std::uint8_t>(b ^ 1);
+      run = 1;
+    }
+  }
+};
+}  // namespace
+
 BitStream crc_region(const Frame& f) {
   BitStream s;
-  const std::uint32_t rtr = f.remote ? 1 : 0;
-  s.push(0, 1);  // SOF (dominant)
-  if (f.extended) {
-    s.push(f.id >> 18, 11);  // base identifier
-    s.push(1, 1);            // SRR (recessive)
-    s.push(1, 1);            // IDE (recessive: extended)
-    s.push(f.id & 0x3FFFF, 18);
-    s.push(rtr, 1);
-    s.push(0, 2);  // r1, r0
-  } else {
-    s.push(f.id, 11);
-    s.push(rtr, 1);
-    s.push(0, 2);  // IDE (dominant: base format), r0
-  }
-  s.push(f.dlc, 4);
-  for (const auto byte : f.payload()) s.push(byte, 8);
+  region_fields(f, [&s](std::uint32_t value, unsigned width) { s.push(value, width); });
   return s;
 }
 
@@ -59,24 +84,27 @@ BitStream stuffed_region(const Frame& f) {
 }
 
 std::uint32_t stuff_bits(std::span<const std::uint8_t> bits) {
-  std::uint32_t stuffed = 0;
-  unsigned run = 0;
-  std::uint8_t last = 2;  // no bit yet
-  for (const auto b : bits) {
-    run = b == last ? run + 1 : 1;
-    last = b;
-    if (run == kStuffRun) {  // the complement goes out next and starts a run of its own
-      ++stuffed;
-      last = static_cast<std::uint8_t>(b ^ 1);
-      run = 1;
-    }
-  }
-  return stuffed;
+  Stuffer st;
+  for (const auto b : bits) st.bit(b);
+  return st.stuffed;
 }
 
+// What stuffed_region() and stuff_bits() give, in one pass and without the stream (a bus in time
+// asks it for every frame: docs/can-bus.md "Performance").
 std::uint32_t frame_bits_exact(const Frame& f) {
-  const BitStream s = stuffed_region(f);
-  return static_cast<std::uint32_t>(s.size) + stuff_bits(s.view()) + kTrailerBits;
+  std::uint16_t crc = 0;
+  std::uint32_t size = 0;
+  Stuffer st;
+  region_fields(f, [&](std::uint32_t value, unsigned width) {
+    for (unsigned i = width; i-- > 0;) {
+      const auto b = static_cast<std::uint8_t>((value >> i) & 1u);
+      crc = crc15_step(crc, b);
+      st.bit(b);
+    }
+    size += width;
+  });
+  for (unsigned i = 15; i-- > 0;) st.bit(static_cast<std::uint8_t>((crc >> i) & 1u));
+  return size + 15 + st.stuffed + kTrailerBits;
 }
 
 std::uint32_t frame_bits_longest(const Frame& f) {
@@ -85,24 +113,14 @@ std::uint32_t frame_bits_longest(const Frame& f) {
   const std::size_t free_bits = f.payload().size() * 8 + 15;  // data and CRC, chosen freely
   const std::span<const std::uint8_t> header = s.view().first(s.size - f.payload().size() * 8);
   // The stuffing state after the header: the last bit, the length of its run, the stuff bits.
-  std::uint32_t stuffed = 0;
-  unsigned run = 0;
-  std::uint8_t last = 2;
-  for (const auto b : header) {
-    run = b == last ? run + 1 : 1;
-    last = b;
-    if (run == kStuffRun) {
-      ++stuffed;
-      last = static_cast<std::uint8_t>(b ^ 1);
-      run = 1;
-    }
-  }
+  Stuffer st;
+  for (const auto b : header) st.bit(b);
   // The most stuff bits the free bits can add from each state (last bit, run 1..4): a dynamic
   // programme over the run state, one step per free bit; -1 = state not reachable.
   using States = std::array<std::array<int, kStuffRun>, 2>;
   States most{};
   for (auto& by_run : most) by_run.fill(-1);
-  most[last][run] = 0;
+  most[st.last][st.run] = 0;
   for (std::size_t i = 0; i < free_bits; ++i) {
     States next{};
     for (auto& by_run : next) by_run.fill(-1);
@@ -125,7 +143,7 @@ std::uint32_t frame_bits_longest(const Frame& f) {
   int best = 0;
   for (const auto& by_run : most)
     for (const int v : by_run) best = std::max(best, v);
-  return static_cast<std::uint32_t>(s.size + 15) + stuffed + static_cast<std::uint32_t>(best) +
+  return static_cast<std::uint32_t>(s.size + 15) + st.stuffed + static_cast<std::uint32_t>(best) +
          kTrailerBits;
 }
 
