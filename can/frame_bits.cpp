@@ -2,6 +2,7 @@
 #include "can/frame_bits.hpp"
 
 #include <algorithm>
+#include <array>
 
 namespace candp2::can {
 
@@ -89,19 +90,55 @@ std::uint32_t stuff_bits(std::span<const std::uint8_t> bits) {
   return st.stuffed;
 }
 
+namespace {
+// A byte at a time through the CRC-15 and the stuffing, for the data field: the CRC of each byte
+// value from each high byte of the register, and each stuffing state's (last bit, run 1..4) next
+// state and stuff bits for each byte, computed bit by bit once.
+struct ByteTables {
+  std::array<std::uint16_t, 256> crc{};
+  std::array<std::array<std::uint8_t, 256>, 2 * kStuffRun> next{};  // state << 2 | stuffed
+  static unsigned state(const Stuffer& st) { return st.last * kStuffRun + st.run; }
+  ByteTables() {
+    for (unsigned i = 0; i < 256; ++i) {
+      std::uint16_t c = 0;  // the register is linear: crc[i] is byte i through a zero register
+      for (unsigned k = 8; k-- > 0;) c = crc15_step(c, static_cast<std::uint8_t>((i >> k) & 1u));
+      crc[i] = c;
+    }
+    for (std::uint8_t last = 0; last < 2; ++last)
+      for (unsigned run = 1; run < kStuffRun; ++run)
+        for (unsigned byte = 0; byte < 256; ++byte) {
+          Stuffer st{0, run, last};
+          for (unsigned i = 8; i-- > 0;) st.bit(static_cast<std::uint8_t>((byte >> i) & 1u));
+          next[last * kStuffRun + run][byte] =
+              static_cast<std::uint8_t>(state(st) << 2 | st.stuffed);
+        }
+  }
+};
+}  // namespace
+
 // What stuffed_region() and stuff_bits() give, in one pass and without the stream (a bus in time
-// asks it for every frame: docs/can-bus.md "Performance").
+// asks it for every frame: docs/can-bus.md "Performance"); the data field a byte at a time.
 std::uint32_t frame_bits_exact(const Frame& f) {
+  static const ByteTables tables;
   std::uint16_t crc = 0;
   std::uint32_t size = 0;
   Stuffer st;
   region_fields(f, [&](std::uint32_t value, unsigned width) {
+    size += width;
+    if (width == 8 && st.last < 2) {
+      crc = static_cast<std::uint16_t>(((crc << 8) ^ tables.crc[((crc >> 7) ^ value) & 0xFF]) &
+                                       0x7FFF);
+      const std::uint8_t n = tables.next[ByteTables::state(st)][value & 0xFF];
+      st.stuffed += n & 3u;
+      st.last = static_cast<std::uint8_t>((n >> 2) / kStuffRun);
+      st.run = (n >> 2) % kStuffRun;
+      return;
+    }
     for (unsigned i = width; i-- > 0;) {
       const auto b = static_cast<std::uint8_t>((value >> i) & 1u);
       crc = crc15_step(crc, b);
       st.bit(b);
     }
-    size += width;
   });
   for (unsigned i = 15; i-- > 0;) st.bit(static_cast<std::uint8_t>((crc >> i) & 1u));
   return size + 15 + st.stuffed + kTrailerBits;
