@@ -221,7 +221,10 @@ void TimedBus::start(std::uint64_t bit) {
   --pending_;
   ++frames_;
 
-  IdStatistics& s = ids_[best];
+  // The map in priority order for the status; the hash to find an identifier's entry per frame.
+  IdStatistics*& entry = id_index_[best];
+  if (!entry) entry = &ids_[best];
+  IdStatistics& s = *entry;
   s.id = ident_of(p.frame);
   s.remote = p.frame.remote;
   if (s.frames > 0) {

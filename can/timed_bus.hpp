@@ -31,6 +31,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "can/channel.hpp"
@@ -97,6 +98,8 @@ class TimedBus {
   };
 
   TimedBus(std::uint32_t bitrate, Time origin);
+  TimedBus(const TimedBus&) = delete;  // id_index_ points into ids_
+  TimedBus& operator=(const TimedBus&) = delete;
 
   // A node with a transmit queue of `depth` frames (FIFO: its head contends).
   std::size_t add_node(std::size_t depth);
@@ -232,6 +235,7 @@ class TimedBus {
   std::function<void()> on_moved_;
   void moved();
   std::map<std::uint32_t, IdStatistics> ids_;
+  std::unordered_map<std::uint32_t, IdStatistics*> id_index_;  // into ids_ (stable nodes)
 };
 
 }  // namespace candp2::can
