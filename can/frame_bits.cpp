@@ -2,6 +2,7 @@
 #include "can/frame_bits.hpp"
 
 #include <algorithm>
+#include <array>
 
 namespace candp2::can {
 
@@ -31,24 +32,49 @@ std::uint16_t crc15_bytes(std::span<const std::uint8_t> bytes) {
   return crc;
 }
 
+namespace {
+// The fields of the CRC region in the order they are sent, each as out(value, width).
+template <class Out>
+void region_fields(const Frame& f, Out&& out) {
+  const std::uint32_t rtr = f.remote ? 1 : 0;
+  out(0, 1);  // SOF (dominant)
+  if (f.extended) {
+    out(f.id >> 18, 11);  // base identifier
+    out(1, 1);            // SRR (recessive)
+    out(1, 1);            // IDE (recessive: extended)
+    out(f.id & 0x3FFFF, 18);
+    out(rtr, 1);
+    out(0, 2);  // r1, r0
+  } else {
+    out(f.id, 11);
+    out(rtr, 1);
+    out(0, 2);  // IDE (dominant: base format), r0
+  }
+  out(f.dlc, 4);
+  for (const auto byte : f.payload()) out(byte, 8);
+}
+
+// A transmitter's stuffing: after kStuffRun equal bits one complementary bit, which itself starts
+// the next run.
+struct Stuffer {
+  std::uint32_t stuffed = 0;
+  unsigned run = 0;
+  std::uint8_t last = 2;  // no bit yet
+  void bit(std::uint8_t b) {
+    run = b == last ? run + 1 : 1;
+    last = b;
+    if (run == kStuffRun) {  // the complement goes out next and starts a run of its own
+      ++stuffed;
+      last = static_cast<std::uint8_t>(b ^ 1);
+      run = 1;
+    }
+  }
+};
+}  // namespace
+
 BitStream crc_region(const Frame& f) {
   BitStream s;
-  const std::uint32_t rtr = f.remote ? 1 : 0;
-  s.push(0, 1);  // SOF (dominant)
-  if (f.extended) {
-    s.push(f.id >> 18, 11);  // base identifier
-    s.push(1, 1);            // SRR (recessive)
-    s.push(1, 1);            // IDE (recessive: extended)
-    s.push(f.id & 0x3FFFF, 18);
-    s.push(rtr, 1);
-    s.push(0, 2);  // r1, r0
-  } else {
-    s.push(f.id, 11);
-    s.push(rtr, 1);
-    s.push(0, 2);  // IDE (dominant: base format), r0
-  }
-  s.push(f.dlc, 4);
-  for (const auto byte : f.payload()) s.push(byte, 8);
+  region_fields(f, [&s](std::uint32_t value, unsigned width) { s.push(value, width); });
   return s;
 }
 
@@ -59,24 +85,63 @@ BitStream stuffed_region(const Frame& f) {
 }
 
 std::uint32_t stuff_bits(std::span<const std::uint8_t> bits) {
-  std::uint32_t stuffed = 0;
-  unsigned run = 0;
-  std::uint8_t last = 2;  // no bit yet
-  for (const auto b : bits) {
-    run = b == last ? run + 1 : 1;
-    last = b;
-    if (run == kStuffRun) {  // the complement goes out next and starts a run of its own
-      ++stuffed;
-      last = static_cast<std::uint8_t>(b ^ 1);
-      run = 1;
-    }
-  }
-  return stuffed;
+  Stuffer st;
+  for (const auto b : bits) st.bit(b);
+  return st.stuffed;
 }
 
+namespace {
+// A byte at a time through the CRC-15 and the stuffing, for the data field: the CRC of each byte
+// value from each high byte of the register, and each stuffing state's (last bit, run 1..4) next
+// state and stuff bits for each byte, computed bit by bit once.
+struct ByteTables {
+  std::array<std::uint16_t, 256> crc{};
+  std::array<std::array<std::uint8_t, 256>, 2 * kStuffRun> next{};  // state << 2 | stuffed
+  static unsigned state(const Stuffer& st) { return st.last * kStuffRun + st.run; }
+  ByteTables() {
+    for (unsigned i = 0; i < 256; ++i) {
+      std::uint16_t c = 0;  // the register is linear: crc[i] is byte i through a zero register
+      for (unsigned k = 8; k-- > 0;) c = crc15_step(c, static_cast<std::uint8_t>((i >> k) & 1u));
+      crc[i] = c;
+    }
+    for (std::uint8_t last = 0; last < 2; ++last)
+      for (unsigned run = 1; run < kStuffRun; ++run)
+        for (unsigned byte = 0; byte < 256; ++byte) {
+          Stuffer st{0, run, last};
+          for (unsigned i = 8; i-- > 0;) st.bit(static_cast<std::uint8_t>((byte >> i) & 1u));
+          next[last * kStuffRun + run][byte] =
+              static_cast<std::uint8_t>(state(st) << 2 | st.stuffed);
+        }
+  }
+};
+}  // namespace
+
+// What stuffed_region() and stuff_bits() give, in one pass and without the stream (a bus in time
+// asks it for every frame: docs/can-bus.md "Performance"); the data field a byte at a time.
 std::uint32_t frame_bits_exact(const Frame& f) {
-  const BitStream s = stuffed_region(f);
-  return static_cast<std::uint32_t>(s.size) + stuff_bits(s.view()) + kTrailerBits;
+  static const ByteTables tables;
+  std::uint16_t crc = 0;
+  std::uint32_t size = 0;
+  Stuffer st;
+  region_fields(f, [&](std::uint32_t value, unsigned width) {
+    size += width;
+    if (width == 8 && st.last < 2) {
+      crc = static_cast<std::uint16_t>(((crc << 8) ^ tables.crc[((crc >> 7) ^ value) & 0xFF]) &
+                                       0x7FFF);
+      const std::uint8_t n = tables.next[ByteTables::state(st)][value & 0xFF];
+      st.stuffed += n & 3u;
+      st.last = static_cast<std::uint8_t>((n >> 2) / kStuffRun);
+      st.run = (n >> 2) % kStuffRun;
+      return;
+    }
+    for (unsigned i = width; i-- > 0;) {
+      const auto b = static_cast<std::uint8_t>((value >> i) & 1u);
+      crc = crc15_step(crc, b);
+      st.bit(b);
+    }
+  });
+  for (unsigned i = 15; i-- > 0;) st.bit(static_cast<std::uint8_t>((crc >> i) & 1u));
+  return size + 15 + st.stuffed + kTrailerBits;
 }
 
 std::uint32_t frame_bits_longest(const Frame& f) {
@@ -85,24 +150,14 @@ std::uint32_t frame_bits_longest(const Frame& f) {
   const std::size_t free_bits = f.payload().size() * 8 + 15;  // data and CRC, chosen freely
   const std::span<const std::uint8_t> header = s.view().first(s.size - f.payload().size() * 8);
   // The stuffing state after the header: the last bit, the length of its run, the stuff bits.
-  std::uint32_t stuffed = 0;
-  unsigned run = 0;
-  std::uint8_t last = 2;
-  for (const auto b : header) {
-    run = b == last ? run + 1 : 1;
-    last = b;
-    if (run == kStuffRun) {
-      ++stuffed;
-      last = static_cast<std::uint8_t>(b ^ 1);
-      run = 1;
-    }
-  }
+  Stuffer st;
+  for (const auto b : header) st.bit(b);
   // The most stuff bits the free bits can add from each state (last bit, run 1..4): a dynamic
   // programme over the run state, one step per free bit; -1 = state not reachable.
   using States = std::array<std::array<int, kStuffRun>, 2>;
   States most{};
   for (auto& by_run : most) by_run.fill(-1);
-  most[last][run] = 0;
+  most[st.last][st.run] = 0;
   for (std::size_t i = 0; i < free_bits; ++i) {
     States next{};
     for (auto& by_run : next) by_run.fill(-1);
@@ -125,7 +180,7 @@ std::uint32_t frame_bits_longest(const Frame& f) {
   int best = 0;
   for (const auto& by_run : most)
     for (const int v : by_run) best = std::max(best, v);
-  return static_cast<std::uint32_t>(s.size + 15) + stuffed + static_cast<std::uint32_t>(best) +
+  return static_cast<std::uint32_t>(s.size + 15) + st.stuffed + static_cast<std::uint32_t>(best) +
          kTrailerBits;
 }
 

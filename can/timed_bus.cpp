@@ -50,6 +50,7 @@ std::size_t TimedBus::add_node(std::size_t depth) {
   Node n;
   n.depth = depth;
   nodes_.push_back(std::move(n));
+  moved();
   return nodes_.size() - 1;
 }
 
@@ -58,6 +59,7 @@ void TimedBus::remove_node(std::size_t node) {
   pending_ -= n.queue.size();
   n.queue.clear();
   n.present = false;
+  moved();
 }
 
 bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
@@ -69,6 +71,7 @@ bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
   }
   n.queue.push_back(Pending{frame, now});
   ++pending_;
+  moved();
   return true;
 }
 
@@ -105,7 +108,20 @@ std::optional<std::uint64_t> TimedBus::next_recovery() const {
   return first;
 }
 
+void TimedBus::moved() {
+  deadline_known_ = false;
+  if (on_moved_) on_moved_();
+}
+
 std::optional<Time> TimedBus::next_deadline() const {
+  if (!deadline_known_) {
+    deadline_ = compute_deadline();
+    deadline_known_ = true;
+  }
+  return deadline_;
+}
+
+std::optional<Time> TimedBus::compute_deadline() const {
   if (on_bus_) return on_bus_->end;
   const auto s = next_start();
   const auto r = next_recovery();
@@ -115,6 +131,14 @@ std::optional<Time> TimedBus::next_deadline() const {
 }
 
 void TimedBus::advance(Time now) {
+  // Nothing due by now: the bus stays as it is (the loop below would return at once).
+  if (const auto d = next_deadline(); !d || *d > now) return;
+  run(now);
+  // Known again at the next ask (a hook may have asked while the bus was changing).
+  moved();
+}
+
+void TimedBus::run(Time now) {
   while (true) {
     if (on_bus_) {
       if (on_bus_->end > now) return;
@@ -195,7 +219,10 @@ void TimedBus::start(std::uint64_t bit) {
   --pending_;
   ++frames_;
 
-  IdStatistics& s = ids_[best];
+  // The map in priority order for the status; the hash to find an identifier's entry per frame.
+  IdStatistics*& entry = id_index_[best];
+  if (!entry) entry = &ids_[best];
+  IdStatistics& s = *entry;
   s.id = ident_of(p.frame);
   s.remote = p.frame.remote;
   if (s.frames > 0) {
@@ -317,6 +344,7 @@ void TimedBus::clear_faults(std::optional<std::size_t> node) {
     nodes_[i].unplugged = false;
     nodes_[i].wrong_bitrate = false;
   }
+  moved();
 }
 
 // Second k of bus time holds bits [k·bitrate, (k+1)·bitrate): a frame across the boundary counts

@@ -31,6 +31,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "can/channel.hpp"
@@ -101,6 +102,8 @@ class TimedBus {
   };
 
   TimedBus(std::uint32_t bitrate, Time origin);
+  TimedBus(const TimedBus&) = delete;  // id_index_ points into ids_
+  TimedBus& operator=(const TimedBus&) = delete;
 
   // A node with a transmit queue of `depth` frames (FIFO: its head contends).
   std::size_t add_node(std::size_t depth);
@@ -119,6 +122,10 @@ class TimedBus {
 
   void on_start(Hook hook) { on_start_ = std::move(hook); }
   void on_end(Hook hook) { on_end_ = std::move(hook); }
+  // Called when next_deadline() may have moved (a request, an advance, a node leaving or
+  // unplugged): the owner of many buses asks again only those (the plant, docs/can-bus.md
+  // "Performance").
+  void on_moved(std::function<void()> hook) { on_moved_ = std::move(hook); }
   // Called when a node's confinement state changes (after the frame that changed it, or at its
   // bus-off recovery).
   void on_state(std::function<void(std::size_t node, BusState)> hook) {
@@ -133,7 +140,10 @@ class TimedBus {
   // Error frames on cue (at each start of frame from now on).
   void inject_errors(const ErrorFault& fault) { faults_.push_back(fault); }
   // The node sends nothing (its queue waits), acknowledges nothing, gets nothing.
-  void set_unplugged(std::size_t node, bool on) { nodes_.at(node).unplugged = on; }
+  void set_unplugged(std::size_t node, bool on) {
+    nodes_.at(node).unplugged = on;
+    moved();
+  }
   // The node runs at another bit rate: its frames are errors for all, the others' for it.
   void set_wrong_bitrate(std::size_t node, bool on) { nodes_.at(node).wrong_bitrate = on; }
   bool wrong_bitrate(std::size_t node) const { return nodes_.at(node).wrong_bitrate; }
@@ -150,6 +160,7 @@ class TimedBus {
   std::size_t nodes() const { return nodes_.size(); }
 
   // When the bus next needs advancing: the end of the frame on it, or the start of the next.
+  // Kept until the bus changes (the plant asks for it at every step of every bus).
   std::optional<Time> next_deadline() const;
   // Runs every start and end of frame at or before `now`. When the bus goes idle at a bit, the
   // heads of the queues requested by then contend; the smallest arbitration_key wins.
@@ -196,6 +207,8 @@ class TimedBus {
   std::optional<std::uint64_t> next_start() const;
   // The first bit a bus-off node recovers at, if the bus stays idle.
   std::optional<std::uint64_t> next_recovery() const;
+  // advance()'s loop: every start, end and recovery due by `now`.
+  void run(Time now);
   void recover(std::uint64_t bit);
   void start(std::uint64_t bit);
   Error error_of(std::size_t node, const Frame& frame, Time at);
@@ -219,7 +232,14 @@ class TimedBus {
   std::uint64_t window_ = 0;       // the second of bus time being counted
   std::uint64_t window_bits_ = 0;  // busy bits in it
   double last_pct_ = 0, max_pct_ = 0;
+  // next_deadline() as of the last change (request, advance, a node leaving or unplugged).
+  mutable std::optional<Time> deadline_;
+  mutable bool deadline_known_ = false;
+  std::optional<Time> compute_deadline() const;
+  std::function<void()> on_moved_;
+  void moved();
   std::map<std::uint32_t, IdStatistics> ids_;
+  std::unordered_map<std::uint32_t, IdStatistics*> id_index_;  // into ids_ (stable nodes)
 };
 
 }  // namespace candp2::can

@@ -173,6 +173,10 @@ class VirtualBus {
   std::optional<Time> next_deadline() const {
     return timed_ ? timed_->next_deadline() : std::nullopt;
   }
+  // Called when next_deadline() may have moved (TimedBus::on_moved); nothing on an ideal bus.
+  void on_deadline_moved(std::function<void()> hook) {
+    if (timed_) timed_->on_moved(std::move(hook));
+  }
   // Starts and ends every frame due at or before `now` (taps at each start of frame, receivers at
   // each end).
   void advance(Time now) {

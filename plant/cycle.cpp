@@ -63,8 +63,7 @@ std::optional<Time> Plant::next_deadline() const {
   for (const auto& sl : slaves_) earliest(sl->slave_->next_deadline());
   if (master_line_) earliest(master_line_->next_deadline());
   if (timed_line_) earliest(timed_line_->next_deadline());
-  for (const auto& b : timed_buses_)
-    if (const auto d = b->next_deadline()) earliest(std::max(*d, buses_handled_ + options_.step));
+  if (const auto d = buses_deadline()) earliest(std::max(*d, buses_handled_ + options_.step));
   return next;
 }
 
@@ -78,6 +77,11 @@ std::optional<Time> Plant::gateways_deadline() const {
   if (fresh != first) std::abort();
 #endif
   return first;
+}
+
+std::optional<Time> Plant::buses_deadline() const {
+  return bus_deadlines_.earliest(
+      [this](std::size_t i) { return timed_buses_[i]->next_deadline(); });
 }
 
 void Plant::set_now(Time now) {
@@ -125,6 +129,7 @@ void Plant::advance(Time now) {
 void Plant::settle_buses() {
   for (bool due = true; due;) {
     due = false;
+    if (const auto first = buses_deadline(); !first || *first > now_) break;
     for (auto* b : timed_buses_)
       if (const auto d = b->next_deadline(); d && *d <= now_) {
         b->advance(now_);

@@ -116,7 +116,10 @@ bool Plant::add_bus(const config::BusConfig& cfg, std::string* /*error*/) {
     // docs/can-bus.md "The bus in time": with a bit rate the bus is timed from the plant's start.
     if (cfg.timed_bitrate) {
       b->vbus_->set_bitrate(*cfg.timed_bitrate, now_);
+      const std::size_t i = timed_buses_.size();
       timed_buses_.push_back(b->vbus_.get());
+      bus_deadlines_.resize(timed_buses_.size());
+      b->vbus_->on_deadline_moved([this, i] { bus_deadlines_.moved(i); });
     }
     BusUnit* bus = b.get();
     b->vbus_->add_tap([this, bus](const can::Frame& f, Time t, std::string_view sender) {

@@ -345,6 +345,8 @@ class Plant final : public ControlSurface {
   std::vector<std::unique_ptr<BusUnit>> buses_;
   std::vector<can::VirtualBus*> timed_buses_;  // the virtual buses with a bit rate
   Time buses_handled_{0};                      // when settle_buses() last advanced one
+  // The timed buses' deadlines, asked again only of the buses whose deadline moved.
+  mutable EarliestDeadline bus_deadlines_;
   std::vector<std::unique_ptr<GatewayUnit>> gateways_;
   std::vector<std::unique_ptr<DriveUnit>> drives_;
   std::vector<std::unique_ptr<SlaveUnit>> slaves_;
@@ -360,6 +362,8 @@ class Plant final : public ControlSurface {
   std::uint64_t bus_changes_ = 0, delivered_changes_ = ~std::uint64_t{0};
   std::vector<GatewayUnit*> touched_;  // gateways reached since deliver() last looked
   std::optional<Time> gateways_deadline() const;
+  // The earliest deadline of the timed buses (bus_deadlines_).
+  std::optional<Time> buses_deadline() const;
   std::vector<std::unique_ptr<dp::SlaveLink>> links_;  // the master's in-process links
   std::map<std::uint8_t, dp::SlaveLink*> wire_links_;  // fdl::WireImageLink by DP address
   std::vector<Tap*> taps_;

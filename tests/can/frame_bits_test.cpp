@@ -207,6 +207,24 @@ TEST(FrameBits, LongestBetweenExactAndWorst) {
   }
 }
 
+// frame_bits_exact() counts in one pass without building the stream (docs/can-bus.md
+// "Performance"): the same as the stream with its CRC, stuffed, and the trailer.
+TEST(FrameBits, ExactIsTheStuffedStream) {
+  std::mt19937 rng(361);
+  for (int i = 0; i < 20000; ++i) {
+    const bool ext = rng() % 2 != 0;
+    const auto id = static_cast<std::uint32_t>(rng() & (ext ? 0x1FFFFFFFu : 0x7FFu));
+    std::vector<std::uint8_t> data(rng() % 9);
+    for (auto& b : data) b = static_cast<std::uint8_t>(rng() % 3 == 0 ? 0 : rng());
+    const Frame f = rng() % 5 == 0 ? Frame::rtr(id, ext, static_cast<std::uint8_t>(data.size()))
+                    : ext          ? Frame::ext_data(id, data)
+                                   : Frame::std_data(id, data);
+    const BitStream s = stuffed_region(f);
+    EXPECT_EQ(frame_bits_exact(f), s.size + stuff_bits(s.view()) + kTrailerBits)
+        << format_candump(f);
+  }
+}
+
 TEST(FrameBits, Duration) {
   EXPECT_EQ(frame_duration(Frame::std_data(0x000, {}), 1'000'000), std::chrono::microseconds(53));
   EXPECT_EQ(bits_duration(53, 125'000), std::chrono::nanoseconds(424'000));
