@@ -12,12 +12,12 @@ candp2 package (ctest e2e_http_hostile):
     while other requests are answered within 1 s;
   - a 200 kB header refused (431) without harm.
 
-Throughout, a Modbus client reads the status block every 20 ms: every read is answered (the
-slowest within 500 ms), the DP master keeps cycling (Data_Exchanges at >= 90 % of the cycle
-rate) and missed cycles stay below 5 % of the grid points; a cycle is due in the time the
-simulated world ran, the wall time less the host stalls the daemon counted (docs/daemon.md "Host
-stalls": beyond master.host_stall_ms the simulated world pauses with a stalled host). The bounds are far from what a
-disturbed cycle looks like (a third of the cycles lost while one browser watched, before the face
+Throughout, a Modbus client reads the status block every 20 ms: every read is answered (the slowest
+within 500 ms), the DP master keeps cycling (Data_Exchanges at >= 90 % of the cycle rate) and
+missed cycles stay below 5 % of the grid points; a cycle is due in the time the simulated world
+ran, the wall time less the host stalls the daemon counted (docs/daemon.md "Host stalls": beyond
+master.host_stall_ms the simulated world pauses with a stalled host). The bounds are far from what
+a disturbed cycle looks like (a third of the cycles lost while one browser watched, before the face
 was reworked) and far enough from a loaded CI machine's scheduling noise (9 of 743 seen with three
 browsers beside); the numbers are printed, and bench/http_load.py measures the real margin. Every
 wait has a deadline; the process's descriptor limit is raised for the sockets.
