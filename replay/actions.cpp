@@ -192,7 +192,7 @@ std::string expect_bus_text(const Step& st, std::string s) {
       c += st.bus_node + " ";
       node_named = true;
     }
-    c += std::string(check.figure->key) + " " + check.bound.text();
+    c += std::string(check.figure->key) + " " + check.text();
   }
   return s + c + within(st);
 }

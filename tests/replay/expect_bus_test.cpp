@@ -90,6 +90,31 @@ TEST(ExpectBus, ErrorFramesAndANodesCounters) {
   EXPECT_NE(e.message.find("give \"node\""), std::string::npos) << e.to_string();
 }
 
+// A node's confinement state by the words of GET /api/v1/status nodes[].state; a failed step
+// says the word it measured, the report the word it wants; another word is refused with its path.
+TEST(ExpectBus, ANodesStateByItsWord) {
+  const RunResult r = run_steps("timed-bus-alone.json", R"({"advance_ms": 1000},
+      {"expect_bus": {"node": "gw:alone", "state": "error-passive"}},
+      {"expect_bus": {"node": "gw:alone", "state": "bus-off", "tec": 128}})");
+  ASSERT_EQ(r.steps.size(), 3u);
+  EXPECT_TRUE(r.steps[1].passed) << r.steps[1].detail;
+  EXPECT_FALSE(r.steps[2].passed);
+  EXPECT_EQ(r.steps[2].detail, "got tec 128, state error-passive");
+  auto p = parse("timed-bus-alone.json", R"({"expect_bus": {"node": "gw:alone", "state": "ok"}})");
+  ASSERT_TRUE(std::holds_alternative<Scenario>(p)) << std::get<config::ConfigError>(p).to_string();
+  EXPECT_EQ(std::get<Scenario>(p).steps.at(0).describe_action(),
+            "expect_bus can0 gw:alone state = ok");
+  for (const char* bad : {R"("error_passive")", "2"}) {
+    const auto e =
+        error("timed-bus-alone.json",
+              R"({"expect_bus": {"node": "gw:alone", "state": )" + std::string(bad) + "}}");
+    EXPECT_EQ(e.json_path, "$.steps[0].expect_bus.state");
+    EXPECT_NE(e.message.find(R"(expected one of "ok", "warning", "error-passive", "bus-off")"),
+              std::string::npos)
+        << e.to_string();
+  }
+}
+
 // config/timed-bus-drive.json: the drive's request 0x201 goes on the bus once, after the write.
 TEST(ExpectBus, APeriodNeedsTwoFrames) {
   const RunResult r = run_steps("timed-bus-drive.json", R"(
