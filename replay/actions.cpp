@@ -160,6 +160,8 @@ std::string can_fault_text(const Step& st, std::string s) {
   if (f.id) s += " id " + can::ident_text(*f.id);
   if (f.kind == plant::CanFaultKind::ErrorFrames || f.kind == plant::CanFaultKind::Noise)
     s += amount_text(f.duration, f.count, f.every);
+  else if (f.duration)
+    s += amount_text(f.duration, 0, 1);
   return s;
 }
 std::string expect_line_text(const Step& st, std::string s) {

@@ -375,7 +375,10 @@ void parse_can_fault(Step& s, const StepInput& in) {
     case plant::CanFaultKind::Unplugged:
     case plant::CanFaultKind::WrongBitrate:
       if (w.has("id")) fail(w.path("id"), kind + " is a node's (or the bus's): no \"id\"");
-      if (w.has("for_ms")) fail(w.path("for_ms"), kind + " lasts until a can_fault none");
+      // Unplugged and wrong_bitrate last until a none, or end by themselves after for_ms.
+      if (f.kind == plant::CanFaultKind::None && w.has("for_ms"))
+        fail(w.path("for_ms"), "none cancels at once: no \"for_ms\"");
+      if (f.duration && *f.duration == Duration(0)) f.duration.reset();  // 0: until a none
       if (f.kind != plant::CanFaultKind::None && !node)
         fail(in.path, kind + " needs a node: \"gateway\" or \"drive\"");
       break;

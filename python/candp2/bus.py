@@ -384,7 +384,8 @@ class Bus(BusABC):
         """A CAN fault on cue (docs/faults.md "CAN faults"): `kind` one of "error_frames" (the
         gateway's next frames end in an error frame), "unplugged", "wrong_bitrate", "noise" (the
         whole bus; needs `for_ms`), "none" (cancels), for the next `count` frames (default 1)
-        or for `for_ms` milliseconds, one frame in every `every`; on the node of `gateway` (a DP
+        or for `for_ms` milliseconds, one frame in every `every` ("unplugged", "wrong_bitrate":
+        until "none", or ending by themselves after `for_ms`); on the node of `gateway` (a DP
         address; default the first gateway on the bus). Written to the Modbus CAN fault block
         (docs/modbus.md "CAN fault block") in one request; NotTimed on an ideal bus, ValueError
         for a bad kind or value (naming the good ones), ModbusError when the daemon refuses."""
