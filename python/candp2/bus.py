@@ -29,7 +29,7 @@ from can.exceptions import CanError, CanInitializationError, CanOperationError
 from can.message import Message
 
 from .errors import Candp2Error, FrameNotSeen, UnexpectedFrame
-from .timing import BusLoad, BusTiming, IdentifierTiming, can_fault_request
+from .timing import BusLoad, BusTiming, CanFaultInForce, IdentifierTiming, can_fault_request
 
 if TYPE_CHECKING:
     from .connection import Connection
@@ -378,6 +378,12 @@ class Bus(BusABC):
         """Each identifier's data frames: frames, period, jitter, latency (ms), read now; read
         `timing()` once for several figures of one moment."""
         return self.timing().identifiers
+
+    @property
+    def faults(self) -> tuple[CanFaultInForce, ...]:
+        """The CAN faults on cue in force on the bus, each with what is left of its count or
+        time (docs/can-bus.md "Seen from outside"), read now."""
+        return self.timing().faults
 
     def fault(self, kind: str, count: int | None = None, every: int = 1,
               for_ms: int | None = None, gateway: int | None = None) -> None:

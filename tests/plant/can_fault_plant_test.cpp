@@ -3,6 +3,7 @@
 // Plant::can_fault resolving a gateway to its node, and its refusals.
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <string>
 #include <variant>
 
@@ -46,6 +47,16 @@ struct Bench {
     }
   }
   plant::GatewayUnit& gw() { return *plant->gateways().at(0); }
+  // A fault on cue on gw3's node at `at`.
+  bool on_gw3(plant::CanFaultKind kind, Time at, std::uint32_t count = 1,
+              std::optional<Duration> duration = std::nullopt) {
+    plant::CanFault f;
+    f.kind = kind;
+    f.node.gateway = 3;
+    f.count = count;
+    f.duration = duration;
+    return plant->can_fault(f, at, "(test)");
+  }
   const can::TimedBus& bus() { return *plant->buses().at(0)->virtual_bus()->timed(); }
 };
 
@@ -73,11 +84,7 @@ TEST(CanFaultInThePlant, AGatewayAtAnotherBitRateCannotTalk) {
 TEST(CanFaultInThePlant, CanFaultResolvesAGatewayAndRefusesWhatItCannot) {
   Bench r(config("125k", "125k"));
   r.until(Time{200'000});
-  plant::CanFault f;
-  f.kind = plant::CanFaultKind::ErrorFrames;
-  f.node.gateway = 3;
-  f.count = 13;
-  EXPECT_TRUE(r.plant->can_fault(f, Time{200'000}, "(test)"));
+  EXPECT_TRUE(r.on_gw3(plant::CanFaultKind::ErrorFrames, Time{200'000}, 13));
   plant::CanFault none;
   none.node.gateway = 9;  // no such gateway
   EXPECT_FALSE(r.plant->can_fault(none, Time{200'000}, "(test)"));
@@ -100,11 +107,7 @@ TEST(CanFaultInThePlant, CanFaultResolvesAGatewayAndRefusesWhatItCannot) {
 void a_node_out_for_50_ms(plant::CanFaultKind kind) {
   Bench r(config("125k", "125k"));
   r.until(Time{200'000});
-  plant::CanFault f;
-  f.kind = kind;
-  f.node.gateway = 3;
-  f.duration = milliseconds(50);
-  ASSERT_TRUE(r.plant->can_fault(f, Time{200'000}, "(test)"));
+  ASSERT_TRUE(r.on_gw3(kind, Time{200'000}, 1, milliseconds(50)));
   // The plant wakes when the time is up, whatever else it waits for.
   ASSERT_TRUE(r.plant->next_deadline().has_value());
   EXPECT_LE(*r.plant->next_deadline(), Time{250'000});
@@ -137,17 +140,12 @@ TEST(CanFaultInThePlant, WrongBitrateForMsEndsByItself) {
 TEST(CanFaultInThePlant, WithoutForMsANodeStaysOutUntilNone) {
   Bench r(config("125k", "125k"));
   r.until(Time{200'000});
-  plant::CanFault f;
-  f.kind = plant::CanFaultKind::Unplugged;
-  f.node.gateway = 3;
-  ASSERT_TRUE(r.plant->can_fault(f, Time{200'000}, "(test)"));
+  ASSERT_TRUE(r.on_gw3(plant::CanFaultKind::Unplugged, Time{200'000}));
   r.listener->send(*can::parse_candump("301#0102").frame);
   const std::uint64_t frames = r.bus().frames();
   r.until(Time{1'000'000});
   EXPECT_EQ(r.bus().frames(), frames);
-  plant::CanFault none;
-  none.node.gateway = 3;
-  ASSERT_TRUE(r.plant->can_fault(none, Time{1'000'000}, "(test)"));
+  ASSERT_TRUE(r.on_gw3(plant::CanFaultKind::None, Time{1'000'000}));
   r.until(Time{1'010'000});
   EXPECT_EQ(r.bus().frames(), frames + 1);
 }
