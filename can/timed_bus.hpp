@@ -139,6 +139,9 @@ class TimedBus {
   void check_acknowledgement(bool on) { check_ack_ = on; }
   // Error frames on cue (at each start of frame from now on).
   void inject_errors(const ErrorFault& fault) { faults_.push_back(fault); }
+  // The error frames on cue still in force (`count` what is left of a count; one whose `until`
+  // has passed goes at the next start of frame).
+  const std::vector<ErrorFault>& error_faults() const { return faults_; }
   // The node sends nothing (its queue waits), acknowledges nothing, gets nothing.
   void set_unplugged(std::size_t node, bool on) {
     nodes_.at(node).unplugged = on;

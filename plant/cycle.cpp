@@ -64,6 +64,7 @@ std::optional<Time> Plant::next_deadline() const {
   if (master_line_) earliest(master_line_->next_deadline());
   if (timed_line_) earliest(timed_line_->next_deadline());
   if (const auto d = buses_deadline()) earliest(std::max(*d, buses_handled_ + options_.step));
+  earliest(node_faults_deadline());
   return next;
 }
 
@@ -105,6 +106,7 @@ void Plant::run_timers(Time now) {
     if (const auto t = master_line_->next_deadline(); t && *t <= now) master_line_->advance(now);
   if (timed_line_)
     if (const auto t = timed_line_->next_deadline(); t && *t <= now) timed_line_->advance(now);
+  end_node_faults(now);
 }
 
 void Plant::advance(Time now) {

@@ -259,6 +259,9 @@ class Plant final : public ControlSurface {
   void note(std::string_view text, Time now) override;
   bool line_fault(const LineFault& fault, Time now, std::string_view origin) override;
   bool can_fault(const CanFault& fault, Time now, std::string_view origin) override;
+  // The CAN faults on cue in force on `bus` at `now`: the nodes' unplugged and wrong_bitrate in
+  // the order given, then the error frames and noise (docs/can-bus.md "Seen from outside").
+  std::vector<CanFaultView> can_faults(const BusUnit& bus, Time now) const;
 
   // ---- inspection ---------------------------------------------------------------------------
   const config::DaemonConfig& config() const { return config_; }
@@ -304,6 +307,19 @@ class Plant final : public ControlSurface {
 
  private:
   bool line_noise(Duration duration, std::string_view origin);
+  // A node's unplugged or wrong_bitrate on cue, kept to end it after its for_ms and to show it
+  // (docs/faults.md "CAN faults on cue").
+  struct NodeFault {
+    can::VirtualEndpoint* node = nullptr;
+    const BusUnit* bus = nullptr;
+    std::string name;  // the unit's, for the log
+    CanFaultKind kind = CanFaultKind::None;
+    std::optional<Time> until;  // nullopt: until a none
+  };
+  std::vector<NodeFault> node_faults_;
+  std::optional<Time> node_faults_deadline() const;
+  // Ends the node faults whose time is up by `now`.
+  void end_node_faults(Time now);
   friend class GatewayUnit;
   Plant(const config::DaemonConfig& config, Options options, Time now);
   bool build_parts(std::string* error);
