@@ -39,11 +39,17 @@ Duration TimedBus::IdStatistics::latency_mean() const {
   return frames ? latency_sum / static_cast<std::int64_t>(frames) : Duration(0);
 }
 
-TimedBus::TimedBus(std::uint32_t bitrate, Time origin) : bitrate_(bitrate), origin_(origin) {}
+TimedBus::TimedBus(std::uint32_t bitrate, Time origin)
+    : bitrate_(bitrate),
+      us_per_bit_(bitrate != 0 && kMicrosPerSecond % bitrate == 0 ? kMicrosPerSecond / bitrate : 0),
+      origin_(origin) {}
 
 // Split so that neither product overflows: whole seconds, then the rest of one.
 // Bits and microseconds rounded up both ways, as the line in time (common/line_physics.hpp).
 Time TimedBus::time_of(std::uint64_t bit) const {
+  // A bit a whole number of microseconds long (every CAN-DP/2 rate but 800k): no rounding, so
+  // bits_to_time() is that product (docs/can-bus.md "Performance": the divisions cost).
+  if (us_per_bit_ != 0) return origin_ + Duration(static_cast<std::int64_t>(bit * us_per_bit_));
   return origin_ + phy::bits_to_time(bitrate_, bit);
 }
 
@@ -76,7 +82,8 @@ bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
   }
   n.queue.push_back(Pending{frame, now, bit_at(now), arbitration_key(frame)});
   ++pending_;
-  moved();
+  // While a frame is on the bus the deadline is its end, whatever is queued: nothing moved.
+  if (!on_bus_) moved();
   return true;
 }
 
@@ -389,6 +396,10 @@ void TimedBus::clear_faults(std::optional<std::size_t> node) {
 // in both, each its own bits.
 void TimedBus::count_bits(std::uint64_t from, std::uint64_t bits) {
   busy_bits_ += bits;
+  if (from + bits <= (window_ + 1) * bitrate_) {  // within the second being counted
+    window_bits_ += bits;
+    return;
+  }
   while (bits > 0) {
     const std::uint64_t w = from / bitrate_;
     if (w > window_) {

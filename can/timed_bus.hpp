@@ -236,6 +236,7 @@ class TimedBus {
   void count_bits(std::uint64_t from, std::uint64_t bits);
 
   std::uint32_t bitrate_;
+  std::uint64_t us_per_bit_;  // when a bit is a whole number of microseconds, else 0
   Time origin_;
   std::vector<Node> nodes_;
   std::optional<OnBus> on_bus_;
