@@ -237,12 +237,12 @@ TEST(FrameBits, ExactIsTheStuffedStreamWithRuns) {
                                                   : rng() & (ext ? 0x1FFFFFFFu : 0x7FFu));
     std::vector<std::uint8_t> data(rng() % 9);
     for (auto& b : data) b = kRuns[rng() % std::size(kRuns)];
-    const Frame f = rng() % 7 == 0 ? Frame::rtr(id, ext, static_cast<std::uint8_t>(data.size()))
-                    : ext          ? Frame::ext_data(id, data)
-                                   : Frame::std_data(id, data);
-    const BitStream s = stuffed_region(f);
-    EXPECT_EQ(frame_bits_exact(f), s.size + stuff_bits(s.view()) + kTrailerBits)
-        << format_candump(f);
+    const auto dlc = static_cast<std::uint8_t>(data.size());
+    const Frame f = rng() % 7 == 0 ? Frame::rtr(id, ext, dlc) : Frame::data_frame(id, ext, data);
+    const BitStream stream = stuffed_region(f);
+    const std::uint32_t bit_by_bit =
+        static_cast<std::uint32_t>(stream.size) + stuff_bits(stream.view()) + kTrailerBits;
+    EXPECT_EQ(frame_bits_exact(f), bit_by_bit) << format_candump(f);
   }
 }
 
