@@ -119,6 +119,7 @@ class BusUnit {
   const config::BusConfig* cfg_ = nullptr;
   std::uint16_t index_ = 0;
   std::unique_ptr<can::VirtualBus> vbus_;
+  std::vector<std::size_t> gateways_;  // the gateways on it (virtual buses), by index
 };
 
 // One emulated gateway: its channel, the fault layer in between, the firmware engine.
@@ -362,7 +363,8 @@ class Plant final : public ControlSurface {
   std::vector<can::VirtualBus*> timed_buses_;  // the virtual buses with a bit rate
   Time buses_handled_{0};                      // when settle_buses() last advanced one
   // The timed buses' deadlines, asked again only of the buses whose deadline moved.
-  mutable EarliestDeadline bus_deadlines_;
+  mutable DeadlineTree bus_deadlines_;
+  std::vector<std::uint32_t> due_buses_;  // settle_buses(): the timed buses due (indices)
   std::vector<std::unique_ptr<GatewayUnit>> gateways_;
   std::vector<std::unique_ptr<DriveUnit>> drives_;
   std::vector<std::unique_ptr<SlaveUnit>> slaves_;
@@ -377,6 +379,15 @@ class Plant final : public ControlSurface {
   // while it stands still and no gateway was touched, there is nothing to deliver.
   std::uint64_t bus_changes_ = 0, delivered_changes_ = ~std::uint64_t{0};
   std::vector<GatewayUnit*> touched_;  // gateways reached since deliver() last looked
+  // A bit per gateway that may have frames or a controller state to take: its bus changed or it
+  // was touched since deliver() last took them. deliver() looks at these, in the gateways' order,
+  // not at every gateway (docs/can-bus.md "Performance").
+  std::vector<std::uint64_t> to_deliver_;
+  void mark_delivery(std::size_t gateway) {
+    to_deliver_[gateway / 64] |= std::uint64_t{1} << (gateway % 64);
+  }
+  // The first marked gateway at or after `from` (gateways_.size(): none).
+  std::size_t next_delivery(std::size_t from) const;
   std::optional<Time> gateways_deadline() const;
   // The earliest deadline of the timed buses (bus_deadlines_).
   std::optional<Time> buses_deadline() const;
