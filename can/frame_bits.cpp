@@ -116,32 +116,60 @@ struct ByteTables {
 };
 }  // namespace
 
-// What stuffed_region() and stuff_bits() give, in one pass and without the stream (a bus in time
-// asks it for every frame: docs/can-bus.md "Performance"); the data field a byte at a time.
+// What stuffed_region() and stuff_bits() give, without the stream and without a loop over its
+// bits (a bus in time asks it for every frame: docs/can-bus.md "Performance"). The fields after
+// SOF are one number; the CRC register starts at 0, so zeros in front of the region change
+// nothing and SOF (dominant) with the padding to a whole byte is one: the region goes through
+// the CRC a byte at a time. The stuffing starts after SOF (last bit dominant, a run of one) and
+// takes the stream after SOF (fields, data, CRC) a byte at a time through the stuffing table, the
+// few bits left at its end one by one.
 std::uint32_t frame_bits_exact(const Frame& f) {
   static const ByteTables tables;
+  const std::uint64_t rtr = f.remote ? 1 : 0, dlc = f.dlc & 0xFu;
+  // After SOF: 11-bit: ID (11), RTR, IDE (dominant), r0, DLC (4); 29-bit: base ID (11), SRR and
+  // IDE (recessive), extended ID (18), RTR, r1, r0, DLC (4). As region_fields() sends them.
+  const bool ext = f.extended;
+  const unsigned header_bits = ext ? 38 : 18;
+  const std::uint64_t header = ext ? std::uint64_t{(f.id >> 18) & 0x7FFu} << 27 |
+                                         std::uint64_t{3} << 25 |
+                                         std::uint64_t{f.id & 0x3FFFFu} << 7 | rtr << 6 | dlc
+                                   : std::uint64_t{f.id & 0x7FFu} << 7 | rtr << 6 | dlc;
+  const std::span<const std::uint8_t> data = f.payload();
   std::uint16_t crc = 0;
-  std::uint32_t size = 0;
-  Stuffer st;
-  region_fields(f, [&](std::uint32_t value, unsigned width) {
-    size += width;
-    if (width == 8 && st.last < 2) {
-      crc = static_cast<std::uint16_t>(((crc << 8) ^ tables.crc[((crc >> 7) ^ value) & 0xFF]) &
-                                       0x7FFF);
-      const std::uint8_t n = tables.next[ByteTables::state(st)][value & 0xFF];
+  auto crc_byte = [&crc](unsigned byte) {
+    crc =
+        static_cast<std::uint16_t>(((crc << 8) ^ tables.crc[((crc >> 7) ^ byte) & 0xFF]) & 0x7FFF);
+  };
+  // SOF and the header padded in front to whole bytes: 24 bits (11-bit), 40 bits (29-bit).
+  for (unsigned shift = ext ? 32 : 16;; shift -= 8) {
+    crc_byte(static_cast<unsigned>(header >> shift) & 0xFF);
+    if (shift == 0) break;
+  }
+  for (const auto byte : data) crc_byte(byte);
+
+  Stuffer st{0, 1, 0};  // after SOF
+  unsigned state = ByteTables::state(st);
+  std::uint64_t acc = 0;  // bits not yet stuffed, fewer than 8 between pushes
+  unsigned pending = 0;
+  auto push = [&](std::uint64_t value, unsigned width) {
+    acc = acc << width | value;
+    pending += width;
+    while (pending >= 8) {
+      pending -= 8;
+      const std::uint8_t n = tables.next[state][(acc >> pending) & 0xFF];
       st.stuffed += n & 3u;
-      st.last = static_cast<std::uint8_t>((n >> 2) / kStuffRun);
-      st.run = (n >> 2) % kStuffRun;
-      return;
+      state = n >> 2;
     }
-    for (unsigned i = width; i-- > 0;) {
-      const auto b = static_cast<std::uint8_t>((value >> i) & 1u);
-      crc = crc15_step(crc, b);
-      st.bit(b);
-    }
-  });
-  for (unsigned i = 15; i-- > 0;) st.bit(static_cast<std::uint8_t>((crc >> i) & 1u));
-  return size + 15 + st.stuffed + kTrailerBits;
+    acc &= (std::uint64_t{1} << pending) - 1;
+  };
+  push(header, header_bits);
+  for (const auto byte : data) push(byte, 8);
+  push(crc, 15);
+  st.last = static_cast<std::uint8_t>(state / kStuffRun);
+  st.run = state % kStuffRun;
+  for (unsigned i = pending; i-- > 0;) st.bit(static_cast<std::uint8_t>((acc >> i) & 1u));
+  return 1 + header_bits + 8 * static_cast<std::uint32_t>(data.size()) + 15 + st.stuffed +
+         kTrailerBits;
 }
 
 std::uint32_t frame_bits_longest(const Frame& f) {

@@ -24,6 +24,11 @@ constexpr std::uint32_t kRecAfterPassive = 127;  // REC > 127 on success: back t
 constexpr std::uint32_t kSuspendBits = 8;        // an error-passive transmitter's suspend
 constexpr std::uint32_t kRecessiveRun = 11;      // bus-off recovery: 128 runs of 11 bits
 constexpr std::uint32_t kRecoveryRuns = 128;
+// An arbitration key's first slot in an index of `size` (a power of two) slots: Fibonacci hashing
+// (the identifiers of one bus are often consecutive).
+std::size_t slot_of(std::uint32_t key, std::size_t size) {
+  return static_cast<std::size_t>((std::uint64_t{key} * 0x9E3779B97F4A7C15ull) >> 32) & (size - 1);
+}
 }  // namespace
 
 Duration TimedBus::IdStatistics::period_mean() const {
@@ -34,11 +39,17 @@ Duration TimedBus::IdStatistics::latency_mean() const {
   return frames ? latency_sum / static_cast<std::int64_t>(frames) : Duration(0);
 }
 
-TimedBus::TimedBus(std::uint32_t bitrate, Time origin) : bitrate_(bitrate), origin_(origin) {}
+TimedBus::TimedBus(std::uint32_t bitrate, Time origin)
+    : bitrate_(bitrate),
+      us_per_bit_(bitrate != 0 && kMicrosPerSecond % bitrate == 0 ? kMicrosPerSecond / bitrate : 0),
+      origin_(origin) {}
 
 // Split so that neither product overflows: whole seconds, then the rest of one.
 // Bits and microseconds rounded up both ways, as the line in time (common/line_physics.hpp).
 Time TimedBus::time_of(std::uint64_t bit) const {
+  // A bit a whole number of microseconds long (every CAN-DP/2 rate but 800k): no rounding, so
+  // bits_to_time() is that product (docs/can-bus.md "Performance": the divisions cost).
+  if (us_per_bit_ != 0) return origin_ + Duration(static_cast<std::int64_t>(bit * us_per_bit_));
   return origin_ + phy::bits_to_time(bitrate_, bit);
 }
 
@@ -69,15 +80,16 @@ bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
     ++lost_;
     return false;
   }
-  n.queue.push_back(Pending{frame, now});
+  n.queue.push_back(Pending{frame, now, bit_at(now), arbitration_key(frame)});
   ++pending_;
-  moved();
+  // While a frame is on the bus the deadline is its end, whatever is queued: nothing moved.
+  if (!on_bus_) moved();
   return true;
 }
 
-bool TimedBus::contends(const Node& n, std::uint64_t bit) const {
+bool TimedBus::contends(const Node& n, std::uint64_t bit, Time at) const {
   return !n.queue.empty() && !n.unplugged && n.conf.state != BusState::BusOff &&
-         n.suspend_until <= bit && n.queue.front().requested <= time_of(bit);
+         n.suspend_until <= bit && n.queue.front().requested <= at;
 }
 
 bool TimedBus::receives(std::size_t node) const {
@@ -90,15 +102,14 @@ std::optional<std::uint64_t> TimedBus::next_start() const {
   std::optional<std::uint64_t> first;
   for (const Node& n : nodes_) {
     if (n.queue.empty() || n.unplugged || n.conf.state == BusState::BusOff) continue;
-    const std::uint64_t at =
-        std::max({free_bit_, bit_at(n.queue.front().requested), n.suspend_until});
+    const std::uint64_t at = std::max({free_bit_, n.queue.front().requested_bit, n.suspend_until});
     if (!first || at < *first) first = at;
   }
   return first;
 }
 
 std::optional<std::uint64_t> TimedBus::next_recovery() const {
-  if (on_bus_) return std::nullopt;
+  if (on_bus_ || bus_off_nodes_ == 0) return std::nullopt;
   std::optional<std::uint64_t> first;
   for (const Node& n : nodes_) {
     if (!n.present || n.conf.state != BusState::BusOff || !n.run_from) continue;
@@ -170,6 +181,7 @@ void TimedBus::recover(std::uint64_t bit) {
     n.run_from.reset();
     n.suspend_until = 0;
     n.conf.state = BusState::Ok;
+    --bus_off_nodes_;
     if (on_state_) on_state_(i, n.conf.state);
   }
 }
@@ -188,8 +200,8 @@ void TimedBus::start(std::uint64_t bit) {
       n.recessive_runs += static_cast<std::uint32_t>((bit - *n.run_from) / kRecessiveRun);
       n.run_from.reset();
     }
-    if (!contends(n, bit)) continue;
-    const std::uint32_t key = arbitration_key(n.queue.front().frame);
+    if (!contends(n, bit, at)) continue;
+    const std::uint32_t key = n.queue.front().key;
     if (!winner || key < best) {
       winner = &n;
       index = i;
@@ -220,9 +232,7 @@ void TimedBus::start(std::uint64_t bit) {
   ++frames_;
 
   // The map in priority order for the status; the hash to find an identifier's entry per frame.
-  IdStatistics*& entry = id_index_[best];
-  if (!entry) entry = &ids_[best];
-  IdStatistics& s = *entry;
+  IdStatistics& s = id_statistics(best);
   s.id = ident_of(p.frame);
   s.remote = p.frame.remote;
   if (s.frames > 0) {
@@ -239,6 +249,39 @@ void TimedBus::start(std::uint64_t bit) {
   s.last_start = at;
   ++s.frames;
   if (on_start_) on_start_(*on_bus_);
+}
+
+// The map in priority order for the status; the index to find an identifier's entry per frame.
+TimedBus::IdStatistics& TimedBus::id_statistics(std::uint32_t key) {
+  if (2 * (id_count_ + 1) > id_index_.size()) {  // grow: at most half full
+    std::vector<IdSlot> old(std::max<std::size_t>(64, 2 * id_index_.size()));
+    old.swap(id_index_);
+    for (const IdSlot& e : old)
+      if (e.stats) {
+        std::size_t i = slot_of(e.key, id_index_.size());
+        while (id_index_[i].stats) i = (i + 1) & (id_index_.size() - 1);
+        id_index_[i] = e;
+      }
+  }
+  std::size_t i = slot_of(key, id_index_.size());
+  while (id_index_[i].stats) {
+    if (id_index_[i].key == key) return *id_index_[i].stats;
+    i = (i + 1) & (id_index_.size() - 1);
+  }
+  ++id_count_;
+  id_index_[i] = IdSlot{key, &ids_[key]};
+  return *id_index_[i].stats;
+}
+
+void TimedBus::Fifo::push_back(const Pending& p) {
+  if (size_ == ring_.size()) {  // full: twice as long, the frames in order from 0
+    std::vector<Pending> grown(std::max<std::size_t>(8, 2 * ring_.size()));
+    for (std::size_t i = 0; i < size_; ++i) grown[i] = ring_[(head_ + i) & (ring_.size() - 1)];
+    ring_.swap(grown);
+    head_ = 0;
+  }
+  ring_[(head_ + size_) & (ring_.size() - 1)] = p;
+  ++size_;
 }
 
 TimedBus::Error TimedBus::error_of(std::size_t node, const Frame& frame, Time at) {
@@ -274,8 +317,9 @@ void TimedBus::finish() {
   confine(done.node, done);
   // The frame's last 11 bits (ACK delimiter, end of frame, intermission; or error delimiter and
   // intermission) are recessive: a bus-off node's run starts there.
-  for (Node& n : nodes_)
-    if (n.conf.state == BusState::BusOff) n.run_from = done.end_bit - kRecessiveRun;
+  if (bus_off_nodes_ > 0)
+    for (Node& n : nodes_)
+      if (n.conf.state == BusState::BusOff) n.run_from = done.end_bit - kRecessiveRun;
   if (on_end_) on_end_(done);
 }
 
@@ -331,6 +375,7 @@ void TimedBus::set_state(std::size_t node) {
   if (s == n.conf.state) return;
   n.conf.state = s;
   if (s == BusState::BusOff) {
+    ++bus_off_nodes_;
     ++n.conf.bus_off;
     n.recessive_runs = 0;
   }
@@ -351,6 +396,10 @@ void TimedBus::clear_faults(std::optional<std::size_t> node) {
 // in both, each its own bits.
 void TimedBus::count_bits(std::uint64_t from, std::uint64_t bits) {
   busy_bits_ += bits;
+  if (from + bits <= (window_ + 1) * bitrate_) {  // within the second being counted
+    window_bits_ += bits;
+    return;
+  }
   while (bits > 0) {
     const std::uint64_t w = from / bitrate_;
     if (w > window_) {

@@ -26,12 +26,10 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <map>
 #include <optional>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
 #include "can/channel.hpp"
@@ -139,6 +137,9 @@ class TimedBus {
   void check_acknowledgement(bool on) { check_ack_ = on; }
   // Error frames on cue (at each start of frame from now on).
   void inject_errors(const ErrorFault& fault) { faults_.push_back(fault); }
+  // The error frames on cue still in force (`count` what is left of a count; one whose `until`
+  // has passed goes at the next start of frame).
+  const std::vector<ErrorFault>& error_faults() const { return faults_; }
   // The node sends nothing (its queue waits), acknowledges nothing, gets nothing.
   void set_unplugged(std::size_t node, bool on) {
     nodes_.at(node).unplugged = on;
@@ -186,11 +187,31 @@ class TimedBus {
   struct Pending {
     Frame frame;
     Time requested{0};
+    std::uint64_t requested_bit = 0;  // bit_at(requested), counted once
+    std::uint32_t key = 0;            // arbitration_key(frame), counted once
+  };
+  // A node's transmit queue: a ring that grows to the most frames it held, so that no frame
+  // allocates (docs/can-bus.md "Performance").
+  class Fifo {
+   public:
+    bool empty() const { return size_ == 0; }
+    std::size_t size() const { return size_; }
+    const Pending& front() const { return ring_[head_]; }
+    void push_back(const Pending& p);
+    void pop_front() {
+      head_ = (head_ + 1) & (ring_.size() - 1);
+      --size_;
+    }
+    void clear() { head_ = size_ = 0; }
+
+   private:
+    std::vector<Pending> ring_;  // a power of two long
+    std::size_t head_ = 0, size_ = 0;
   };
   struct Node {
     std::size_t depth = 0;
     bool present = true;
-    std::deque<Pending> queue;
+    Fifo queue;
     bool unplugged = false, wrong_bitrate = false, acknowledges = true;
     std::string name;
     Confinement conf;
@@ -200,9 +221,9 @@ class TimedBus {
     std::uint32_t recessive_runs = 0;
     std::optional<std::uint64_t> run_from;
   };
-  // The node may start a frame at `bit` (present, plugged, not bus-off, not suspended, a frame
-  // requested by then).
-  bool contends(const Node& n, std::uint64_t bit) const;
+  // The node may start a frame at `bit`, whose time is `at` (present, plugged, not bus-off, not
+  // suspended, a frame requested by then).
+  bool contends(const Node& n, std::uint64_t bit, Time at) const;
   // The bit the next frame may start at (nullopt: nothing queued).
   std::optional<std::uint64_t> next_start() const;
   // The first bit a bus-off node recovers at, if the bus stays idle.
@@ -218,6 +239,7 @@ class TimedBus {
   void count_bits(std::uint64_t from, std::uint64_t bits);
 
   std::uint32_t bitrate_;
+  std::uint64_t us_per_bit_;  // when a bit is a whole number of microseconds, else 0
   Time origin_;
   std::vector<Node> nodes_;
   std::optional<OnBus> on_bus_;
@@ -239,7 +261,17 @@ class TimedBus {
   std::function<void()> on_moved_;
   void moved();
   std::map<std::uint32_t, IdStatistics> ids_;
-  std::unordered_map<std::uint32_t, IdStatistics*> id_index_;  // into ids_ (stable nodes)
+  // An identifier's entry in ids_ by arbitration key, found per frame: open addressing, linear
+  // probing, at most half full (a std::unordered_map's node walk cost more than the rest of
+  // start()).
+  struct IdSlot {
+    std::uint32_t key = 0;
+    IdStatistics* stats = nullptr;  // null: empty
+  };
+  std::vector<IdSlot> id_index_;
+  std::size_t id_count_ = 0;
+  IdStatistics& id_statistics(std::uint32_t key);
+  std::size_t bus_off_nodes_ = 0;  // nodes in BusOff (none: no recovery to look for)
 };
 
 }  // namespace candp2::can

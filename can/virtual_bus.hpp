@@ -155,6 +155,8 @@ class VirtualBus {
   std::uint64_t changes() const { return changes_; }
   // Also counts them in `*shared` (the plant's count over all its buses); null: not.
   void count_changes_in(std::uint64_t* shared) { shared_changes_ = shared; }
+  // And calls `hook` at each (the plant marks this bus's gateways for delivery); empty: none.
+  void on_changed(std::function<void()> hook) { changed_hook_ = std::move(hook); }
 
   std::uint64_t frames_sent() const { return frames_sent_; }
 
@@ -204,9 +206,11 @@ class VirtualBus {
   BusState state_ = BusState::Ok;
   std::uint64_t changes_ = 0;
   std::uint64_t* shared_changes_ = nullptr;
+  std::function<void()> changed_hook_;
   void changed() {
     ++changes_;
     if (shared_changes_) ++*shared_changes_;
+    if (changed_hook_) changed_hook_();
   }
   Time now_{0};
   const Time* clock_ = nullptr;

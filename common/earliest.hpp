@@ -101,4 +101,81 @@ class EarliestDeadline {
   std::optional<Time> first_;  // what the last refresh found
 };
 
+// The same for items whose deadlines move at almost every look (the timed buses: a request, a
+// start or an end of frame moves one; docs/can-bus.md "Performance"): a tournament tree, each
+// inner node the earliest of its two children. A moved item's leaf is set and the path above it
+// recomputed up to where nothing changes; nothing goes stale. due() finds the items due without a
+// walk over all.
+class DeadlineTree {
+ public:
+  // n items, every deadline asked again.
+  void resize(std::size_t n) {
+    leaves_ = 1;
+    while (leaves_ < n) leaves_ *= 2;
+    tree_.assign(2 * leaves_, kNone);
+    pending_flag_.assign(n, false);
+    pending_.clear();
+    all_ = true;
+  }
+  std::size_t size() const { return pending_flag_.size(); }
+
+  // Item i's deadline must be asked again.
+  void moved(std::size_t i) {
+    if (all_ || i >= size() || pending_flag_[i]) return;
+    pending_flag_[i] = true;
+    pending_.push_back(static_cast<std::uint32_t>(i));
+  }
+
+  // The earliest deadline; `deadline_of(i)` -> std::optional<Time>.
+  template <class F>
+  std::optional<Time> earliest(F&& deadline_of) {
+    if (all_) {
+      for (std::size_t i = 0; i < size(); ++i) tree_[leaves_ + i] = deadline_of(i).value_or(kNone);
+      for (std::size_t k = leaves_; k-- > 1;) tree_[k] = std::min(tree_[2 * k], tree_[2 * k + 1]);
+      for (const std::uint32_t i : pending_) pending_flag_[i] = false;
+      pending_.clear();
+      all_ = false;
+    }
+    for (const std::uint32_t i : pending_) {
+      pending_flag_[i] = false;
+      std::size_t k = leaves_ + i;
+      tree_[k] = deadline_of(i).value_or(kNone);
+      for (k /= 2; k >= 1; k /= 2) {
+        const Time m = std::min(tree_[2 * k], tree_[2 * k + 1]);
+        if (m == tree_[k]) break;  // nor anything above it
+        tree_[k] = m;
+      }
+    }
+    pending_.clear();
+    return tree_[1] == kNone ? std::nullopt : std::optional<Time>(tree_[1]);
+  }
+
+  // Appends to `out` the items whose deadline, as earliest() last asked it, is at or before
+  // `now`, in the items' order; only the subtrees holding one are looked at. Call it right after
+  // earliest().
+  void due(Time now, std::vector<std::uint32_t>& out) const {
+    walk_.assign(1, 1);
+    while (!walk_.empty()) {
+      const std::size_t k = walk_.back();
+      walk_.pop_back();
+      if (tree_[k] > now) continue;
+      if (k >= leaves_) {
+        out.push_back(static_cast<std::uint32_t>(k - leaves_));
+      } else {
+        walk_.push_back(2 * k + 1);  // the right after the left
+        walk_.push_back(2 * k);
+      }
+    }
+  }
+
+ private:
+  static constexpr Time kNone = Time::max();
+  std::size_t leaves_ = 1;
+  std::vector<Time> tree_ = std::vector<Time>(2, kNone);  // [1] the root, [leaves_ + i] item i
+  std::vector<bool> pending_flag_;
+  std::vector<std::uint32_t> pending_;
+  bool all_ = true;
+  mutable std::vector<std::size_t> walk_;  // due()'s nodes still to look at
+};
+
 }  // namespace candp2

@@ -356,6 +356,7 @@ json StatusModel::bus_json(std::size_t i, Time now, bool trace) {
     e["load_pct"] = b.timed ? b.timed->load(now).last_pct : load_[i].load * 100.0;
     e["frames_per_s"] = load_[i].fps;
     if (b.timed) e.update(timed_json(*b.timed, now));
+    if (b.timed && b.faults) e["faults"] = faults_json(b.faults(now));
     if (trace) {
       json frames = json::array();
       for (const auto& t : b.monitor->trace()) frames.push_back(trace_frame(t));
@@ -363,6 +364,21 @@ json StatusModel::bus_json(std::size_t i, Time now, bool trace) {
     }
   }
   return e;
+}
+
+// docs/can-bus.md "Seen from outside": the CAN faults on cue in force, as the line shows a
+// station's fault (line_json): what is left of a count or of a time.
+json StatusModel::faults_json(const std::vector<plant::CanFaultView>& faults) {
+  json out = json::array();
+  for (const auto& f : faults)
+    out.push_back({{"kind", plant::to_string(f.kind)},
+                   {"node", f.node.empty() ? json(nullptr) : json(f.node)},
+                   {"id", f.id ? json(f.id->id) : json(nullptr)},
+                   {"ext", f.id && f.id->extended},
+                   {"remaining", f.remaining},
+                   {"every", f.every},
+                   {"remaining_ms", f.remaining_time.count() / 1000}});
+  return out;
 }
 
 // docs/can-bus.md "Seen from outside": the bus in time's own figures, exact (additive fields).

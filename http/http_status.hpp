@@ -26,6 +26,7 @@
 #include "common/host_stalls.hpp"
 #include "common/time.hpp"
 #include "config/config.hpp"
+#include "plant/can_fault.hpp"
 #include "plant/cycle_stats.hpp"
 #include "plant/timed_line.hpp"
 #include "profibus_sim/master/dp_master.hpp"
@@ -84,6 +85,8 @@ struct BusSource {
   std::uint32_t bitrate = 0;  // bit/s: the first gateway's configured CAN bit rate on this bus
   // A virtual bus with `bitrate` (docs/can-bus.md "The bus in time"); null otherwise.
   const can::TimedBus* timed = nullptr;
+  // The CAN faults on cue in force on it at a time (Plant::can_faults; a bus in time only).
+  std::function<std::vector<plant::CanFaultView>(Time)> faults;
 };
 struct DriveSource {
   const config::DriveConfig* cfg = nullptr;
@@ -170,6 +173,7 @@ class StatusModel {
   nlohmann::json host_stalls_json() const;
   nlohmann::json bus_json(std::size_t bus, Time now, bool trace);
   static nlohmann::json timed_json(const can::TimedBus& t, Time now);
+  static nlohmann::json faults_json(const std::vector<plant::CanFaultView>& faults);
   nlohmann::json trace_frame(const BusMonitor::Traced& t) const;
   nlohmann::json drive_json(std::size_t drive) const;
   // The bus a gateway is on (index into sources().buses), if it has a monitor there.

@@ -26,8 +26,13 @@ StatusSources make_sources(plant::Plant& plant, const BusMonitors* monitors,
                               return station::gateway_status(plant, *unit, now, bitrate);
                             }});
   for (const auto& b : plant.buses()) {
-    BusSource bs{&b->config(), monitors ? &monitors->at(b->index()) : nullptr, 0,
-                 b->virtual_bus() ? b->virtual_bus()->timed() : nullptr};
+    BusSource bs{&b->config(),
+                 monitors ? &monitors->at(b->index()) : nullptr,
+                 0,
+                 b->virtual_bus() ? b->virtual_bus()->timed() : nullptr,
+                 {}};
+    if (bs.timed)
+      bs.faults = [&plant, unit = b.get()](Time now) { return plant.can_faults(*unit, now); };
     for (const auto& g :
          plant.gateways())  // manual table 5.1.1: the bit rate the gateway is set to
       if (&g->bus() == b.get() && !bs.bitrate)

@@ -169,7 +169,9 @@ inline constexpr std::array<CanFaultField, 4> kCanFaultFields = {{
      "whole bus); applied when written, with the others as last written"},
     {"count", "how many frames (default 1)"},
     {"every", "one frame in every K (1..65535, default 1; 0 is exception 0x03)"},
-    {"for_ms", "instead of a count, this long (0 = use the count; noise needs it)"},
+    {"for_ms",
+     "instead of a count, this long (0 = use the count; noise needs it; unplugged and "
+     "wrong_bitrate end by themselves after it, 0 = until none)"},
 }};
 namespace can_fault {
 inline constexpr std::uint16_t kKind = 0;  // offsets from kCanFaultBase, the table's order

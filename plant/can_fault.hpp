@@ -44,12 +44,26 @@ struct CanNode {
 
 struct CanFault {
   CanFaultKind kind = CanFaultKind::None;
-  std::string bus;                   // the bus (a node's fault: may stay empty, the node's bus)
-  CanNode node;                      // error_frames of a node, unplugged, wrong_bitrate, none
-  std::optional<can::Ident> id;      // error_frames of an identifier (any sender)
-  std::uint32_t count = 1;           // frames faulted, without a duration
-  std::uint32_t every = 1;           // one frame in every `every`
-  std::optional<Duration> duration;  // how long instead of a count; noise: required
+  std::string bus;               // the bus (a node's fault: may stay empty, the node's bus)
+  CanNode node;                  // error_frames of a node, unplugged, wrong_bitrate, none
+  std::optional<can::Ident> id;  // error_frames of an identifier (any sender)
+  std::uint32_t count = 1;       // frames faulted, without a duration
+  std::uint32_t every = 1;       // one frame in every `every`
+  // How long instead of a count (error_frames); noise: required; unplugged, wrong_bitrate: until
+  // it passes (without it: until a none).
+  std::optional<Duration> duration;
+};
+
+// A CAN fault on cue in force on a bus, as the plant shows it (Plant::can_faults; docs/can-bus.md
+// "Seen from outside"): its kind, its node (the endpoint's name, "gw:NAME") or identifier, what is
+// left of its count (0 with a time) and of its time (0 with a count or until none), the line
+// fault's vocabulary (plant/timed_line.hpp StationFault).
+struct CanFaultView {
+  CanFaultKind kind = CanFaultKind::None;
+  std::string node;              // empty: an identifier's error frames, noise
+  std::optional<can::Ident> id;  // error frames of an identifier
+  std::uint32_t remaining = 0, every = 1;
+  Duration remaining_time{0};
 };
 
 }  // namespace candp2::plant

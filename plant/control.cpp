@@ -202,15 +202,24 @@ bool Plant::can_fault(const CanFault& fault, Time now, std::string_view origin) 
   if (needs_node && !node) return refuse("it names no node (a gateway or a drive)");
   std::string what = "CAN fault " + std::string(to_string(fault.kind));
   can::TimedBus::ErrorFault e;
+  // docs/faults.md "CAN faults on cue": a node's unplugged or wrong_bitrate lasts until a none,
+  // or ends by itself after its for_ms (end_node_faults()).
+  std::erase_if(node_faults_, [&](const NodeFault& f) {
+    return node ? f.node == node && (fault.kind == CanFaultKind::None || f.kind == fault.kind)
+                : fault.kind == CanFaultKind::None && f.bus == b;
+  });
   switch (fault.kind) {
     case CanFaultKind::None:
       node ? node->clear_faults() : vb->clear_faults();
       break;
     case CanFaultKind::Unplugged:
-      node->set_unplugged(true);
-      break;
     case CanFaultKind::WrongBitrate:
-      node->set_wrong_bitrate(true);
+      fault.kind == CanFaultKind::Unplugged ? node->set_unplugged(true)
+                                            : node->set_wrong_bitrate(true);
+      node_faults_.push_back(
+          {node, b, name, fault.kind,
+           fault.duration ? std::optional(now_ + *fault.duration) : std::nullopt});
+      if (fault.duration) what += " for " + std::to_string(fault.duration->count() / 1000) + " ms";
       break;
     case CanFaultKind::ErrorFrames:
     case CanFaultKind::Noise:
@@ -233,6 +242,55 @@ bool Plant::can_fault(const CanFault& fault, Time now, std::string_view origin) 
   log_.warn(name + ": " + what + " " + std::string(origin));
   tap_note(name + ": " + what, now_);
   return true;
+}
+
+std::optional<Time> Plant::node_faults_deadline() const {
+  std::optional<Time> first;
+  for (const auto& f : node_faults_)
+    if (f.until && (!first || *f.until < *first)) first = f.until;
+  return first;
+}
+
+void Plant::end_node_faults(Time now) {
+  for (auto it = node_faults_.begin(); it != node_faults_.end();) {
+    if (!it->until || *it->until > now) {
+      ++it;
+      continue;
+    }
+    it->kind == CanFaultKind::Unplugged ? it->node->set_unplugged(false)
+                                        : it->node->set_wrong_bitrate(false);
+    const std::string what = "CAN fault " + std::string(to_string(it->kind)) + " over";
+    log_.warn(it->name + ": " + what + " (its for_ms has passed)");
+    tap_note(it->name + ": " + what, now);
+    it = node_faults_.erase(it);
+  }
+}
+
+std::vector<CanFaultView> Plant::can_faults(const BusUnit& bus, Time now) const {
+  std::vector<CanFaultView> out;
+  const can::TimedBus* t = bus.vbus_ ? bus.vbus_->timed() : nullptr;
+  if (!t) return out;
+  auto left = [&](std::optional<Time> until) { return until ? *until - now : Duration(0); };
+  for (const auto& f : node_faults_) {
+    if (f.bus != &bus || (f.until && *f.until <= now)) continue;
+    CanFaultView v;
+    v.kind = f.kind;
+    v.node = f.node->name();
+    v.remaining_time = left(f.until);
+    out.push_back(std::move(v));
+  }
+  for (const auto& e : t->error_faults()) {
+    if (e.until && *e.until <= now) continue;  // over; it goes at the next start of frame
+    CanFaultView v;
+    v.kind = e.node || e.id ? CanFaultKind::ErrorFrames : CanFaultKind::Noise;
+    if (e.node) v.node = t->name(*e.node);
+    v.id = e.id;
+    v.remaining = e.until ? 0 : e.count;
+    v.every = e.every;
+    v.remaining_time = left(e.until);
+    out.push_back(std::move(v));
+  }
+  return out;
 }
 
 bool Plant::line_noise(Duration duration, std::string_view origin) {

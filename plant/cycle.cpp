@@ -4,6 +4,7 @@
 // of frames between in-process endpoints. Part of plant::Plant (plant/plant.hpp); the assembly is
 // in plant.cpp, the control surface in control.cpp.
 #include <algorithm>
+#include <bit>
 #include <cstdlib>
 
 #include "plant/master_line.hpp"
@@ -37,6 +38,7 @@ void GatewayUnit::update_controller() {
 void GatewayUnit::touched() {
   bus_seen_.reset();
   if (!plant_) return;
+  plant_->mark_delivery(index_);
   plant_->gateway_deadlines_.moved(index_);
   if (!listed_) {
     listed_ = true;
@@ -64,6 +66,7 @@ std::optional<Time> Plant::next_deadline() const {
   if (master_line_) earliest(master_line_->next_deadline());
   if (timed_line_) earliest(timed_line_->next_deadline());
   if (const auto d = buses_deadline()) earliest(std::max(*d, buses_handled_ + options_.step));
+  earliest(node_faults_deadline());
   return next;
 }
 
@@ -105,6 +108,7 @@ void Plant::run_timers(Time now) {
     if (const auto t = master_line_->next_deadline(); t && *t <= now) master_line_->advance(now);
   if (timed_line_)
     if (const auto t = timed_line_->next_deadline(); t && *t <= now) timed_line_->advance(now);
+  end_node_faults(now);
 }
 
 void Plant::advance(Time now) {
@@ -125,18 +129,18 @@ void Plant::advance(Time now) {
 }
 
 // docs/can-bus.md "The bus in time": every start and end of frame due by now, and what the
-// receivers send back at once, until the buses wait for a later time.
+// receivers send back at once, until the buses wait for a later time. The buses due come from the
+// deadlines' tree (docs/can-bus.md "Performance": not a walk over every bus), in the order of the
+// configuration; advancing one bus changes no other's deadline.
 void Plant::settle_buses() {
-  for (bool due = true; due;) {
-    due = false;
+  while (true) {
     if (const auto first = buses_deadline(); !first || *first > now_) break;
-    for (auto* b : timed_buses_)
-      if (const auto d = b->next_deadline(); d && *d <= now_) {
-        b->advance(now_);
-        due = true;
-        buses_handled_ = now_;
-      }
-    if (due) deliver(now_);
+    due_buses_.clear();
+    bus_deadlines_.due(now_, due_buses_);
+    if (due_buses_.empty()) break;
+    for (const std::uint32_t i : due_buses_) timed_buses_[i]->advance(now_);
+    buses_handled_ = now_;
+    deliver(now_);
   }
 }
 
@@ -221,7 +225,11 @@ bool Plant::deliver(Time now) {
   bool any = false;
   for (bool work = true; work;) {
     work = false;
-    for (auto& g : gateways_) {
+    // The marked gateways in order; one marked while this pass runs is taken in it when it comes
+    // later in the order, else in the next pass (as a walk over all would).
+    for (std::size_t i = next_delivery(0); i < gateways_.size(); i = next_delivery(i + 1)) {
+      to_deliver_[i / 64] &= ~(std::uint64_t{1} << (i % 64));
+      GatewayUnit* g = gateways_[i].get();
       if (!g->endpoint_) continue;
       // A quiet virtual bus (no frame, no state change since) has nothing for the gateway.
       const std::uint64_t changes = g->bus_->vbus_->changes();
@@ -244,6 +252,15 @@ bool Plant::deliver(Time now) {
   for (GatewayUnit* g : touched_) g->listed_ = false;
   touched_.clear();
   return any;
+}
+
+std::size_t Plant::next_delivery(std::size_t from) const {
+  for (std::size_t w = from / 64; w < to_deliver_.size(); ++w) {
+    std::uint64_t word = to_deliver_[w];
+    if (w == from / 64) word &= ~std::uint64_t{0} << (from % 64);
+    if (word) return w * 64 + static_cast<std::size_t>(std::countr_zero(word));
+  }
+  return gateways_.size();
 }
 
 void Plant::receive(std::size_t index, Time now) {

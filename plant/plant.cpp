@@ -122,6 +122,9 @@ bool Plant::add_bus(const config::BusConfig& cfg, std::string* /*error*/) {
       b->vbus_->on_deadline_moved([this, i] { bus_deadlines_.moved(i); });
     }
     BusUnit* bus = b.get();
+    b->vbus_->on_changed([this, bus] {
+      for (const std::size_t g : bus->gateways_) mark_delivery(g);
+    });
     b->vbus_->add_tap([this, bus](const can::Frame& f, Time t, std::string_view sender) {
       tap_can(*bus, f, sender, t);
     });
@@ -135,6 +138,7 @@ bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
   g->plant_ = this;
   g->cfg_ = &cfg;
   g->index_ = gateways_.size();
+  to_deliver_.resize(g->index_ / 64 + 1);  // its engine may send while it is built
   g->sender_ = std::string(kGatewayPrefix) + cfg.name;
   g->bus_ = bus(cfg.bus);
   if (!g->bus_) {
@@ -145,6 +149,7 @@ bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
   if (b.type == BusType::Virtual) {
     auto ep = g->bus_->virtual_bus()->endpoint(g->sender_);
     ep->set_tx_queue(can::kGatewayTxQueue);
+    g->bus_->gateways_.push_back(g->index_);
     g->endpoint_ = ep.get();
     g->channel_ = std::move(ep);
   } else {
@@ -184,6 +189,7 @@ bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
             std::string(config::to_string(b.type)) + ")");
   gateways_.push_back(std::move(g));
   gateway_deadlines_.resize(gateways_.size());
+  mark_delivery(gateways_.size() - 1);  // nothing delivered to it yet
   return true;
 }
 

@@ -119,6 +119,7 @@ class BusUnit {
   const config::BusConfig* cfg_ = nullptr;
   std::uint16_t index_ = 0;
   std::unique_ptr<can::VirtualBus> vbus_;
+  std::vector<std::size_t> gateways_;  // the gateways on it (virtual buses), by index
 };
 
 // One emulated gateway: its channel, the fault layer in between, the firmware engine.
@@ -259,6 +260,9 @@ class Plant final : public ControlSurface {
   void note(std::string_view text, Time now) override;
   bool line_fault(const LineFault& fault, Time now, std::string_view origin) override;
   bool can_fault(const CanFault& fault, Time now, std::string_view origin) override;
+  // The CAN faults on cue in force on `bus` at `now`: the nodes' unplugged and wrong_bitrate in
+  // the order given, then the error frames and noise (docs/can-bus.md "Seen from outside").
+  std::vector<CanFaultView> can_faults(const BusUnit& bus, Time now) const;
 
   // ---- inspection ---------------------------------------------------------------------------
   const config::DaemonConfig& config() const { return config_; }
@@ -304,6 +308,19 @@ class Plant final : public ControlSurface {
 
  private:
   bool line_noise(Duration duration, std::string_view origin);
+  // A node's unplugged or wrong_bitrate on cue, kept to end it after its for_ms and to show it
+  // (docs/faults.md "CAN faults on cue").
+  struct NodeFault {
+    can::VirtualEndpoint* node = nullptr;
+    const BusUnit* bus = nullptr;
+    std::string name;  // the unit's, for the log
+    CanFaultKind kind = CanFaultKind::None;
+    std::optional<Time> until;  // nullopt: until a none
+  };
+  std::vector<NodeFault> node_faults_;
+  std::optional<Time> node_faults_deadline() const;
+  // Ends the node faults whose time is up by `now`.
+  void end_node_faults(Time now);
   friend class GatewayUnit;
   Plant(const config::DaemonConfig& config, Options options, Time now);
   bool build_parts(std::string* error);
@@ -346,7 +363,8 @@ class Plant final : public ControlSurface {
   std::vector<can::VirtualBus*> timed_buses_;  // the virtual buses with a bit rate
   Time buses_handled_{0};                      // when settle_buses() last advanced one
   // The timed buses' deadlines, asked again only of the buses whose deadline moved.
-  mutable EarliestDeadline bus_deadlines_;
+  mutable DeadlineTree bus_deadlines_;
+  std::vector<std::uint32_t> due_buses_;  // settle_buses(): the timed buses due (indices)
   std::vector<std::unique_ptr<GatewayUnit>> gateways_;
   std::vector<std::unique_ptr<DriveUnit>> drives_;
   std::vector<std::unique_ptr<SlaveUnit>> slaves_;
@@ -361,6 +379,15 @@ class Plant final : public ControlSurface {
   // while it stands still and no gateway was touched, there is nothing to deliver.
   std::uint64_t bus_changes_ = 0, delivered_changes_ = ~std::uint64_t{0};
   std::vector<GatewayUnit*> touched_;  // gateways reached since deliver() last looked
+  // A bit per gateway that may have frames or a controller state to take: its bus changed or it
+  // was touched since deliver() last took them. deliver() looks at these, in the gateways' order,
+  // not at every gateway (docs/can-bus.md "Performance").
+  std::vector<std::uint64_t> to_deliver_;
+  void mark_delivery(std::size_t gateway) {
+    to_deliver_[gateway / 64] |= std::uint64_t{1} << (gateway % 64);
+  }
+  // The first marked gateway at or after `from` (gateways_.size(): none).
+  std::size_t next_delivery(std::size_t from) const;
   std::optional<Time> gateways_deadline() const;
   // The earliest deadline of the timed buses (bus_deadlines_).
   std::optional<Time> buses_deadline() const;

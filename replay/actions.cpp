@@ -160,6 +160,8 @@ std::string can_fault_text(const Step& st, std::string s) {
   if (f.id) s += " id " + can::ident_text(*f.id);
   if (f.kind == plant::CanFaultKind::ErrorFrames || f.kind == plant::CanFaultKind::Noise)
     s += amount_text(f.duration, f.count, f.every);
+  else if (f.duration)
+    s += amount_text(f.duration, 0, 1);
   return s;
 }
 std::string expect_line_text(const Step& st, std::string s) {
@@ -192,7 +194,7 @@ std::string expect_bus_text(const Step& st, std::string s) {
       c += st.bus_node + " ";
       node_named = true;
     }
-    c += std::string(check.figure->key) + " " + check.bound.text();
+    c += std::string(check.figure->key) + " " + check.text();
   }
   return s + c + within(st);
 }

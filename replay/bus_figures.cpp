@@ -57,6 +57,17 @@ constexpr BusFigure kFigures[] = {
      [](const can::TimedBus&, const Stats*, const Conf* n, Time) {
        return static_cast<double>(n->rec);
      }},
+    {"state", BusScope::Node, 0,
+     "the node's error confinement state: ok, warning, error-passive or bus-off",
+     [](const can::TimedBus&, const Stats*, const Conf* n, Time) {
+       return static_cast<double>(n->state);
+     },
+     // The words of GET /api/v1/status nodes[].state (can::to_string).
+     [](std::size_t code) -> std::string_view {
+       return code <= static_cast<std::size_t>(can::BusState::BusOff)
+                  ? can::to_string(static_cast<can::BusState>(code))
+                  : std::string_view();
+     }},
 };
 // clang-format on
 
@@ -70,6 +81,20 @@ const BusFigure* bus_figure(std::string_view key) {
   for (const auto& f : kFigures)
     if (f.key == key) return &f;
   return nullptr;
+}
+
+std::optional<double> BusFigure::code_of(std::string_view w) const {
+  for (std::size_t c = 0; word && !word(c).empty(); ++c)
+    if (word(c) == w) return static_cast<double>(c);
+  return std::nullopt;
+}
+
+std::string BusFigure::text(double v) const {
+  return word && v >= 0 ? std::string(word(static_cast<std::size_t>(v))) : figure_text(v);
+}
+
+std::string BusCheck::text() const {
+  return figure->word && bound.min ? "= " + figure->text(*bound.min) : bound.text();
 }
 
 bool Bound::holds(double v) const {

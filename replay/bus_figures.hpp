@@ -33,6 +33,13 @@ struct BusFigure {
   // `node` the node's error confinement (Node rows only, never null).
   double (*get)(const can::TimedBus& bus, const can::TimedBus::IdStatistics* id,
                 const can::TimedBus::Confinement* node, Time now);
+  // A figure whose value is one of a few words (a node's state): the word of code `code`, empty
+  // past the last; the step gives the word, the report shows it. Null: a number.
+  std::string_view (*word)(std::size_t code) = nullptr;
+  // The code of `w`, if it is one of the figure's words.
+  std::optional<double> code_of(std::string_view w) const;
+  // The value as the report writes it: its word, else figure_text(v).
+  std::string text(double v) const;
 };
 
 std::span<const BusFigure> bus_figures();
@@ -49,6 +56,7 @@ struct Bound {
 struct BusCheck {
   const BusFigure* figure = nullptr;
   Bound bound;
+  std::string text() const;  // the range, a word figure's as "= error-passive"
 };
 
 // A figure's value as the report writes it: to the µs of a millisecond (3 decimals), without

@@ -375,7 +375,10 @@ void parse_can_fault(Step& s, const StepInput& in) {
     case plant::CanFaultKind::Unplugged:
     case plant::CanFaultKind::WrongBitrate:
       if (w.has("id")) fail(w.path("id"), kind + " is a node's (or the bus's): no \"id\"");
-      if (w.has("for_ms")) fail(w.path("for_ms"), kind + " lasts until a can_fault none");
+      // Unplugged and wrong_bitrate last until a none, or end by themselves after for_ms.
+      if (f.kind == plant::CanFaultKind::None && w.has("for_ms"))
+        fail(w.path("for_ms"), "none cancels at once: no \"for_ms\"");
+      if (f.duration && *f.duration == Duration(0)) f.duration.reset();  // 0: until a none
       if (f.kind != plant::CanFaultKind::None && !node)
         fail(in.path, kind + " needs a node: \"gateway\" or \"drive\"");
       break;
@@ -452,6 +455,18 @@ Bound as_bound(const json& j, const std::string& path) {
   return b;
 }
 
+// A word figure's value (a node's state): one of its words, exactly it.
+Bound as_word(const BusFigure& f, const json& j, const std::string& path) {
+  std::vector<std::string> words;
+  for (std::size_t c = 0; !f.word(c).empty(); ++c)
+    words.push_back("\"" + std::string(f.word(c)) + "\"");
+  const auto code = j.is_string() ? f.code_of(j.get<std::string>()) : std::nullopt;
+  if (!code)
+    fail(path, "expected one of " + join(words) + ", got " +
+                   (j.is_string() ? "\"" + j.get<std::string>() + "\"" : kind_of(j)));
+  return Bound{code, code};
+}
+
 // expect_bus's "bus": a bus of the configuration with a bit rate; without the key, the only bus.
 void expect_bus_bus(Step& s, const Object& w, const StepInput& in) {
   const auto& buses = in.scenario.installation.buses;
@@ -510,7 +525,8 @@ void parse_expect_bus(Step& s, const StepInput& in) {
                std::string(k == "frames" ? " (the bus's frames: \"frames_on_bus\")" : ""));
     if (f.scope == BusScope::Node && s.bus_node.empty())
       fail(w.path(k), "is a node's figure: give \"node\" (\"gw:NAME\")");
-    s.bus_checks.push_back({&f, as_bound(w.at(k), w.path(k))});
+    s.bus_checks.push_back(
+        {&f, f.word ? as_word(f, w.at(k), w.path(k)) : as_bound(w.at(k), w.path(k))});
   }
   if (s.bus_checks.empty()) fail(in.path, "give at least one figure (" + join(figures) + ")");
 }

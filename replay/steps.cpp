@@ -494,7 +494,7 @@ void Sim::expect_bus(const Step& s, StepResult& r) {
             continue;
           }
           const double v = c.figure->get(*bus, of_id ? (id ? id : &none) : nullptr, node, now_);
-          d += figure_text(v);
+          d += c.figure->text(v);
           all = all && c.bound.holds(v);
         }
         return all;

@@ -327,6 +327,7 @@ function updatePanel(p, g, rows, nowMs) {
 function makeBus(b) {
   const x = { frames: [], lastSeq: 0, paused: false };
   x.load = el('div'); x.loadText = el('div', { class: 'hw' }); x.info = el('dl', { class: 'kv' });
+  x.fault = el('div', { class: 'tfault bfault', hidden: '' });  // CAN faults on cue in force
   x.filter = el('input', { placeholder: 'filter id, e.g. 181 or 201,202', size: '24' });
   x.pause = el('button', { text: 'pause' });
   x.pause.onclick = () => { x.paused = !x.paused; x.pause.textContent = x.paused ? 'resume' : 'pause'; x.pause.className = x.paused ? 'paused' : ''; };
@@ -346,7 +347,7 @@ function makeBus(b) {
       el('table', { class: 'nodes' }, el('thead', {}, el('tr', {},
         ...['node', 'TEC', 'REC', 'state'].map(t => el('th', { text: t })))), x.nodes)));
   x.root = el('div', { class: 'card bus', id: 'bus-' + b.name },
-    el('div', {}, el('h2', { text: 'Bus ' + b.name }), el('h3', { text: 'Bus load' }), el('div', { class: 'meter' }, x.load), x.loadText, x.info),
+    el('div', {}, el('h2', { text: 'Bus ' + b.name }), el('h3', { text: 'Bus load' }), el('div', { class: 'meter' }, x.load), x.loadText, x.info, x.fault),
     el('div', {}, el('div', { class: 'tracebar' }, el('h3', { text: 'Live trace', style: 'margin:0' }), x.filter, x.pause),
       el('div', { class: 'trace' }, el('table', {}, el('thead', {}, el('tr', {}, ...['time', 'identifier', 'dlc', 'data'].map(t => el('th', { text: t })))), x.body))),
     x.timed);
@@ -370,7 +371,17 @@ function updateBus(x, b) {
   kvSet(x.info, [['type', b.type], ['frames', b.frames], ['frames/s', Math.round(b.frames_per_s || 0)],
     ...(timed ? [['max load', b.load.max_pct.toFixed(1) + ' %'], ['lost', b.tx_lost], ['error frames', b.error_frames]] : [])]);
   x.timed.hidden = !timed;
+  const faults = timed ? canFaultsText(b.faults || []) : '';
+  setText(x.fault, faults);
+  x.fault.hidden = !faults;
   if (timed) updateTimed(x, b);
+}
+// docs/can-bus.md "Seen from outside": each fault in force as the line shows a station's (its kind,
+// then what is left of its time or count), with its node or identifier.
+function canFaultsText(faults) {
+  return faults.map(f => f.kind + (f.node ? ' ' + f.node : f.id !== null ? ' ' + ident(f.id, f.ext) : '') +
+    (f.remaining_ms ? ' ' + f.remaining_ms + ' ms' : f.remaining ? ' ×' + f.remaining : '') +
+    (f.every > 1 ? ', every ' + f.every : '')).join(' · ');
 }
 // docs/can-bus.md "Seen from outside": load_pct is then the exact load of the last second.
 function updateTimed(x, b) {

@@ -26,17 +26,17 @@ from .registers import RegisterMap
 from .replay import ReplayResult, ReplayStep, replay
 from .slave import DiagBlock, FieldImage, Slave, SlaveDiagnosis, SlaveFaults
 from .station import Image, Station
-from .timing import BusLoad, BusTiming, IdentifierTiming, NodeCounters, NotTimed
+from .timing import BusLoad, BusTiming, CanFaultInForce, IdentifierTiming, NodeCounters, NotTimed
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "Bus", "BusCycle", "BusLoad", "BusTiming", "Candp2Error", "CfgFault", "ConfigError",
-    "Connection", "Counters", "Daemon", "DaemonError", "DiagBlock", "Diagnosis", "Drive",
-    "DriveState", "FieldImage", "FrameNotSeen", "Gateway", "HostStalls", "IdentifierTiming",
-    "Image", "Led", "Leds", "Line", "LineFault", "LineStation", "LiveList", "ModbusError", "NoLine",
-    "NodeCounters", "NotTimed", "PrmFault", "Recorder", "RegisterMap", "ReplayResult", "ReplayStep",
-    "Slave", "SlaveDiagnosis", "SlaveFaults", "Slot", "Station", "UnexpectedFrame", "WaitTimeout",
-    "candump_line", "connect", "example", "find_binary", "find_example", "find_tool", "frame_text",
-    "replay", "running_daemons",
+    "Bus", "BusCycle", "BusLoad", "BusTiming", "CanFaultInForce", "Candp2Error", "CfgFault",
+    "ConfigError", "Connection", "Counters", "Daemon", "DaemonError", "DiagBlock", "Diagnosis",
+    "Drive", "DriveState", "FieldImage", "FrameNotSeen", "Gateway", "HostStalls",
+    "IdentifierTiming", "Image", "Led", "Leds", "Line", "LineFault", "LineStation", "LiveList",
+    "ModbusError", "NoLine", "NodeCounters", "NotTimed", "PrmFault", "Recorder", "RegisterMap",
+    "ReplayResult", "ReplayStep", "Slave", "SlaveDiagnosis", "SlaveFaults", "Slot", "Station",
+    "UnexpectedFrame", "WaitTimeout", "candump_line", "connect", "example", "find_binary",
+    "find_example", "find_tool", "frame_text", "replay", "running_daemons",
 ]

@@ -29,7 +29,7 @@ from can.exceptions import CanError, CanInitializationError, CanOperationError
 from can.message import Message
 
 from .errors import Candp2Error, FrameNotSeen, UnexpectedFrame
-from .timing import BusLoad, BusTiming, IdentifierTiming, can_fault_request
+from .timing import BusLoad, BusTiming, CanFaultInForce, IdentifierTiming, can_fault_request
 
 if TYPE_CHECKING:
     from .connection import Connection
@@ -379,12 +379,19 @@ class Bus(BusABC):
         `timing()` once for several figures of one moment."""
         return self.timing().identifiers
 
+    @property
+    def faults(self) -> tuple[CanFaultInForce, ...]:
+        """The CAN faults on cue in force on the bus, each with what is left of its count or
+        time (docs/can-bus.md "Seen from outside"), read now."""
+        return self.timing().faults
+
     def fault(self, kind: str, count: int | None = None, every: int = 1,
               for_ms: int | None = None, gateway: int | None = None) -> None:
         """A CAN fault on cue (docs/faults.md "CAN faults"): `kind` one of "error_frames" (the
         gateway's next frames end in an error frame), "unplugged", "wrong_bitrate", "noise" (the
         whole bus; needs `for_ms`), "none" (cancels), for the next `count` frames (default 1)
-        or for `for_ms` milliseconds, one frame in every `every`; on the node of `gateway` (a DP
+        or for `for_ms` milliseconds, one frame in every `every` ("unplugged", "wrong_bitrate":
+        until "none", or ending by themselves after `for_ms`); on the node of `gateway` (a DP
         address; default the first gateway on the bus). Written to the Modbus CAN fault block
         (docs/modbus.md "CAN fault block") in one request; NotTimed on an ideal bus, ValueError
         for a bad kind or value (naming the good ones), ModbusError when the daemon refuses."""

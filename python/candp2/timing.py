@@ -72,12 +72,47 @@ class NodeCounters:
 
 
 @dataclass(frozen=True)
+class CanFaultInForce:
+    """A CAN fault on cue in force on the bus (docs/can-bus.md "Seen from outside"), as a line
+    station's `LineFault`: its `kind` ("error_frames", "unplugged", "wrong_bitrate", "noise"),
+    its `node` (its name on the bus, "gw:NAME"; None for an identifier's error frames and
+    noise) or identifier (`id`, `extended`; None for a node's fault and noise), the frames it
+    still spoils (`remaining`, 0 with a time or until "none"), every how many (`every`) and the
+    time left (`remaining_ms`, 0 with a count or until "none")."""
+
+    kind: str
+    node: str | None
+    id: int | None
+    extended: bool
+    remaining: int
+    every: int
+    remaining_ms: int
+
+    @classmethod
+    def from_status(cls, j: Mapping[str, Any]) -> CanFaultInForce:
+        """An entry of the bus's `faults` in GET /api/v1/status."""
+        return cls(str(j["kind"]), None if j["node"] is None else str(j["node"]),
+                   None if j["id"] is None else int(j["id"]), bool(j["ext"]),
+                   int(j["remaining"]), int(j["every"]), int(j["remaining_ms"]))
+
+    def describe(self) -> str:
+        """One line: "unplugged gw:g5 (40 ms left)", "error_frames 181 (3 left, every 2)"."""
+        what = self.node if self.node is not None else (
+            ("%08X" if self.extended else "%03X") % self.id if self.id is not None else "bus")
+        left = ("%d ms left" % self.remaining_ms if self.remaining_ms else
+                "%d left" % self.remaining if self.remaining else "until none")
+        return "%s %s (%s%s)" % (self.kind, what, left,
+                                 ", every %d" % self.every if self.every > 1 else "")
+
+
+@dataclass(frozen=True)
 class BusTiming:
     """A bus in time when it was read: `timed_bitrate` (bit/s), `load`, `frames_on_bus`,
     `tx_lost`, and `identifiers`, the data frames' figures by identifier (`remote`: the remote
     frames', by identifier), each in the bus's order of priority; `error_frames`, the frames
     that ended in an error frame, and `nodes`, each node's counters by its name on the bus
-    ("gw:NAME" for a gateway)."""
+    ("gw:NAME" for a gateway); `faults`, the CAN faults on cue in force, in the status
+    document's order."""
 
     name: str
     timed_bitrate: int
@@ -88,6 +123,7 @@ class BusTiming:
     remote: Mapping[int, IdentifierTiming] = field(default_factory=dict)
     error_frames: int = 0
     nodes: Mapping[str, NodeCounters] = field(default_factory=dict)
+    faults: tuple[CanFaultInForce, ...] = ()
 
     @classmethod
     def from_status(cls, bus: Mapping[str, Any]) -> BusTiming:
@@ -106,11 +142,12 @@ class BusTiming:
                    {i.id: i for i in ids if not i.remote}, {i.id: i for i in ids if i.remote},
                    int(bus.get("error_frames", 0)),
                    {str(n["name"]): NodeCounters(int(n["tec"]), int(n["rec"]), str(n["state"]))
-                    for n in bus.get("nodes", ())})
+                    for n in bus.get("nodes", ())},
+                   tuple(CanFaultInForce.from_status(f) for f in bus.get("faults", ())))
 
     def describe(self) -> str:
         """The bus in a few lines: bit rate, load, frames, lost, error frames, each identifier's
-        figures, each node's counters."""
+        figures, each node's counters, each fault in force."""
         lines = ["bus %s: %d bit/s, load %.1f %% (max %.1f %%), %d frames, %d lost, "
                  "%d error frames" % (self.name, self.timed_bitrate, self.load.last_pct,
                                       self.load.max_pct, self.frames_on_bus, self.tx_lost,
@@ -123,6 +160,8 @@ class BusTiming:
                              i.latency_mean_ms, i.latency_max_ms))
         for name, n in self.nodes.items():
             lines.append("  node %s: TEC %d, REC %d, %s" % (name, n.tec, n.rec, n.state))
+        for f in self.faults:
+            lines.append("  fault %s" % f.describe())
         return "\n".join(lines)
 
 

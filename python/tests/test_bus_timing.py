@@ -3,11 +3,12 @@ read from /api/v1/status, CAN faults through the Modbus CAN fault block; an idea
 needs a bit rate."""
 
 import json
+import time
 from typing import Any, Callable
 
 import pytest
 
-from candp2 import BusTiming, Daemon, ModbusError, NodeCounters, NotTimed
+from candp2 import BusTiming, CanFaultInForce, Daemon, ModbusError, NodeCounters, NotTimed
 from candp2.timing import can_fault_request
 
 from plants import MANUAL_514, settled
@@ -36,6 +37,12 @@ STATUS_BUS = {
         {"name": "gw:g5", "tec": 128, "rec": 0, "state": "error-passive"},
         {"name": "replay", "tec": 0, "rec": 16, "state": "ok"},
     ],
+    "faults": [
+        {"kind": "unplugged", "node": "gw:g5", "id": None, "ext": False, "remaining": 0,
+         "every": 1, "remaining_ms": 40},
+        {"kind": "error_frames", "node": None, "id": 0x181, "ext": False, "remaining": 3,
+         "every": 2, "remaining_ms": 0},
+    ],
 }
 
 
@@ -56,6 +63,11 @@ def test_the_timing_is_the_status_documents() -> None:
     assert t.nodes["replay"].rec == 16 and t.nodes["replay"].state == "ok"
     assert "17 error frames" in t.describe()
     assert "node gw:g5: TEC 128, REC 0, error-passive" in t.describe()
+    # docs/can-bus.md "Seen from outside": the faults in force, what is left of each.
+    assert t.faults == (CanFaultInForce("unplugged", "gw:g5", None, False, 0, 1, 40),
+                        CanFaultInForce("error_frames", None, 0x181, False, 3, 2, 0))
+    assert "fault unplugged gw:g5 (40 ms left)" in t.describe()
+    assert "fault error_frames 181 (3 left, every 2)" in t.describe()
     ideal = {k: v for k, v in STATUS_BUS.items() if k in ("name", "type", "bitrate")}
     with pytest.raises(NotTimed, match=r"bus can0 is an ideal bus.*\"bitrate\""):
         BusTiming.from_status(ideal)
@@ -102,6 +114,17 @@ def test_daemon_bus_reads_the_bus_in_time(candp2d: Factory) -> None:
     with pytest.raises(ModbusError) as refused:
         daemon.modbus.write_registers(rm.can_fault_registers["every"], [0], 5)
     assert refused.value.code == 3  # illegal data value, not 2 (no such register)
+    # docs/faults.md "CAN faults on cue": the gateway unplugged for 300 ms is shown in force with
+    # the time left, and ends by itself.
+    assert can0.faults == ()
+    can0.fault("unplugged", for_ms=300)
+    f = can0.timing().faults
+    assert [(x.kind, x.node) for x in f] == [("unplugged", "gw:gw5")], f
+    assert 0 < f[0].remaining_ms <= 300
+    deadline = time.monotonic() + 5.0
+    while can0.timing().faults:
+        assert time.monotonic() < deadline, "the fault never ended: %s" % can0.timing().describe()
+        time.sleep(0.02)
 
 
 def test_an_ideal_bus_says_timing_and_faults_need_a_bit_rate(candp2d: Factory) -> None:

@@ -225,6 +225,27 @@ TEST(FrameBits, ExactIsTheStuffedStream) {
   }
 }
 
+// The same with data bytes that make long runs across the byte and field boundaries (the stuff
+// bits a byte-wise count must carry from one byte to the next, docs/can-bus.md "Performance").
+TEST(FrameBits, ExactIsTheStuffedStreamWithRuns) {
+  constexpr std::uint8_t kRuns[] = {0x00, 0xFF, 0x0F, 0xF0, 0x07, 0xE0, 0x1F, 0xF8, 0x83, 0x7C};
+  std::mt19937 rng(362);
+  for (int i = 0; i < 20000; ++i) {
+    const bool ext = rng() % 2 != 0;
+    const auto id =
+        static_cast<std::uint32_t>(rng() % 4 == 0 ? (ext ? 0x1FFFFFFFu : 0x7FFu) * (rng() % 2)
+                                                  : rng() & (ext ? 0x1FFFFFFFu : 0x7FFu));
+    std::vector<std::uint8_t> data(rng() % 9);
+    for (auto& b : data) b = kRuns[rng() % std::size(kRuns)];
+    const auto dlc = static_cast<std::uint8_t>(data.size());
+    const Frame f = rng() % 7 == 0 ? Frame::rtr(id, ext, dlc) : Frame::data_frame(id, ext, data);
+    const BitStream stream = stuffed_region(f);
+    const std::uint32_t bit_by_bit =
+        static_cast<std::uint32_t>(stream.size) + stuff_bits(stream.view()) + kTrailerBits;
+    EXPECT_EQ(frame_bits_exact(f), bit_by_bit) << format_candump(f);
+  }
+}
+
 TEST(FrameBits, Duration) {
   EXPECT_EQ(frame_duration(Frame::std_data(0x000, {}), 1'000'000), std::chrono::microseconds(53));
   EXPECT_EQ(bits_duration(53, 125'000), std::chrono::nanoseconds(424'000));

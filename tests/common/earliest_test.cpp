@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <vector>
 
 namespace candp2 {
 namespace {
@@ -47,6 +48,33 @@ TEST(EarliestDeadline, AgreesWithAWalkOverAllThroughRandomMoves) {
     if (what != 1) {
       EXPECT_EQ(asked[i], 1);
       EXPECT_EQ(std::count(asked.begin(), asked.end(), 0), static_cast<long>(d.size()) - 1);
+    }
+  }
+}
+
+// The tree (the timed buses' deadlines) against the walk, and the items due by a time in order.
+TEST(DeadlineTree, AgreesWithAWalkOverAllThroughRandomMoves) {
+  std::mt19937 rng(36);
+  for (const std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{2}, std::size_t{61}}) {
+    std::vector<std::optional<Time>> d(n);
+    DeadlineTree t;
+    t.resize(n);
+    const auto of = [&](std::size_t i) { return d[i]; };
+    EXPECT_EQ(t.earliest(of), std::nullopt);
+    for (int step = 0; n > 0 && step < 20000; ++step) {
+      const auto i = static_cast<std::size_t>(rng() % n);
+      if (rng() % 10 == 0)
+        d[i].reset();
+      else
+        d[i] = Time{microseconds(static_cast<std::int64_t>(rng() % 1000))};
+      t.moved(i);
+      ASSERT_EQ(t.earliest(of), walk(d)) << "n " << n << " step " << step;
+      const Time now{microseconds(static_cast<std::int64_t>(rng() % 1000))};
+      std::vector<std::uint32_t> due, expect;
+      t.due(now, due);
+      for (std::size_t k = 0; k < n; ++k)
+        if (d[k] && *d[k] <= now) expect.push_back(static_cast<std::uint32_t>(k));
+      ASSERT_EQ(due, expect) << "n " << n << " step " << step;
     }
   }
 }

@@ -241,6 +241,48 @@ TEST_F(TimedFace, TheStatusAndTheMetricsShowTheBusInTime) {
   EXPECT_EQ(later["buses"][0]["error_frames"], 0);
 }
 
+// docs/can-bus.md "Seen from outside": the CAN faults on cue in force on a bus in time, what is
+// left of each count and time, as the line shows a station's fault; an ideal bus has no "faults".
+TEST_F(TimedFace, TheFaultsInForceAreShown) {
+  EXPECT_EQ(model->status(now)["buses"][0]["faults"], json::array());
+  EXPECT_FALSE(model->status(now)["buses"][1].contains("faults"));
+  plant::CanFault unplugged;
+  unplugged.kind = plant::CanFaultKind::Unplugged;
+  unplugged.node.drive = "ack";
+  unplugged.duration = milliseconds(50);
+  ASSERT_TRUE(plant->can_fault(unplugged, now, "(test)"));
+  plant::CanFault frames;
+  frames.kind = plant::CanFaultKind::ErrorFrames;
+  frames.bus = "can0";
+  frames.id = can::Ident{0x201, false};
+  frames.count = 3;
+  frames.every = 2;
+  ASSERT_TRUE(plant->can_fault(frames, now, "(test)"));
+  plant::CanFault noise;
+  noise.kind = plant::CanFaultKind::Noise;
+  noise.bus = "can0";
+  noise.duration = milliseconds(20);
+  ASSERT_TRUE(plant->can_fault(noise, now, "(test)"));
+  EXPECT_EQ(model->status(now)["buses"][0]["faults"], json::parse(R"([
+    {"kind": "unplugged", "node": "drive:ack", "id": null, "ext": false, "remaining": 0,
+     "every": 1, "remaining_ms": 50},
+    {"kind": "error_frames", "node": null, "id": 513, "ext": false, "remaining": 3, "every": 2,
+     "remaining_ms": 0},
+    {"kind": "noise", "node": null, "id": null, "ext": false, "remaining": 0, "every": 1,
+     "remaining_ms": 20}])"));
+  run_until(now + milliseconds(30));  // the noise is over, the drive out 20 ms more
+  const json later = model->status(now)["buses"][0]["faults"];
+  ASSERT_EQ(later.size(), 2u) << later.dump();
+  EXPECT_EQ(later[0]["remaining_ms"], 20);
+  EXPECT_EQ(later[1]["kind"], "error_frames");
+  run_until(now + milliseconds(30));  // the drive plugged in again by itself
+  ASSERT_EQ(model->status(now)["buses"][0]["faults"].size(), 1u);
+  plant::CanFault none;
+  none.bus = "can0";
+  ASSERT_TRUE(plant->can_fault(none, now, "(test)"));
+  EXPECT_EQ(model->status(now)["buses"][0]["faults"], json::array());
+}
+
 using test::run_round;
 
 TEST_F(Face, AStreamGetsEverythingFirstThenOnlyWhatChanged) {

@@ -5,8 +5,10 @@ asked for its speed every 100 ms (so that the bus's figures change all the time)
 gateway's panel shows under its bus the exact load, a point a second, and a table of the bus's
 identifiers (frames, period, jitter, queueing latency last/mean/max) from the stream, the rows
 those of the status document's `identifiers`; its error frames and a table of its nodes (name,
-TEC, REC, state), the rows those of the status document's `nodes`. On an ideal bus none of it shows
-(http_chromium_e2e.py's demo). A screenshot is kept as $CANDP2_TEST_OUTPUT/front-panel-bus.png.
+TEC, REC, state), the rows those of the status document's `nodes`; a CAN fault on cue in force
+as text under the bus (kind, node, the time left), gone after none. On an ideal bus none of it
+shows (http_chromium_e2e.py's demo). A screenshot is kept as
+$CANDP2_TEST_OUTPUT/front-panel-bus.png.
 Bounded: every wait has a deadline; chromium is killed at the end.
 """
 
@@ -71,7 +73,21 @@ def test_bus_view(candp2_binary, tmp_path):
                          "JSON.stringify(%s.map(r => Array.from(r.cells).map(c => c.textContent)))"
                          " === '%s'" % (NODES, json.dumps(nodes, separators=(",", ":"))),
                          timeout=10)
+        # The CAN faults on cue in force, as the line shows a station's fault: the gateway
+        # unplugged for a minute (the time left, from the status document), then none.
+        fault = "document.querySelector('#bus-can0 .bfault')"
+        assert browser.evaluate("%s.hidden" % fault), "a fault shown before any"
+        d.bus("can0").fault("unplugged", for_ms=60000, gateway=3)
+        f = d.wait_for("the fault in force", lambda s: s["buses"][0]["faults"])["buses"][0]
+        assert f["faults"][0]["kind"] == "unplugged" and f["faults"][0]["remaining_ms"] > 50000, f
+        text = browser.wait_for("the fault on the panel",
+                                "(() => { const f = %s; return !f.hidden && f.textContent; })()"
+                                % fault, timeout=10)
+        assert text.startswith("unplugged " + f["faults"][0]["node"] + " ") and \
+            text.endswith(" ms"), text
         browser.keep_page(os.path.join(output_dir, "front-panel-bus.png"))
+        d.bus("can0").fault("none", gateway=3)
+        browser.wait_for("no fault on the panel", "%s.hidden" % fault, timeout=10)
     finally:
         if browser:
             browser.close()

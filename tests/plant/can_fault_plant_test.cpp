@@ -3,6 +3,7 @@
 // Plant::can_fault resolving a gateway to its node, and its refusals.
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <string>
 #include <variant>
 
@@ -46,6 +47,16 @@ struct Bench {
     }
   }
   plant::GatewayUnit& gw() { return *plant->gateways().at(0); }
+  // A fault on cue on gw3's node at `at`.
+  bool on_gw3(plant::CanFaultKind kind, Time at, std::uint32_t count = 1,
+              std::optional<Duration> duration = std::nullopt) {
+    plant::CanFault f;
+    f.kind = kind;
+    f.node.gateway = 3;
+    f.count = count;
+    f.duration = duration;
+    return plant->can_fault(f, at, "(test)");
+  }
   const can::TimedBus& bus() { return *plant->buses().at(0)->virtual_bus()->timed(); }
 };
 
@@ -73,11 +84,7 @@ TEST(CanFaultInThePlant, AGatewayAtAnotherBitRateCannotTalk) {
 TEST(CanFaultInThePlant, CanFaultResolvesAGatewayAndRefusesWhatItCannot) {
   Bench r(config("125k", "125k"));
   r.until(Time{200'000});
-  plant::CanFault f;
-  f.kind = plant::CanFaultKind::ErrorFrames;
-  f.node.gateway = 3;
-  f.count = 13;
-  EXPECT_TRUE(r.plant->can_fault(f, Time{200'000}, "(test)"));
+  EXPECT_TRUE(r.on_gw3(plant::CanFaultKind::ErrorFrames, Time{200'000}, 13));
   plant::CanFault none;
   none.node.gateway = 9;  // no such gateway
   EXPECT_FALSE(r.plant->can_fault(none, Time{200'000}, "(test)"));
@@ -91,6 +98,56 @@ TEST(CanFaultInThePlant, CanFaultResolvesAGatewayAndRefusesWhatItCannot) {
   EXPECT_EQ(r.bus().error_frames(), 13u);
   EXPECT_EQ(r.bus().confinement(0).tec, 103u);
   EXPECT_EQ(r.gw().channel().bus_state(), can::BusState::Warning);
+}
+
+// docs/faults.md "CAN faults on cue": unplugged and wrong_bitrate with for_ms end by themselves.
+// gw3 is the listener's only acknowledger: while it is out for 50 ms the listener's frame is an
+// ACK error at every attempt (TEC + 8 to 128, error passive, where ACK errors no longer count);
+// once the time is up gw3 acknowledges again, the frame gets through and the TEC counts down.
+void a_node_out_for_50_ms(plant::CanFaultKind kind) {
+  Bench r(config("125k", "125k"));
+  r.until(Time{200'000});
+  ASSERT_TRUE(r.on_gw3(kind, Time{200'000}, 1, milliseconds(50)));
+  // The plant wakes when the time is up, whatever else it waits for.
+  ASSERT_TRUE(r.plant->next_deadline().has_value());
+  EXPECT_LE(*r.plant->next_deadline(), Time{250'000});
+  const std::uint64_t frames = r.bus().frames();
+  r.listener->send(*can::parse_candump("301#0102").frame);
+  r.until(Time{249'000});
+  const can::TimedBus::Confinement& peer = *r.listener->confinement();
+  EXPECT_EQ(peer.tec, 128u);
+  EXPECT_EQ(peer.state, can::BusState::ErrorPassive);
+  EXPECT_EQ(r.bus().frames(), frames);
+  EXPECT_GE(r.bus().error_frames(), 16u);
+  r.until(Time{252'000});
+  EXPECT_EQ(r.bus().frames(), frames + 1);  // acknowledged again
+  EXPECT_EQ(peer.tec, 127u);
+  r.listener->send(*can::parse_candump("301#0304").frame);
+  r.until(Time{260'000});
+  EXPECT_EQ(peer.tec, 126u);
+  EXPECT_EQ(r.bus().frames(), frames + 2);
+  EXPECT_TRUE(r.plant->can_faults(*r.plant->buses().at(0), Time{260'000}).empty());
+}
+
+TEST(CanFaultInThePlant, UnpluggedForMsEndsByItself) {
+  a_node_out_for_50_ms(plant::CanFaultKind::Unplugged);
+}
+
+TEST(CanFaultInThePlant, WrongBitrateForMsEndsByItself) {
+  a_node_out_for_50_ms(plant::CanFaultKind::WrongBitrate);
+}
+
+TEST(CanFaultInThePlant, WithoutForMsANodeStaysOutUntilNone) {
+  Bench r(config("125k", "125k"));
+  r.until(Time{200'000});
+  ASSERT_TRUE(r.on_gw3(plant::CanFaultKind::Unplugged, Time{200'000}));
+  r.listener->send(*can::parse_candump("301#0102").frame);
+  const std::uint64_t frames = r.bus().frames();
+  r.until(Time{1'000'000});
+  EXPECT_EQ(r.bus().frames(), frames);
+  ASSERT_TRUE(r.on_gw3(plant::CanFaultKind::None, Time{1'000'000}));
+  r.until(Time{1'010'000});
+  EXPECT_EQ(r.bus().frames(), frames + 1);
 }
 
 TEST(CanFaultInThePlant, WithoutABitRateACanFaultIsRefused) {

@@ -1,6 +1,7 @@
 // Replay's expect_bus (docs/replay-format.md "The CAN bus in time"): the figures of a CAN bus in
 // time and of one identifier, checked against ranges; a failed step says what was measured; a
 // step on an ideal bus, or an identifier's figure without "id", is refused with its JSON path.
+// And can_fault's for_ms on a node's unplugged or wrong_bitrate (docs/replay-format.md).
 #include <gtest/gtest.h>
 
 #include <string>
@@ -88,6 +89,65 @@ TEST(ExpectBus, ErrorFramesAndANodesCounters) {
   const auto e = error("timed-bus-alone.json", R"({"expect_bus": {"tec": 0}})");
   EXPECT_EQ(e.json_path, "$.steps[0].expect_bus.tec");
   EXPECT_NE(e.message.find("give \"node\""), std::string::npos) << e.to_string();
+}
+
+// A node's confinement state by the words of GET /api/v1/status nodes[].state; a failed step
+// says the word it measured, the report the word it wants; another word is refused with its path.
+TEST(ExpectBus, ANodesStateByItsWord) {
+  const RunResult r = run_steps("timed-bus-alone.json", R"({"advance_ms": 1000},
+      {"expect_bus": {"node": "gw:alone", "state": "error-passive"}},
+      {"expect_bus": {"node": "gw:alone", "state": "bus-off", "tec": 128}})");
+  ASSERT_EQ(r.steps.size(), 3u);
+  EXPECT_TRUE(r.steps[1].passed) << r.steps[1].detail;
+  EXPECT_FALSE(r.steps[2].passed);
+  EXPECT_EQ(r.steps[2].detail, "got tec 128, state error-passive");
+  auto p = parse("timed-bus-alone.json", R"({"expect_bus": {"node": "gw:alone", "state": "ok"}})");
+  ASSERT_TRUE(std::holds_alternative<Scenario>(p)) << std::get<config::ConfigError>(p).to_string();
+  EXPECT_EQ(std::get<Scenario>(p).steps.at(0).describe_action(),
+            "expect_bus can0 gw:alone state = ok");
+  for (const char* bad : {R"("error_passive")", "2"}) {
+    const auto e =
+        error("timed-bus-alone.json",
+              R"({"expect_bus": {"node": "gw:alone", "state": )" + std::string(bad) + "}}");
+    EXPECT_EQ(e.json_path, "$.steps[0].expect_bus.state");
+    EXPECT_NE(e.message.find(R"(expected one of "ok", "warning", "error-passive", "bus-off")"),
+              std::string::npos)
+        << e.to_string();
+  }
+}
+
+// docs/replay-format.md "can_fault": unplugged with for_ms ends by itself. "odd" is "even"'s only
+// acknowledger (the tester acknowledges nothing): out for 50 ms, even's frames are ACK errors
+// (TEC to 128, error passive); after it they are acknowledged again and its TEC counts down.
+TEST(CanFaultStep, UnpluggedForMsEndsByItself) {
+  const RunResult r = run_steps(kOverload, R"({"advance_ms": 100},
+      {"can_fault": {"gateway": 3, "kind": "unplugged", "for_ms": 50}},
+      {"advance_ms": 49},
+      {"expect_bus": {"node": "gw:even", "tec": 128, "state": "error-passive"}},
+      {"expect_bus": {"node": "gw:even", "tec": {"max": 127}, "state": "warning"},
+       "within_ms": 100})");
+  // Its frames wait behind odd's, queued while odd was out (odd's identifiers win): the TEC
+  // counts down a frame at a time once they get through.
+  ASSERT_EQ(r.steps.size(), 5u);
+  for (const auto& s : r.steps) EXPECT_TRUE(s.passed) << s.index << ": " << s.detail;
+  auto p = parse(kOverload, R"({"can_fault": {"gateway": 3, "kind": "unplugged", "for_ms": 50}})");
+  ASSERT_TRUE(std::holds_alternative<Scenario>(p)) << std::get<config::ConfigError>(p).to_string();
+  EXPECT_EQ(std::get<Scenario>(p).steps.at(0).describe_action(),
+            "can_fault unplugged gateway 3 for 50 ms");
+}
+
+TEST(CanFaultStep, ForMsOutOfRangeNamesItsPathAndRange) {
+  for (const char* bad : {"-5", "86400001", "\"soon\""}) {
+    const auto e = error(kOverload, R"({"can_fault": {"gateway": 3, "kind": "wrong_bitrate",
+        "for_ms": )" + std::string(bad) +
+                                        "}}");
+    EXPECT_EQ(e.file, "bus.json");
+    EXPECT_EQ(e.json_path, "$.steps[0].can_fault.for_ms");
+    EXPECT_NE(e.message.find("from 0 to 86400000 ms"), std::string::npos) << e.to_string();
+  }
+  const auto none =
+      error(kOverload, R"({"can_fault": {"gateway": 3, "kind": "none", "for_ms": 5}})");
+  EXPECT_EQ(none.json_path, "$.steps[0].can_fault.for_ms");
 }
 
 // config/timed-bus-drive.json: the drive's request 0x201 goes on the bus once, after the write.
