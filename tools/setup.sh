@@ -94,6 +94,10 @@ if command -v ccache >/dev/null; then
   # The -g builds (ASan, fuzz) hash the build folder unless told not to; without it a clone in
   # another folder never hits the cache for them (their debug info then names the first folder).
   export CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-1}
+  # The sanitizer tree's test sources use one precompiled header (docs/development.md
+  # "Precompiled test header"); ccache caches such a compilation only when told that it cannot see
+  # the header's macros and times.
+  export CCACHE_SLOPPINESS=${CCACHE_SLOPPINESS:-pch_defines,time_macros,include_file_mtime,include_file_ctime}
 fi
 
 configure_build() {  # DIR [cmake args...]
