@@ -32,11 +32,9 @@ void Plant::tap_can(const BusUnit& bus, const can::Frame& frame, std::string_vie
 }
 
 std::pair<SenderKind, std::size_t> Plant::sender_of(std::string_view sender) const {
-  for (const auto& g : gateways_)
-    if (g->sender_ == sender) return {SenderKind::Gateway, g->index()};
-  for (std::size_t i = 0; i < drives_.size(); ++i)
-    if (drives_[i]->endpoint_->name() == sender) return {SenderKind::Drive, i};
-  return {SenderKind::Outside, 0};
+  // One lookup in the index add_gateway()/add_drive() fill (docs/can-bus.md "Performance").
+  const auto it = senders_.find(sender);
+  return it == senders_.end() ? std::pair{SenderKind::Outside, std::size_t{0}} : it->second;
 }
 
 void Plant::tap_line(std::span<const std::uint8_t> telegram, bool from_emulation, Time time) {

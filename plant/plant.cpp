@@ -187,6 +187,7 @@ bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
   log_.info("gateway " + cfg.name + ": DP address " + std::to_string(g->gateway_->address()) +
             ", " + std::to_string(cfg.slots.size()) + " slots, bus " + b.name + " (" +
             std::string(config::to_string(b.type)) + ")");
+  senders_.emplace(g->sender_, std::pair{SenderKind::Gateway, g->index()});
   gateways_.push_back(std::move(g));
   gateway_deadlines_.resize(gateways_.size());
   mark_delivery(gateways_.size() - 1);  // nothing delivered to it yet
@@ -219,6 +220,7 @@ bool Plant::add_drive(const config::DriveConfig& cfg, std::string* error) {
   std::snprintf(ids, sizeof ids, "Rx ID 0x%03X, Tx ID 0x%03X", static_cast<unsigned>(cfg.rx_id),
                 static_cast<unsigned>(cfg.tx_id));
   log_.info("drive " + cfg.name + ": Unitek on bus " + cfg.bus + ", " + ids);
+  senders_.emplace(std::string(d->endpoint_->name()), std::pair{SenderKind::Drive, drives_.size()});
   drives_.push_back(std::move(d));
   return true;
 }

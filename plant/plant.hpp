@@ -367,6 +367,9 @@ class Plant final : public ControlSurface {
   std::vector<std::uint32_t> due_buses_;  // settle_buses(): the timed buses due (indices)
   std::vector<std::unique_ptr<GatewayUnit>> gateways_;
   std::vector<std::unique_ptr<DriveUnit>> drives_;
+  // sender_of(): the gateways' and drives' endpoint names, filled as they are added (the first
+  // of a name wins, as a walk over gateways then drives would find it).
+  std::map<std::string, std::pair<SenderKind, std::size_t>, std::less<>> senders_;
   std::vector<std::unique_ptr<SlaveUnit>> slaves_;
   std::unique_ptr<dp::DpMaster> master_;
   std::unique_ptr<SlaveLine> slave_line_;
