@@ -231,7 +231,6 @@ void TimedBus::start(std::uint64_t bit) {
   --pending_;
   ++frames_;
 
-  // The map in priority order for the status; the hash to find an identifier's entry per frame.
   IdStatistics& s = id_statistics(best);
   s.id = ident_of(p.frame);
   s.remote = p.frame.remote;

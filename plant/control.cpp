@@ -214,8 +214,7 @@ bool Plant::can_fault(const CanFault& fault, Time now, std::string_view origin) 
       break;
     case CanFaultKind::Unplugged:
     case CanFaultKind::WrongBitrate:
-      fault.kind == CanFaultKind::Unplugged ? node->set_unplugged(true)
-                                            : node->set_wrong_bitrate(true);
+      set_node_fault(*node, fault.kind, true);
       node_faults_.push_back(
           {node, b, name, fault.kind,
            fault.duration ? std::optional(now_ + *fault.duration) : std::nullopt});
@@ -244,6 +243,11 @@ bool Plant::can_fault(const CanFault& fault, Time now, std::string_view origin) 
   return true;
 }
 
+// A node's unplugged or wrong_bitrate, on or off.
+void Plant::set_node_fault(can::VirtualEndpoint& node, CanFaultKind kind, bool on) {
+  kind == CanFaultKind::Unplugged ? node.set_unplugged(on) : node.set_wrong_bitrate(on);
+}
+
 std::optional<Time> Plant::node_faults_deadline() const {
   std::optional<Time> first;
   for (const auto& f : node_faults_)
@@ -257,8 +261,7 @@ void Plant::end_node_faults(Time now) {
       ++it;
       continue;
     }
-    it->kind == CanFaultKind::Unplugged ? it->node->set_unplugged(false)
-                                        : it->node->set_wrong_bitrate(false);
+    set_node_fault(*it->node, it->kind, false);
     const std::string what = "CAN fault " + std::string(to_string(it->kind)) + " over";
     log_.warn(it->name + ": " + what + " (its for_ms has passed)");
     tap_note(it->name + ": " + what, now);

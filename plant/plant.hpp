@@ -321,6 +321,7 @@ class Plant final : public ControlSurface {
   std::optional<Time> node_faults_deadline() const;
   // Ends the node faults whose time is up by `now`.
   void end_node_faults(Time now);
+  static void set_node_fault(can::VirtualEndpoint& node, CanFaultKind kind, bool on);
   friend class GatewayUnit;
   Plant(const config::DaemonConfig& config, Options options, Time now);
   bool build_parts(std::string* error);

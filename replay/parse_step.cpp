@@ -455,21 +455,21 @@ Bound as_bound(const json& j, const std::string& path) {
   return b;
 }
 
+// "a", "b": the names quoted, joined.
+std::string quoted_names(const std::vector<std::string>& names) {
+  std::vector<std::string> q;
+  for (const auto& n : names) q.push_back("\"" + n + "\"");
+  return join(q);
+}
+
 // A word figure's value (a node's state): one of its words, exactly it.
 Bound as_word(const BusFigure& f, const json& j, const std::string& path) {
-  // Quoted by appending (GCC 12's -O3 warns falsely, -Wrestrict, on "\"" + a temporary string).
-  const auto quoted = [](std::string_view w) {
-    std::string q(1, '"');
-    q.append(w);
-    q.push_back('"');
-    return q;
-  };
   std::vector<std::string> words;
-  for (std::size_t c = 0; !f.word(c).empty(); ++c) words.push_back(quoted(f.word(c)));
+  for (std::size_t c = 0; !f.word(c).empty(); ++c) words.emplace_back(f.word(c));
   const auto code = j.is_string() ? f.code_of(j.get<std::string>()) : std::nullopt;
   if (!code)
-    fail(path, "expected one of " + join(words) + ", got " +
-                   (j.is_string() ? quoted(j.get<std::string>()) : kind_of(j)));
+    fail(path, "expected one of " + quoted_names(words) + ", got " +
+                   (j.is_string() ? quoted_names({j.get<std::string>()}) : kind_of(j)));
   return Bound{code, code};
 }
 
@@ -538,12 +538,6 @@ void parse_expect_bus(Step& s, const StepInput& in) {
 }
 
 namespace {
-
-std::string quoted_names(const std::vector<std::string>& names) {
-  std::vector<std::string> q;
-  for (const auto& n : names) q.push_back("\"" + n + "\"");
-  return join(q);
-}
 
 // "gateway": NAME → s.gateway. Without the key: the only gateway, else an error.
 void resolve_gateway(Step& s, const Object& o, const std::string& path, const std::string& key,
