@@ -91,27 +91,43 @@ std::uint32_t stuff_bits(std::span<const std::uint8_t> bits) {
 }
 
 namespace {
-// A byte at a time through the CRC-15 and the stuffing, for the data field: the CRC of each byte
-// value from each high byte of the register, and each stuffing state's (last bit, run 1..4) next
-// state and stuff bits for each byte, computed bit by bit once.
+// The CRC-15 of up to four bytes at once and the stuffing a byte at a time, for
+// frame_bits_exact(), computed bit by bit once. The register is linear and starts at 0:
+// crc[k][b] is byte b followed by 8·k zero bits through a zero register, so four bytes w0..w3
+// after a register r give crc[3][x0] ^ crc[2][x1] ^ crc[1][x2] ^ crc[0][x3] for the bytes x of
+// (w0..w3) ^ r << 17 (the register's 15 bits meet the first 15 message bits). Per stuffing state
+// (last bit, run 1..4) and byte, the next state and the stuff bits (`next`); for the fewer than
+// 8 bits left at the end of the stream, the stuff bits with the k bits written as (1 << k) | bits
+// (`tail`).
 struct ByteTables {
-  std::array<std::uint16_t, 256> crc{};
+  std::array<std::array<std::uint16_t, 256>, 4> crc{};
   std::array<std::array<std::uint8_t, 256>, 2 * kStuffRun> next{};  // state << 2 | stuffed
+  std::array<std::array<std::uint8_t, 256>, 2 * kStuffRun> tail{};  // stuffed
   static unsigned state(const Stuffer& st) { return st.last * kStuffRun + st.run; }
   ByteTables() {
     for (unsigned i = 0; i < 256; ++i) {
-      std::uint16_t c = 0;  // the register is linear: crc[i] is byte i through a zero register
+      std::uint16_t c = 0;
       for (unsigned k = 8; k-- > 0;) c = crc15_step(c, static_cast<std::uint8_t>((i >> k) & 1u));
-      crc[i] = c;
+      for (auto& table : crc) {
+        table[i] = c;
+        for (unsigned k = 0; k < 8; ++k) c = crc15_step(c, 0);
+      }
     }
     for (std::uint8_t last = 0; last < 2; ++last)
-      for (unsigned run = 1; run < kStuffRun; ++run)
+      for (unsigned run = 1; run < kStuffRun; ++run) {
+        const unsigned from = last * kStuffRun + run;
         for (unsigned byte = 0; byte < 256; ++byte) {
           Stuffer st{0, run, last};
           for (unsigned i = 8; i-- > 0;) st.bit(static_cast<std::uint8_t>((byte >> i) & 1u));
-          next[last * kStuffRun + run][byte] =
-              static_cast<std::uint8_t>(state(st) << 2 | st.stuffed);
+          next[from][byte] = static_cast<std::uint8_t>(state(st) << 2 | st.stuffed);
         }
+        for (unsigned k = 0; k < 8; ++k)
+          for (unsigned bits = 0; bits < (1u << k); ++bits) {
+            Stuffer st{0, run, last};
+            for (unsigned i = k; i-- > 0;) st.bit(static_cast<std::uint8_t>((bits >> i) & 1u));
+            tail[from][(1u << k) | bits] = static_cast<std::uint8_t>(st.stuffed);
+          }
+      }
   }
 };
 }  // namespace
@@ -120,9 +136,9 @@ struct ByteTables {
 // bits (a bus in time asks it for every frame: docs/can-bus.md "Performance"). The fields after
 // SOF are one number; the CRC register starts at 0, so zeros in front of the region change
 // nothing and SOF (dominant) with the padding to a whole byte is one: the region goes through
-// the CRC a byte at a time. The stuffing starts after SOF (last bit dominant, a run of one) and
-// takes the stream after SOF (fields, data, CRC) a byte at a time through the stuffing table, the
-// few bits left at its end one by one.
+// the CRC four bytes at a time. The stuffing starts after SOF (last bit dominant, a run of one)
+// and takes the stream after SOF (fields, data, CRC) a byte at a time through the stuffing
+// table, the fewer than 8 bits left at its end through the tail table.
 std::uint32_t frame_bits_exact(const Frame& f) {
   static const ByteTables tables;
   const std::uint64_t rtr = f.remote ? 1 : 0, dlc = f.dlc & 0xFu;
@@ -135,20 +151,28 @@ std::uint32_t frame_bits_exact(const Frame& f) {
                                          std::uint64_t{f.id & 0x3FFFFu} << 7 | rtr << 6 | dlc
                                    : std::uint64_t{f.id & 0x7FFu} << 7 | rtr << 6 | dlc;
   const std::span<const std::uint8_t> data = f.payload();
-  std::uint16_t crc = 0;
-  auto crc_byte = [&crc](unsigned byte) {
-    crc =
-        static_cast<std::uint16_t>(((crc << 8) ^ tables.crc[((crc >> 7) ^ byte) & 0xFF]) & 0x7FFF);
-  };
-  // SOF and the header padded in front to whole bytes: 24 bits (11-bit), 40 bits (29-bit).
-  for (unsigned shift = ext ? 32 : 16;; shift -= 8) {
-    crc_byte(static_cast<unsigned>(header >> shift) & 0xFF);
-    if (shift == 0) break;
+  // SOF and the header padded in front to whole bytes (3 bytes 11-bit, 5 bytes 29-bit), then the
+  // data: at most 13 bytes.
+  std::array<std::uint8_t, 16> region{};
+  const unsigned header_bytes = ext ? 5 : 3;
+  for (unsigned i = 0; i < header_bytes; ++i)
+    region[i] = static_cast<std::uint8_t>(header >> (8 * (header_bytes - 1 - i)));
+  std::copy(data.begin(), data.end(), region.begin() + header_bytes);
+  const unsigned region_bytes = header_bytes + static_cast<unsigned>(data.size());
+  std::uint32_t crc = 0;
+  unsigned i = 0;
+  for (; i + 4 <= region_bytes; i += 4) {
+    const std::uint32_t x = (std::uint32_t{region[i]} << 24 | std::uint32_t{region[i + 1]} << 16 |
+                             std::uint32_t{region[i + 2]} << 8 | region[i + 3]) ^
+                            crc << 17;
+    crc = tables.crc[3][x >> 24] ^ tables.crc[2][(x >> 16) & 0xFF] ^
+          tables.crc[1][(x >> 8) & 0xFF] ^ tables.crc[0][x & 0xFF];
   }
-  for (const auto byte : data) crc_byte(byte);
+  for (; i < region_bytes; ++i)
+    crc = ((crc << 8) ^ tables.crc[0][((crc >> 7) ^ region[i]) & 0xFF]) & 0x7FFF;
 
-  Stuffer st{0, 1, 0};  // after SOF
-  unsigned state = ByteTables::state(st);
+  unsigned state = ByteTables::state(Stuffer{0, 1, 0});  // after SOF
+  std::uint32_t stuffed = 0;
   std::uint64_t acc = 0;  // bits not yet stuffed, fewer than 8 between pushes
   unsigned pending = 0;
   auto push = [&](std::uint64_t value, unsigned width) {
@@ -157,7 +181,7 @@ std::uint32_t frame_bits_exact(const Frame& f) {
     while (pending >= 8) {
       pending -= 8;
       const std::uint8_t n = tables.next[state][(acc >> pending) & 0xFF];
-      st.stuffed += n & 3u;
+      stuffed += n & 3u;
       state = n >> 2;
     }
     acc &= (std::uint64_t{1} << pending) - 1;
@@ -165,10 +189,8 @@ std::uint32_t frame_bits_exact(const Frame& f) {
   push(header, header_bits);
   for (const auto byte : data) push(byte, 8);
   push(crc, 15);
-  st.last = static_cast<std::uint8_t>(state / kStuffRun);
-  st.run = state % kStuffRun;
-  for (unsigned i = pending; i-- > 0;) st.bit(static_cast<std::uint8_t>((acc >> i) & 1u));
-  return 1 + header_bits + 8 * static_cast<std::uint32_t>(data.size()) + 15 + st.stuffed +
+  stuffed += tables.tail[state][(1u << pending) | acc];
+  return 1 + header_bits + 8 * static_cast<std::uint32_t>(data.size()) + 15 + stuffed +
          kTrailerBits;
 }
 

@@ -89,11 +89,14 @@ bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
 
 bool TimedBus::contends(const Node& n, std::uint64_t bit, Time at) const {
   return !n.queue.empty() && !n.unplugged && n.conf.state != BusState::BusOff &&
-         n.suspend_until <= bit && n.queue.front().requested <= at;
+         n.suspend_until <= bit && n.queue.front_requested() <= at;
 }
 
 bool TimedBus::receives(std::size_t node) const {
-  const Node& n = nodes_.at(node);
+  return receives(nodes_.at(node));
+}
+
+bool TimedBus::receives(const Node& n) {
   return n.present && !n.unplugged && !n.wrong_bitrate && n.conf.state != BusState::BusOff;
 }
 
@@ -102,7 +105,7 @@ std::optional<std::uint64_t> TimedBus::next_start() const {
   std::optional<std::uint64_t> first;
   for (const Node& n : nodes_) {
     if (n.queue.empty() || n.unplugged || n.conf.state == BusState::BusOff) continue;
-    const std::uint64_t at = std::max({free_bit_, n.queue.front().requested_bit, n.suspend_until});
+    const std::uint64_t at = std::max({free_bit_, n.queue.front_bit(), n.suspend_until});
     if (!first || at < *first) first = at;
   }
   return first;
@@ -201,7 +204,7 @@ void TimedBus::start(std::uint64_t bit) {
       n.run_from.reset();
     }
     if (!contends(n, bit, at)) continue;
-    const std::uint32_t key = n.queue.front().key;
+    const std::uint32_t key = n.queue.front_key();
     if (!winner || key < best) {
       winner = &n;
       index = i;
@@ -280,7 +283,7 @@ void TimedBus::Fifo::push_back(const Pending& p) {
     head_ = 0;
   }
   ring_[(head_ + size_) & (ring_.size() - 1)] = p;
-  ++size_;
+  if (size_++ == 0) keep_front();
 }
 
 TimedBus::Error TimedBus::error_of(std::size_t node, const Frame& frame, Time at) {
@@ -305,7 +308,7 @@ TimedBus::Error TimedBus::error_of(std::size_t node, const Frame& frame, Time at
   if (nodes_[node].wrong_bitrate) return Error::WrongBitrate;
   if (error != Error::None || !check_ack_) return error;
   for (std::size_t i = 0; i < nodes_.size(); ++i)
-    if (i != node && receives(i) && nodes_[i].acknowledges) return Error::None;
+    if (i != node && receives(nodes_[i]) && nodes_[i].acknowledges) return Error::None;
   return Error::Ack;
 }
 
@@ -330,6 +333,12 @@ void TimedBus::confine(std::size_t tx, const OnBus& f) {
   Node& t = nodes_[tx];
   const bool error = f.error != Error::None;
   if (!t.present) return;
+  // A frame without error on a bus whose nodes are all error active with both counters at 0 and
+  // none at a wrong bit rate changes no counter and no state (docs/can-bus.md "Performance").
+  if (!error && std::all_of(nodes_.begin(), nodes_.end(), [](const Node& n) {
+        return (n.conf.tec | n.conf.rec) == 0 && !n.wrong_bitrate && n.conf.state == BusState::Ok;
+      }))
+    return;
   if (error) {
     ++t.conf.error_frames_sent;
     if (!(f.error == Error::Ack && t.conf.state == BusState::ErrorPassive))

@@ -192,21 +192,35 @@ class TimedBus {
   };
   // A node's transmit queue: a ring that grows to the most frames it held, so that no frame
   // allocates (docs/can-bus.md "Performance").
+  // The head's request time, bit and key are kept beside the ring: arbitration and the bus's
+  // deadline read them for every node at every start of frame without reaching into the ring.
   class Fifo {
    public:
     bool empty() const { return size_ == 0; }
     std::size_t size() const { return size_; }
     const Pending& front() const { return ring_[head_]; }
+    Time front_requested() const { return front_requested_; }
+    std::uint64_t front_bit() const { return front_bit_; }
+    std::uint32_t front_key() const { return front_key_; }
     void push_back(const Pending& p);
     void pop_front() {
       head_ = (head_ + 1) & (ring_.size() - 1);
-      --size_;
+      if (--size_ > 0) keep_front();
     }
     void clear() { head_ = size_ = 0; }
 
    private:
+    void keep_front() {
+      const Pending& p = ring_[head_];
+      front_requested_ = p.requested;
+      front_bit_ = p.requested_bit;
+      front_key_ = p.key;
+    }
     std::vector<Pending> ring_;  // a power of two long
     std::size_t head_ = 0, size_ = 0;
+    Time front_requested_{0};
+    std::uint64_t front_bit_ = 0;
+    std::uint32_t front_key_ = 0;
   };
   struct Node {
     std::size_t depth = 0;
@@ -224,6 +238,7 @@ class TimedBus {
   // The node may start a frame at `bit`, whose time is `at` (present, plugged, not bus-off, not
   // suspended, a frame requested by then).
   bool contends(const Node& n, std::uint64_t bit, Time at) const;
+  static bool receives(const Node& n);
   // The bit the next frame may start at (nullopt: nothing queued).
   std::optional<std::uint64_t> next_start() const;
   // The first bit a bus-off node recovers at, if the bus stays idle.

@@ -1,6 +1,7 @@
 #include "can/virtual_bus.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 
 namespace candp2::can {
 
@@ -17,8 +18,10 @@ VirtualEndpoint::~VirtualEndpoint() {
 BusState VirtualEndpoint::bus_state() const {
   if (!bus_) return BusState::BusOff;
   const BusState forced = state_override_ ? *state_override_ : bus_->bus_state();
-  if (const auto* c = confinement()) return std::max(forced, c->state);
-  return forced;
+#ifndef NDEBUG  // the copy holds what the engine says (Debug builds, the sanitizer run)
+  if (bus_->timed_ && confined_ != bus_->timed_->confinement(node_).state) std::abort();
+#endif
+  return bus_->timed_ ? std::max(forced, confined_) : forced;
 }
 
 const TimedBus::Confinement* VirtualEndpoint::confinement() const {
@@ -107,6 +110,7 @@ void VirtualBus::set_bitrate(std::uint32_t bitrate, Time origin) {
   // docs/can-bus.md "Error confinement": a frame nobody else acknowledges is an ACK error.
   timed_->check_acknowledgement(true);
   timed_->on_state([this](std::size_t node, BusState s) {
+    if (nodes_[node]) nodes_[node]->confined_ = s;
     changed();
     state_changed(node, s);
   });

@@ -114,6 +114,9 @@ class VirtualEndpoint final : public Channel {
   std::optional<BusState> state_override_;
   bool wrong_bitrate_cue_ = false, wrong_bitrate_own_ = false;
   bool acknowledges_ = true;
+  // On a bus in time: the node's confinement state, given by the bus at each change (bus_state()
+  // is asked for every frame sent and received: docs/can-bus.md "Performance").
+  BusState confined_ = BusState::Ok;
   void apply_wrong_bitrate();
 };
 

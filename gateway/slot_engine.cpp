@@ -13,6 +13,7 @@ void SlotEngine::configure(const SlotConfig& cfg) {
   rx_index_.clear();
   rx_ids_.clear();
   released_ = false;
+  next_cycle_.reset();
   stats_.assign(cfg.slots.size(), SlotStats{});
   for (std::size_t i = 0; i < cfg.slots.size(); ++i) {
     const Slot& s = cfg.slots[i];
@@ -114,10 +115,11 @@ void SlotEngine::on_release(Time now, TxPort& tx) {
       s.sent_since_release = true;
     }
   }
+  recompute_next_cycle();
 }
 
 void SlotEngine::advance(Time now, TxPort& tx) {
-  if (!released_) return;
+  if (!released_ || !next_cycle_ || *next_cycle_ > now) return;
   const bool active = tx.tx_active();
   for (TxSlot& s : tx_) {
     if (s.cycle_ms == 0) continue;
@@ -132,14 +134,17 @@ void SlotEngine::advance(Time now, TxPort& tx) {
     const auto missed = (now - s.next_cycle) / period;
     s.next_cycle += period * (missed + 1);
   }
+  recompute_next_cycle();
+}
+
+void SlotEngine::recompute_next_cycle() {
+  next_cycle_.reset();
+  for (const TxSlot& s : tx_)
+    if (s.cycle_ms && (!next_cycle_ || s.next_cycle < *next_cycle_)) next_cycle_ = s.next_cycle;
 }
 
 std::optional<Time> SlotEngine::next_deadline() const {
-  if (!released_) return std::nullopt;
-  std::optional<Time> next;
-  for (const TxSlot& s : tx_)
-    if (s.cycle_ms && (!next || s.next_cycle < *next)) next = s.next_cycle;
-  return next;
+  return released_ ? next_cycle_ : std::nullopt;
 }
 
 bool SlotEngine::tx_waiting_for_data() const {

@@ -75,6 +75,10 @@ class SlotEngine {
   std::vector<can::Ident> rx_ids_;  // distinct Rx identifiers in slot order
   std::vector<SlotStats> stats_;
   bool released_ = false;
+  // The earliest next_cycle of a cyclic Tx slot, kept as the timers move (on_release, advance):
+  // the plant asks for it after every frame the gateway receives (docs/can-bus.md "Performance").
+  std::optional<Time> next_cycle_;
+  void recompute_next_cycle();
 };
 
 }  // namespace candp2::gw

@@ -24,8 +24,11 @@ void GatewayUnit::receive(const can::Frame& frame, Time now) {
 void GatewayUnit::update_controller() {
   // docs/can-bus.md "Error confinement": a gateway whose Set_Prm bit rate is not its timed bus's
   // cannot talk on it (its frames and the others' are errors to it).
-  if (endpoint_ && gateway_->user_prm())
-    endpoint_->set_own_bitrate(gw::bitrate_bps(gateway_->user_prm()->bitrate_index));
+  if (const auto& prm = gateway_->user_prm();
+      endpoint_ && prm && own_bitrate_index_ != prm->bitrate_index) {
+    own_bitrate_index_ = prm->bitrate_index;
+    endpoint_->set_own_bitrate(gw::bitrate_bps(prm->bitrate_index));
+  }
   // Given again only when it changed: the same state twice changes nothing in the engine, nor
   // what it waits for.
   const std::pair state{faults_.state(channel_->bus_state()), faults_.rx_lost(channel_->rx_lost())};
@@ -227,19 +230,24 @@ bool Plant::deliver(Time now) {
     work = false;
     // The marked gateways in order; one marked while this pass runs is taken in it when it comes
     // later in the order, else in the next pass (as a walk over all would).
-    for (std::size_t i = next_delivery(0); i < gateways_.size(); i = next_delivery(i + 1)) {
-      to_deliver_[i / 64] &= ~(std::uint64_t{1} << (i % 64));
-      GatewayUnit* g = gateways_[i].get();
-      if (!g->endpoint_) continue;
-      // A quiet virtual bus (no frame, no state change since) has nothing for the gateway.
-      const std::uint64_t changes = g->bus_->vbus_->changes();
-      if (g->bus_seen_ == changes) continue;
-      while (auto f = g->endpoint_->receive()) {
-        g->receive(*f, now_);
-        work = true;
+    for (std::size_t w = 0; w < to_deliver_.size(); ++w) {
+      std::uint64_t later = ~std::uint64_t{0};  // the bits after the gateway taken last
+      while (const std::uint64_t word = to_deliver_[w] & later) {
+        const auto bit = static_cast<unsigned>(std::countr_zero(word));
+        to_deliver_[w] &= ~(std::uint64_t{1} << bit);
+        later = bit == 63 ? 0 : ~std::uint64_t{0} << (bit + 1);
+        GatewayUnit* g = gateways_[w * 64 + bit].get();
+        if (!g->endpoint_) continue;
+        // A quiet virtual bus (no frame, no state change since) has nothing for the gateway.
+        const std::uint64_t changes = g->bus_->vbus_->changes();
+        if (g->bus_seen_ == changes) continue;
+        while (auto f = g->endpoint_->receive()) {
+          g->receive(*f, now_);
+          work = true;
+        }
+        g->update_controller();
+        g->bus_seen_ = changes;
       }
-      g->update_controller();
-      g->bus_seen_ = changes;
     }
     for (auto& d : drives_)
       while (auto f = d->endpoint_->receive()) {
@@ -252,15 +260,6 @@ bool Plant::deliver(Time now) {
   for (GatewayUnit* g : touched_) g->listed_ = false;
   touched_.clear();
   return any;
-}
-
-std::size_t Plant::next_delivery(std::size_t from) const {
-  for (std::size_t w = from / 64; w < to_deliver_.size(); ++w) {
-    std::uint64_t word = to_deliver_[w];
-    if (w == from / 64) word &= ~std::uint64_t{0} << (from % 64);
-    if (word) return w * 64 + static_cast<std::size_t>(std::countr_zero(word));
-  }
-  return gateways_.size();
 }
 
 void Plant::receive(std::size_t index, Time now) {

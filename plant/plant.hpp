@@ -167,6 +167,9 @@ class GatewayUnit final : private can::FrameSink {
   bool listed_ = false;                    // in the plant's touched list
   // The controller state and IRQ_LOST total last given to the engine (update_controller).
   std::optional<std::pair<can::BusState, std::uint32_t>> applied_;
+  // The Set_Prm bit rate index last given to the endpoint (update_controller(): asked after
+  // every delivery, it changes only with a new Set_Prm).
+  std::optional<std::uint8_t> own_bitrate_index_;
 };
 
 // One simulated drive on a virtual bus, behind its fault layer.
@@ -390,8 +393,6 @@ class Plant final : public ControlSurface {
   void mark_delivery(std::size_t gateway) {
     to_deliver_[gateway / 64] |= std::uint64_t{1} << (gateway % 64);
   }
-  // The first marked gateway at or after `from` (gateways_.size(): none).
-  std::size_t next_delivery(std::size_t from) const;
   std::optional<Time> gateways_deadline() const;
   // The earliest deadline of the timed buses (bus_deadlines_).
   std::optional<Time> buses_deadline() const;
