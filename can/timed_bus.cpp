@@ -253,26 +253,33 @@ void TimedBus::start(std::uint64_t bit) {
   if (on_start_) on_start_(*on_bus_);
 }
 
-// The map in priority order for the status; the index to find an identifier's entry per frame.
 TimedBus::IdStatistics& TimedBus::id_statistics(std::uint32_t key) {
   if (2 * (id_count_ + 1) > id_index_.size()) {  // grow: at most half full
     std::vector<IdSlot> old(std::max<std::size_t>(64, 2 * id_index_.size()));
     old.swap(id_index_);
     for (const IdSlot& e : old)
-      if (e.stats) {
+      if (e.used) {
         std::size_t i = slot_of(e.key, id_index_.size());
-        while (id_index_[i].stats) i = (i + 1) & (id_index_.size() - 1);
+        while (id_index_[i].used) i = (i + 1) & (id_index_.size() - 1);
         id_index_[i] = e;
       }
   }
   std::size_t i = slot_of(key, id_index_.size());
-  while (id_index_[i].stats) {
-    if (id_index_[i].key == key) return *id_index_[i].stats;
+  while (id_index_[i].used) {
+    if (id_index_[i].key == key) return id_index_[i].stats;
     i = (i + 1) & (id_index_.size() - 1);
   }
   ++id_count_;
-  id_index_[i] = IdSlot{key, &ids_[key]};
-  return *id_index_[i].stats;
+  id_index_[i].key = key;
+  id_index_[i].used = true;
+  return id_index_[i].stats;
+}
+
+std::map<std::uint32_t, TimedBus::IdStatistics> TimedBus::identifiers() const {
+  std::map<std::uint32_t, IdStatistics> out;
+  for (const IdSlot& e : id_index_)
+    if (e.used) out.emplace(e.key, e.stats);
+  return out;
 }
 
 void TimedBus::Fifo::push_back(const Pending& p) {

@@ -100,7 +100,7 @@ class TimedBus {
   };
 
   TimedBus(std::uint32_t bitrate, Time origin);
-  TimedBus(const TimedBus&) = delete;  // id_index_ points into ids_
+  TimedBus(const TimedBus&) = delete;
   TimedBus& operator=(const TimedBus&) = delete;
 
   // A node with a transmit queue of `depth` frames (FIFO: its head contends).
@@ -180,8 +180,8 @@ class TimedBus {
   std::uint64_t busy_bits() const { return busy_bits_; }
   // The load as of `now` (a second with no frame counts as 0 %).
   Load load(Time now) const;
-  // By arbitration_key (the order of priority).
-  const std::map<std::uint32_t, IdStatistics>& identifiers() const { return ids_; }
+  // By arbitration_key (the order of priority); built at each call (the status's, not per frame).
+  std::map<std::uint32_t, IdStatistics> identifiers() const;
 
  private:
   struct Pending {
@@ -275,13 +275,14 @@ class TimedBus {
   std::optional<Time> compute_deadline() const;
   std::function<void()> on_moved_;
   void moved();
-  std::map<std::uint32_t, IdStatistics> ids_;
-  // An identifier's entry in ids_ by arbitration key, found per frame: open addressing, linear
-  // probing, at most half full (a std::unordered_map's node walk cost more than the rest of
-  // start()).
+  // Each identifier's statistics by arbitration key, found per frame: open addressing, linear
+  // probing, at most half full, the statistics in the slot (a std::unordered_map's node walk,
+  // then a second cache line for a std::map's node, cost more than the rest of start():
+  // docs/can-bus.md "Performance"). identifiers() sorts them for the status.
   struct IdSlot {
     std::uint32_t key = 0;
-    IdStatistics* stats = nullptr;  // null: empty
+    bool used = false;
+    IdStatistics stats;
   };
   std::vector<IdSlot> id_index_;
   std::size_t id_count_ = 0;

@@ -324,7 +324,7 @@ TEST(ResponseTime, FifoNodesBoundTheTimedBus) {
     }
     bool exceeded = false;
     for (int i = 0; i < n; ++i) {
-      const auto& s = bus.identifiers().at(arbitration_key(set[i].id, false));
+      const auto s = bus.identifiers().at(arbitration_key(set[i].id, false));
       // Request to end: the queueing latency (to the start of frame, stamped to the microsecond
       // at or after its bit) and the frame's exact length.
       const auto end =

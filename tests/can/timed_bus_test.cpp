@@ -163,7 +163,8 @@ TEST(TimedBus, LoadPeriodAndJitter) {
   EXPECT_DOUBLE_EQ(bus.load(Time(2'000'000)).last_pct, 5.1);  // second 1 complete
   EXPECT_DOUBLE_EQ(bus.load(Time(3'000'000)).last_pct, 0.0);  // an idle second
   EXPECT_DOUBLE_EQ(bus.load(Time(3'000'000)).max_pct, 5.1);
-  const auto& s = bus.identifiers().begin()->second;
+  // identifiers() is a snapshot: taken again after more frames.
+  auto s = bus.identifiers().begin()->second;
   EXPECT_EQ(s.frames, 2000u);
   EXPECT_EQ(s.period_mean(), Duration(1000));
   EXPECT_EQ(s.jitter(), Duration(0));
@@ -174,6 +175,8 @@ TEST(TimedBus, LoadPeriodAndJitter) {
   bus.advance(Time(2'001'000));
   bus.request(a, F("080#"), Time(2'001'000));
   bus.advance(Time(2'001'000));
+  s = bus.identifiers().begin()->second;
+  EXPECT_EQ(s.frames, 2002u);
   EXPECT_EQ(s.period_last, Duration(500));
   EXPECT_EQ(s.period_max, Duration(1500));
   EXPECT_EQ(s.jitter(), Duration(1000));
