@@ -258,39 +258,28 @@ TimedBus::IdStatistics& TimedBus::id_statistics(std::uint32_t key) {
     std::vector<IdSlot> old(std::max<std::size_t>(64, 2 * id_index_.size()));
     old.swap(id_index_);
     for (const IdSlot& e : old)
-      if (e.used) {
+      if (e.index) {
         std::size_t i = slot_of(e.key, id_index_.size());
-        while (id_index_[i].used) i = (i + 1) & (id_index_.size() - 1);
+        while (id_index_[i].index) i = (i + 1) & (id_index_.size() - 1);
         id_index_[i] = e;
       }
   }
   std::size_t i = slot_of(key, id_index_.size());
-  while (id_index_[i].used) {
-    if (id_index_[i].key == key) return id_index_[i].stats;
+  while (id_index_[i].index) {
+    if (id_index_[i].key == key) return id_stats_[id_index_[i].index - 1];
     i = (i + 1) & (id_index_.size() - 1);
   }
   ++id_count_;
-  id_index_[i].key = key;
-  id_index_[i].used = true;
-  return id_index_[i].stats;
+  id_stats_.emplace_back();
+  id_index_[i] = IdSlot{key, static_cast<std::uint32_t>(id_stats_.size())};
+  return id_stats_.back();
 }
 
 std::map<std::uint32_t, TimedBus::IdStatistics> TimedBus::identifiers() const {
   std::map<std::uint32_t, IdStatistics> out;
   for (const IdSlot& e : id_index_)
-    if (e.used) out.emplace(e.key, e.stats);
+    if (e.index) out.emplace(e.key, id_stats_[e.index - 1]);
   return out;
-}
-
-void TimedBus::Fifo::push_back(const Pending& p) {
-  if (size_ == ring_.size()) {  // full: twice as long, the frames in order from 0
-    std::vector<Pending> grown(std::max<std::size_t>(8, 2 * ring_.size()));
-    for (std::size_t i = 0; i < size_; ++i) grown[i] = ring_[(head_ + i) & (ring_.size() - 1)];
-    ring_.swap(grown);
-    head_ = 0;
-  }
-  ring_[(head_ + size_) & (ring_.size() - 1)] = p;
-  if (size_++ == 0) keep_front();
 }
 
 TimedBus::Error TimedBus::error_of(std::size_t node, const Frame& frame, Time at) {

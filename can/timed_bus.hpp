@@ -34,6 +34,7 @@
 
 #include "can/channel.hpp"
 #include "can/frame.hpp"
+#include "common/ring.hpp"
 #include "common/time.hpp"
 
 namespace candp2::can {
@@ -196,32 +197,35 @@ class TimedBus {
   // deadline read them for every node at every start of frame without reaching into the ring.
   class Fifo {
    public:
-    bool empty() const { return size_ == 0; }
-    std::size_t size() const { return size_; }
-    const Pending& front() const { return ring_[head_]; }
+    bool empty() const { return ring_.empty(); }
+    std::size_t size() const { return ring_.size(); }
+    const Pending& front() const { return ring_.front(); }
     Time front_requested() const { return front_requested_; }
     std::uint64_t front_bit() const { return front_bit_; }
     std::uint32_t front_key() const { return front_key_; }
-    void push_back(const Pending& p);
-    void pop_front() {
-      head_ = (head_ + 1) & (ring_.size() - 1);
-      if (--size_ > 0) keep_front();
+    void push_back(const Pending& p) {
+      ring_.push_back(p);
+      if (ring_.size() == 1) keep_front();
     }
-    void clear() { head_ = size_ = 0; }
+    void pop_front() {
+      ring_.pop_front();
+      if (!ring_.empty()) keep_front();
+    }
+    void clear() { ring_.clear(); }
 
    private:
     void keep_front() {
-      const Pending& p = ring_[head_];
+      const Pending& p = ring_.front();
       front_requested_ = p.requested;
       front_bit_ = p.requested_bit;
       front_key_ = p.key;
     }
-    std::vector<Pending> ring_;  // a power of two long
-    std::size_t head_ = 0, size_ = 0;
+    Ring<Pending> ring_;
     Time front_requested_{0};
     std::uint64_t front_bit_ = 0;
     std::uint32_t front_key_ = 0;
   };
+
   struct Node {
     std::size_t depth = 0;
     bool present = true;
@@ -275,16 +279,17 @@ class TimedBus {
   std::optional<Time> compute_deadline() const;
   std::function<void()> on_moved_;
   void moved();
-  // Each identifier's statistics by arbitration key, found per frame: open addressing, linear
-  // probing, at most half full, the statistics in the slot (a std::unordered_map's node walk,
-  // then a second cache line for a std::map's node, cost more than the rest of start():
-  // docs/can-bus.md "Performance"). identifiers() sorts them for the status.
+  // Each identifier's statistics, found per frame by arbitration key: a small index (open
+  // addressing, linear probing, at most half full) into statistics kept densely in the order
+  // the identifiers first appeared (a std::unordered_map's node walk, then a std::map's node
+  // apart from every other, cost more than the rest of start(): docs/can-bus.md "Performance").
+  // identifiers() sorts them for the status.
   struct IdSlot {
     std::uint32_t key = 0;
-    bool used = false;
-    IdStatistics stats;
+    std::uint32_t index = 0;  // into id_stats_ + 1; 0: empty
   };
   std::vector<IdSlot> id_index_;
+  std::vector<IdStatistics> id_stats_;
   std::size_t id_count_ = 0;
   IdStatistics& id_statistics(std::uint32_t key);
   std::size_t bus_off_nodes_ = 0;  // nodes in BusOff (none: no recovery to look for)

@@ -14,7 +14,6 @@
 #pragma once
 
 #include <cstddef>
-#include <deque>
 #include <functional>
 #include <memory>
 #include <string>
@@ -22,6 +21,7 @@
 
 #include "can/channel.hpp"
 #include "can/timed_bus.hpp"
+#include "common/ring.hpp"
 #include "common/time.hpp"
 
 namespace candp2::can {
@@ -108,7 +108,7 @@ class VirtualEndpoint final : public Channel {
   std::string name_;
   bool receive_own_;
   std::size_t limit_;
-  std::deque<Frame> queue_;
+  Ring<Frame> queue_;
   std::uint32_t rx_lost_ = 0;
   std::uint32_t tx_dropped_ = 0;
   std::optional<BusState> state_override_;

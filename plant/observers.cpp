@@ -18,7 +18,7 @@ void Plant::remove_tap(Tap* tap) {
 void Plant::tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender,
                     Time time) {
   if (taps_.empty()) return;
-  const auto [kind, index] = sender_of(sender);
+  const auto [kind, index] = known_sender(bus, sender);
   const CanRecord r{.time = time,
                     .bus = bus.index(),
                     .bus_name = bus.name(),
@@ -29,6 +29,14 @@ void Plant::tap_can(const BusUnit& bus, const can::Frame& frame, std::string_vie
                     .sender_index = index,
                     .from_emulation = kind != SenderKind::Outside};
   for (Tap* t : taps_) t->on_can(r);
+}
+
+std::pair<SenderKind, std::size_t> Plant::known_sender(const BusUnit& bus,
+                                                       std::string_view sender) const {
+  // The sending endpoint's own name (the same characters at the same address): one of the bus's.
+  for (const auto& k : bus.known_senders_)
+    if (k.name.data() == sender.data() && k.name.size() == sender.size()) return k.who;
+  return sender_of(sender);
 }
 
 std::pair<SenderKind, std::size_t> Plant::sender_of(std::string_view sender) const {

@@ -188,6 +188,8 @@ bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
             ", " + std::to_string(cfg.slots.size()) + " slots, bus " + b.name + " (" +
             std::string(config::to_string(b.type)) + ")");
   senders_.emplace(g->sender_, std::pair{SenderKind::Gateway, g->index()});
+  if (g->endpoint_)
+    g->bus_->known_senders_.push_back({g->endpoint_->name(), sender_of(g->endpoint_->name())});
   gateways_.push_back(std::move(g));
   gateway_deadlines_.resize(gateways_.size());
   mark_delivery(gateways_.size() - 1);  // nothing delivered to it yet
@@ -221,6 +223,7 @@ bool Plant::add_drive(const config::DriveConfig& cfg, std::string* error) {
                 static_cast<unsigned>(cfg.tx_id));
   log_.info("drive " + cfg.name + ": Unitek on bus " + cfg.bus + ", " + ids);
   senders_.emplace(std::string(d->endpoint_->name()), std::pair{SenderKind::Drive, drives_.size()});
+  b->known_senders_.push_back({d->endpoint_->name(), sender_of(d->endpoint_->name())});
   drives_.push_back(std::move(d));
   return true;
 }

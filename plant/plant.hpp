@@ -26,6 +26,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "can/channel.hpp"
@@ -120,6 +121,14 @@ class BusUnit {
   std::uint16_t index_ = 0;
   std::unique_ptr<can::VirtualBus> vbus_;
   std::vector<std::size_t> gateways_;  // the gateways on it (virtual buses), by index
+  // Its gateways' and drives' endpoints by the address of their name, with what sender_of()
+  // says of that name: a tapped frame's sender is the sending endpoint's own name, found here
+  // without hashing or comparing it (docs/can-bus.md "Performance").
+  struct KnownSender {
+    std::string_view name;
+    std::pair<SenderKind, std::size_t> who;
+  };
+  std::vector<KnownSender> known_senders_;
 };
 
 // One emulated gateway: its channel, the fault layer in between, the firmware engine.
@@ -353,6 +362,9 @@ class Plant final : public ControlSurface {
   void tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender, Time time);
   // The emulated gateway or drive whose endpoint is named `sender`, or SenderKind::Outside.
   std::pair<SenderKind, std::size_t> sender_of(std::string_view sender) const;
+  // The same for a frame tapped on `bus`: its gateways' and drives' endpoints first.
+  std::pair<SenderKind, std::size_t> known_sender(const BusUnit& bus,
+                                                  std::string_view sender) const;
   void tap_note(std::string text, Time now);
   void tap_in_process(std::span<const std::uint8_t> telegram, Time time, std::uint32_t baud = 0);
   void tap_line(std::span<const std::uint8_t> telegram, bool from_emulation, Time time);
@@ -372,8 +384,17 @@ class Plant final : public ControlSurface {
   std::vector<std::unique_ptr<GatewayUnit>> gateways_;
   std::vector<std::unique_ptr<DriveUnit>> drives_;
   // sender_of(): the gateways' and drives' endpoint names, filled as they are added (the first
-  // of a name wins, as a walk over gateways then drives would find it).
-  std::map<std::string, std::pair<SenderKind, std::size_t>, std::less<>> senders_;
+  // of a name wins, as a walk over gateways then drives would find it); hashed, found by a
+  // string_view (a std::map's walk of string comparisons cost as much as the rest of a tapped
+  // frame: docs/can-bus.md "Performance").
+  struct NameHash {
+    using is_transparent = void;
+    std::size_t operator()(std::string_view name) const noexcept {
+      return std::hash<std::string_view>{}(name);
+    }
+  };
+  std::unordered_map<std::string, std::pair<SenderKind, std::size_t>, NameHash, std::equal_to<>>
+      senders_;
   std::vector<std::unique_ptr<SlaveUnit>> slaves_;
   std::unique_ptr<dp::DpMaster> master_;
   std::unique_ptr<SlaveLine> slave_line_;

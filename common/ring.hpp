@@ -1,0 +1,39 @@
+// A first-in first-out queue in one array that grows to the most it held (a power of two long)
+// and then never allocates again: the CAN queues that take a frame at every send and every
+// delivery (docs/can-bus.md "Performance": a std::deque walks and allocates its blocks).
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+#include <vector>
+
+namespace candp2 {
+
+template <class T>
+class Ring {
+ public:
+  bool empty() const { return size_ == 0; }
+  std::size_t size() const { return size_; }
+  const T& front() const { return items_[head_]; }
+  void push_back(const T& item) {
+    if (size_ == items_.size()) {  // full: twice as long, the items in order from 0
+      std::vector<T> grown(std::max<std::size_t>(8, 2 * items_.size()));
+      for (std::size_t i = 0; i < size_; ++i) grown[i] = items_[(head_ + i) & (items_.size() - 1)];
+      items_.swap(grown);
+      head_ = 0;
+    }
+    items_[(head_ + size_) & (items_.size() - 1)] = item;
+    ++size_;
+  }
+  void pop_front() {
+    head_ = (head_ + 1) & (items_.size() - 1);
+    --size_;
+  }
+  void clear() { head_ = size_ = 0; }
+
+ private:
+  std::vector<T> items_;
+  std::size_t head_ = 0, size_ = 0;
+};
+
+}  // namespace candp2
