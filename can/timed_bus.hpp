@@ -291,7 +291,10 @@ class TimedBus {
   std::vector<IdSlot> id_index_;
   std::vector<IdStatistics> id_stats_;
   std::size_t id_count_ = 0;
-  IdStatistics& id_statistics(std::uint32_t key);
+  // The slot of `key` in id_index_, or the empty slot where it would go.
+  std::size_t id_slot(std::uint32_t key) const;
+  IdStatistics& id_statistics(std::uint32_t key);    // made on the first frame
+  IdStatistics* find_statistics(std::uint32_t key);  // nullptr: none yet
   std::size_t bus_off_nodes_ = 0;  // nodes in BusOff (none: no recovery to look for)
 };
 
