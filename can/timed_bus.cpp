@@ -100,24 +100,22 @@ bool TimedBus::receives(const Node& n) {
   return n.present && !n.unplugged && !n.wrong_bitrate && n.conf.state != BusState::BusOff;
 }
 
-std::optional<std::uint64_t> TimedBus::next_start() const {
-  if (pending_ == 0) return std::nullopt;
-  std::optional<std::uint64_t> first;
+std::uint64_t TimedBus::next_start() const {
+  if (pending_ == 0) return kNoBit;
+  std::uint64_t first = kNoBit;
   for (const Node& n : nodes_) {
     if (n.queue.empty() || n.unplugged || n.conf.state == BusState::BusOff) continue;
-    const std::uint64_t at = std::max({free_bit_, n.queue.front_bit(), n.suspend_until});
-    if (!first || at < *first) first = at;
+    first = std::min(first, std::max({free_bit_, n.queue.front_bit(), n.suspend_until}));
   }
   return first;
 }
 
-std::optional<std::uint64_t> TimedBus::next_recovery() const {
-  if (on_bus_ || bus_off_nodes_ == 0) return std::nullopt;
-  std::optional<std::uint64_t> first;
+std::uint64_t TimedBus::next_recovery() const {
+  if (on_bus_ || bus_off_nodes_ == 0) return kNoBit;
+  std::uint64_t first = kNoBit;
   for (const Node& n : nodes_) {
     if (!n.present || n.conf.state != BusState::BusOff || !n.run_from) continue;
-    const std::uint64_t at = *n.run_from + (kRecoveryRuns - n.recessive_runs) * kRecessiveRun;
-    if (!first || at < *first) first = at;
+    first = std::min(first, *n.run_from + (kRecoveryRuns - n.recessive_runs) * kRecessiveRun);
   }
   return first;
 }
@@ -137,10 +135,9 @@ std::optional<Time> TimedBus::next_deadline() const {
 
 std::optional<Time> TimedBus::compute_deadline() const {
   if (on_bus_) return on_bus_->end;
-  const auto s = next_start();
-  const auto r = next_recovery();
-  if (r && (!s || *r <= *s)) return time_of(*r);
-  if (s) return time_of(*s);
+  const std::uint64_t s = next_start(), r = next_recovery();
+  if (r != kNoBit && r <= s) return time_of(r);
+  if (s != kNoBit) return time_of(s);
   return std::nullopt;
 }
 
@@ -159,15 +156,14 @@ void TimedBus::run(Time now) {
       finish();
       continue;
     }
-    const auto s = next_start();
-    const auto r = next_recovery();
-    if (r && (!s || *r <= *s)) {
-      if (time_of(*r) > now) return;
-      recover(*r);
+    const std::uint64_t s = next_start(), r = next_recovery();
+    if (r != kNoBit && r <= s) {
+      if (time_of(r) > now) return;
+      recover(r);
       continue;
     }
-    if (!s || time_of(*s) > now) return;
-    start(*s);
+    if (s == kNoBit || time_of(s) > now) return;
+    start(s);
   }
 }
 

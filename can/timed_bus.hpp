@@ -243,10 +243,13 @@ class TimedBus {
   // suspended, a frame requested by then).
   bool contends(const Node& n, std::uint64_t bit, Time at) const;
   static bool receives(const Node& n);
-  // The bit the next frame may start at (nullopt: nothing queued).
-  std::optional<std::uint64_t> next_start() const;
-  // The first bit a bus-off node recovers at, if the bus stays idle.
-  std::optional<std::uint64_t> next_recovery() const;
+  // No such bit (plain numbers, not std::optional: these are asked at every start and end of
+  // frame, docs/can-bus.md "Performance").
+  static constexpr std::uint64_t kNoBit = ~std::uint64_t{0};
+  // The bit the next frame may start at (kNoBit: nothing queued).
+  std::uint64_t next_start() const;
+  // The first bit a bus-off node recovers at, if the bus stays idle (kNoBit: none).
+  std::uint64_t next_recovery() const;
   // advance()'s loop: every start, end and recovery due by `now`.
   void run(Time now);
   void recover(std::uint64_t bit);
