@@ -17,15 +17,34 @@ at the frames' exact lengths). The buses are timed at --bitrate (default "1000k"
            every output between two Data_Exchanges) for --virtual-s of virtual time, timed and
            ideal alternately: the wall time and the speed (virtual s per wall s)
 
+daemon options:
+  --paired     the timed and the ideal daemon run side by side (one on each core) instead of one
+               after the other: the shared VM's speed drifts by tens of per cent from minute to
+               minute, and a ratio of two runs minutes apart measures the drift (docs/can-bus.md
+               "Performance")
+  --observer   over each run an open panel (the overview's event stream and a gateway panel's,
+               /api/v1/events?gw=3, read continuously; GET /api/v1/status twice a second) and
+               hostile HTTP clients beside it (every half second a burst of 200 connections
+               opened and closed; 20 idle connections held; one header trickled a byte every
+               100 ms): the row counts the events' bytes, failed polls and hostile connections
+  --stall-ms N candp2d stopped (SIGSTOP) for N ms once in the middle of the run: the row has the
+               host stalls candp2d counted (docs/daemon.md "Host stalls")
+Each daemon row also has what was lost: irq_lost, tx_lost, rx_short (frames sent that the other
+gateway did not take: on these buses every frame sent is an Rx slot of the other gateway), the
+master cycles run against those due and the cycle lateness (p99, max).
+
 Prints one JSON line per run and the medians with the ratios timed / ideal.
 
 Usage: bench/can_load.py daemon --candp2d build/bin/candp2d [--seconds 10] [--rounds 2]
+           [--paired] [--observer] [--stall-ms 300]
        bench/can_load.py replay --timed-bus-run build/tests/timed_bus_run [--virtual-s 60]
 """
 
 import argparse
 import json
 import os
+import signal
+import socket
 import statistics
 import subprocess
 import sys
@@ -71,11 +90,60 @@ def counters(status):
             "tx_lost": sum(b.get("tx_lost", 0) for b in status.get("buses", []))}
 
 
-def measure_daemon(binary, bitrate, seconds):
+class Hostile:
+    """HTTP clients a panel's host may have beside it: bursts of connections opened and closed,
+    idle connections held, a header trickled a byte at a time (tests/e2e/http_hostile_e2e.py
+    asserts what the daemon does with each)."""
+
+    def __init__(self, http_port):
+        self.port, self.conns, self.stop = http_port, 0, threading.Event()
+        self.threads = [threading.Thread(target=self.bursts, daemon=True),
+                        threading.Thread(target=self.trickle, daemon=True)]
+        self.idle = []
+        for _ in range(20):
+            self.idle.append(socket.create_connection(("127.0.0.1", http_port), timeout=5))
+            self.conns += 1
+        for t in self.threads:
+            t.start()
+
+    def bursts(self):
+        from http_burst import burst  # noqa: E402
+        while not self.stop.wait(0.5):
+            burst(self.port, n=200, deadline_s=1.0)
+            self.conns += 200
+
+    def trickle(self):
+        while not self.stop.is_set():
+            try:
+                with socket.create_connection(("127.0.0.1", self.port), timeout=5) as c:
+                    self.conns += 1
+                    for ch in b"GET /api/v1/status HTTP/1.1\r\nX-Slow: " + b"a" * 10000:
+                        if self.stop.wait(0.1):
+                            return
+                        c.send(bytes([ch]))
+            except OSError:
+                pass  # cut by the daemon (its idle timeout): open the next one
+
+    def close(self):
+        self.stop.set()
+        for c in self.idle:
+            c.close()
+
+
+def watchers(http_port):
+    """An open panel (line_load.Observer: the overview's stream, the status twice a second), a
+    gateway panel's stream, and the hostile clients."""
+    from line_load import Observer  # noqa: E402
+    return (Observer(http_port), Observer(http_port, "/api/v1/events?gw=3", poll=False),
+            Hostile(http_port))
+
+
+def measure_daemon(binary, bitrate, seconds, observe=False, stall_ms=0):
     from line_load import Run  # noqa: E402  (pymodbus)
     from pymodbus.client import ModbusTcpClient  # noqa: E402
     with tempfile.TemporaryDirectory(prefix="candp2-can-") as d:
         r = Run(binary, CYCLE_MS, d, cfg=config(bitrate))
+        seen = None
         try:
             r.wait_data_exch()
             stop, rounds = threading.Event(), [0]
@@ -95,18 +163,46 @@ def measure_daemon(binary, bitrate, seconds):
 
             t = threading.Thread(target=writer, daemon=True)
             t.start()
+            if observe:
+                seen = watchers(r.http)
             time.sleep(1.0)
-            s0, c0, w0, t0 = counters(r.status()), r.cpu_ticks(), rounds[0], time.monotonic()
-            time.sleep(seconds)
-            s1, c1, w1, t1 = counters(r.status()), r.cpu_ticks(), rounds[0], time.monotonic()
+            st0 = r.status()
+            s0, c0, w0, t0 = counters(st0), r.cpu_ticks(), rounds[0], time.monotonic()
+            if stall_ms:
+                time.sleep(seconds / 2)
+                os.kill(r.proc.pid, signal.SIGSTOP)
+                time.sleep(stall_ms / 1000.0)
+                os.kill(r.proc.pid, signal.SIGCONT)
+                time.sleep(seconds / 2)
+            else:
+                time.sleep(seconds)
+            st1 = r.status()
+            s1, c1, w1, t1 = counters(st1), r.cpu_ticks(), rounds[0], time.monotonic()
             stop.set()
             t.join(10)
             hz = os.sysconf("SC_CLK_TCK")
-            return {"bus": bitrate or "ideal",
-                    "cpu_pct": round(100.0 * (c1 - c0) / hz / (t1 - t0), 1),
-                    "writes_per_s": round((w1 - w0) / (t1 - t0), 1),
-                    **{k: s1[k] - s0[k] for k in s1}}
+            row = {"bus": bitrate or "ideal",
+                   "cpu_pct": round(100.0 * (c1 - c0) / hz / (t1 - t0), 1),
+                   "writes_per_s": round((w1 - w0) / (t1 - t0), 1),
+                   **{k: s1[k] - s0[k] for k in s1}}
+            lat, stalled = st1["cycle"]["lateness_us"], (st1["host_stalls"]["total_ms"]
+                                                         - st0["host_stalls"]["total_ms"])
+            # The simulated world pauses with the host (docs/daemon.md "Host stalls"): the cycles
+            # due are those of the wall time less the stalls.
+            row.update({"rx_short": row["tx"] - row["rx"],
+                        "cycles_done": st1["cycle"]["cycles"] - st0["cycle"]["cycles"],
+                        "cycles_due": round(((t1 - t0) * 1000.0 - stalled) / CYCLE_MS),
+                        "p99_us": lat["p99"], "max_us": lat["max"],
+                        "stalls": st1["host_stalls"]["count"] - st0["host_stalls"]["count"],
+                        "stall_ms": round(stalled, 1)})
+            if seen:
+                panel, gw, hostile = seen
+                row.update({"events_bytes": panel.bytes + gw.bytes,
+                            "poll_errors": panel.poll_errors, "hostile_conns": hostile.conns})
+            return row
         finally:
+            for watcher in seen or ():
+                watcher.close()
             r.stop()
 
 
@@ -138,17 +234,36 @@ def main():
     ap.add_argument("--seconds", type=float, default=10)
     ap.add_argument("--virtual-s", type=int, default=60)
     ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--paired", action="store_true")
+    ap.add_argument("--observer", action="store_true")
+    ap.add_argument("--stall-ms", type=int, default=0)
     args = ap.parse_args()
     rows = []
     for _ in range(args.rounds):
-        for bitrate in (args.bitrate, None):
-            if args.mode == "daemon":
-                row = measure_daemon(args.candp2d, bitrate, args.seconds)
-            else:
-                row = measure_replay(args.timed_bus_run, bitrate, args.virtual_s)
+        if args.mode == "daemon" and args.paired:
+            out = {}
+
+            def one(bitrate):
+                out[bitrate] = measure_daemon(args.candp2d, bitrate, args.seconds,
+                                              args.observer, args.stall_ms)
+
+            runs = [threading.Thread(target=one, args=(b,)) for b in (args.bitrate, None)]
+            for t in runs:
+                t.start()
+            for t in runs:
+                t.join()
+            batch = [out[args.bitrate], out[None]]
+            batch[0]["ratio"] = round(batch[0]["cpu_pct"] / max(batch[1]["cpu_pct"], 0.1), 2)
+        elif args.mode == "daemon":
+            batch = [measure_daemon(args.candp2d, b, args.seconds, args.observer, args.stall_ms)
+                     for b in (args.bitrate, None)]
+        else:
+            batch = [measure_replay(args.timed_bus_run, b, args.virtual_s)
+                     for b in (args.bitrate, None)]
+        for row in batch:
             rows.append(row)
             print(json.dumps(row), flush=True)
-    keys = [k for k, v in rows[0].items() if isinstance(v, (int, float))]
+    keys = [k for k, v in rows[-1].items() if isinstance(v, (int, float))]
     med = {}
     for bus in (args.bitrate, "ideal"):
         med[bus] = {k: statistics.median(r[k] for r in rows if r["bus"] == bus) for k in keys}

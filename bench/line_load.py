@@ -61,19 +61,21 @@ def config(cycle_ms, baud=None):
 
 
 class Observer:
-    """An open panel: its event stream read continuously, the status document twice a second."""
+    """An open panel: its event stream (`stream`) read continuously, the status document twice a
+    second (unless `poll` is false: a second view of the same page)."""
 
-    def __init__(self, http_port):
+    def __init__(self, http_port, stream="/api/v1/events", poll=True):
         self.port, self.bytes, self.stop = http_port, 0, threading.Event()
-        self.poll_errors = 0
-        self.threads = [threading.Thread(target=self.events, daemon=True),
-                        threading.Thread(target=self.poll, daemon=True)]
+        self.stream, self.poll_errors = stream, 0
+        self.threads = [threading.Thread(target=self.events, daemon=True)]
+        if poll:
+            self.threads.append(threading.Thread(target=self.poll, daemon=True))
         for t in self.threads:
             t.start()
 
     def events(self):
         try:
-            with urllib.request.urlopen("http://127.0.0.1:%d/api/v1/events" % self.port,
+            with urllib.request.urlopen("http://127.0.0.1:%d%s" % (self.port, self.stream),
                                         timeout=30) as r:
                 while not self.stop.is_set():
                     chunk = r.read1(65536)
