@@ -465,9 +465,10 @@ void Sim::expect_bus(const Step& s, StepResult& r) {
   r.passed = poll(
       s,
       [&](std::string& d) {
+        // A snapshot of the identifiers' statistics (TimedBus::identifiers()), kept for the checks.
+        const auto ids = s.can_id ? bus->identifiers() : decltype(bus->identifiers()){};
         const can::TimedBus::IdStatistics* id = nullptr;
         if (s.can_id) {
-          const auto& ids = bus->identifiers();
           const auto it = ids.find(can::arbitration_key(*s.can_id, s.can_remote));
           if (it != ids.end()) id = &it->second;
         }

@@ -194,8 +194,8 @@ TEST(TimedBus, OverloadGrowsLatency) {
     bus.advance(Time(k * 1000));
   }
   run(bus);
-  const auto& low = bus.identifiers().at(arbitration_key(F("200#")));
-  const auto& high = bus.identifiers().at(arbitration_key(F("100#")));
+  const auto low = bus.identifiers().at(arbitration_key(F("200#")));
+  const auto high = bus.identifiers().at(arbitration_key(F("100#")));
   EXPECT_GT(low.latency_last, low.latency_mean());
   EXPECT_GT(low.latency_max, Duration(5000));
   EXPECT_LT(high.latency_max, low.latency_max);
