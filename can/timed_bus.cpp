@@ -270,7 +270,7 @@ TimedBus::IdStatistics* TimedBus::find_statistics(std::uint32_t key) {
 }
 
 TimedBus::IdStatistics& TimedBus::id_statistics(std::uint32_t key) {
-  if (2 * (id_count_ + 1) > id_index_.size()) {  // grow: at most half full
+  if (2 * (id_stats_.size() + 1) > id_index_.size()) {  // grow: at most half full
     std::vector<IdSlot> old(std::max<std::size_t>(64, 2 * id_index_.size()));
     old.swap(id_index_);
     for (const IdSlot& e : old)
@@ -278,7 +278,6 @@ TimedBus::IdStatistics& TimedBus::id_statistics(std::uint32_t key) {
   }
   IdSlot& e = id_index_[id_slot(key)];
   if (!e.index) {
-    ++id_count_;
     id_stats_.emplace_back();
     e = IdSlot{key, static_cast<std::uint32_t>(id_stats_.size())};
   }

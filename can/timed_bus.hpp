@@ -293,7 +293,6 @@ class TimedBus {
   };
   std::vector<IdSlot> id_index_;
   std::vector<IdStatistics> id_stats_;
-  std::size_t id_count_ = 0;
   // The slot of `key` in id_index_, or the empty slot where it would go.
   std::size_t id_slot(std::uint32_t key) const;
   IdStatistics& id_statistics(std::uint32_t key);    // made on the first frame

@@ -24,11 +24,8 @@ void GatewayUnit::receive(const can::Frame& frame, Time now) {
 void GatewayUnit::update_controller() {
   // docs/can-bus.md "Error confinement": a gateway whose Set_Prm bit rate is not its timed bus's
   // cannot talk on it (its frames and the others' are errors to it).
-  if (const auto& prm = gateway_->user_prm();
-      endpoint_ && prm && own_bitrate_index_ != prm->bitrate_index) {
-    own_bitrate_index_ = prm->bitrate_index;
-    endpoint_->set_own_bitrate(gw::bitrate_bps(prm->bitrate_index));
-  }
+  if (endpoint_ && gateway_->user_prm())
+    endpoint_->set_own_bitrate(gw::bitrate_bps(gateway_->user_prm()->bitrate_index));
   // Given again only when it changed: the same state twice changes nothing in the engine, nor
   // what it waits for.
   const std::pair state{faults_.state(channel_->bus_state()), faults_.rx_lost(channel_->rx_lost())};

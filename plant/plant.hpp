@@ -26,7 +26,6 @@
 #include <span>
 #include <string>
 #include <string_view>
-#include <unordered_map>
 #include <vector>
 
 #include "can/channel.hpp"
@@ -176,9 +175,6 @@ class GatewayUnit final : private can::FrameSink {
   bool listed_ = false;                    // in the plant's touched list
   // The controller state and IRQ_LOST total last given to the engine (update_controller).
   std::optional<std::pair<can::BusState, std::uint32_t>> applied_;
-  // The Set_Prm bit rate index last given to the endpoint (update_controller(): asked after
-  // every delivery, it changes only with a new Set_Prm).
-  std::optional<std::uint8_t> own_bitrate_index_;
 };
 
 // One simulated drive on a virtual bus, behind its fault layer.
@@ -384,17 +380,9 @@ class Plant final : public ControlSurface {
   std::vector<std::unique_ptr<GatewayUnit>> gateways_;
   std::vector<std::unique_ptr<DriveUnit>> drives_;
   // sender_of(): the gateways' and drives' endpoint names, filled as they are added (the first
-  // of a name wins, as a walk over gateways then drives would find it); hashed, found by a
-  // string_view (a std::map's walk of string comparisons cost as much as the rest of a tapped
-  // frame: docs/can-bus.md "Performance").
-  struct NameHash {
-    using is_transparent = void;
-    std::size_t operator()(std::string_view name) const noexcept {
-      return std::hash<std::string_view>{}(name);
-    }
-  };
-  std::unordered_map<std::string, std::pair<SenderKind, std::size_t>, NameHash, std::equal_to<>>
-      senders_;
+  // of a name wins, as a walk over gateways then drives would find it). A tapped frame from a
+  // gateway or drive is found by its bus first (BusUnit::known_senders_).
+  std::map<std::string, std::pair<SenderKind, std::size_t>, std::less<>> senders_;
   std::vector<std::unique_ptr<SlaveUnit>> slaves_;
   std::unique_ptr<dp::DpMaster> master_;
   std::unique_ptr<SlaveLine> slave_line_;
