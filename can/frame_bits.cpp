@@ -95,15 +95,23 @@ namespace {
 // frame_bits_exact(), computed bit by bit once. The register is linear and starts at 0:
 // crc[k][b] is byte b followed by 8·k zero bits through a zero register, so four bytes w0..w3
 // after a register r give crc[3][x0] ^ crc[2][x1] ^ crc[1][x2] ^ crc[0][x3] for the bytes x of
-// (w0..w3) ^ r << 17 (the register's 15 bits meet the first 15 message bits). Per stuffing state
-// (last bit, run 1..4) and byte, the next state and the stuff bits (`next`); for the fewer than
-// 8 bits left at the end of the stream, the stuff bits with the k bits written as (1 << k) | bits
-// (`tail`).
+// (w0..w3) ^ r << 17 (the register's 15 bits meet the first 15 message bits).
+// The stuffing has 8 states (last bit, run 1..4), numbered last · 4 + run − 1; what some bits do
+// from a state is one byte, the next state times 8 (bits 0..5) and the stuff bits (bits 6..7, at
+// most 2). `step`: per byte of the stream one 64-bit word whose byte k is what that byte does from
+// state k: the next state is a shift and a mask of a word loaded without waiting for the state
+// (the state only picks the byte), so the chain from byte to byte is two instructions, not a
+// load (docs/can-bus.md "Performance"). `part`: per state what fewer than 8 bits do, the k bits
+// written as (1 << k) | bits (the bits before the first whole byte and after the last).
 struct ByteTables {
+  static constexpr unsigned kStates = 2 * (kStuffRun - 1);
   std::array<std::array<std::uint16_t, 256>, 4> crc{};
-  std::array<std::array<std::uint8_t, 256>, 2 * kStuffRun> next{};  // state << 2 | stuffed
-  std::array<std::array<std::uint8_t, 256>, 2 * kStuffRun> tail{};  // stuffed
-  static unsigned state(const Stuffer& st) { return st.last * kStuffRun + st.run; }
+  std::array<std::uint64_t, 256> step{};
+  std::array<std::array<std::uint8_t, 256>, kStates> part{};
+  static unsigned state(const Stuffer& st) { return st.last * (kStuffRun - 1) + st.run - 1; }
+  static std::uint8_t effect(const Stuffer& st) {
+    return static_cast<std::uint8_t>(8 * state(st) | st.stuffed << 6);
+  }
   ByteTables() {
     for (unsigned i = 0; i < 256; ++i) {
       std::uint16_t c = 0;
@@ -115,17 +123,17 @@ struct ByteTables {
     }
     for (std::uint8_t last = 0; last < 2; ++last)
       for (unsigned run = 1; run < kStuffRun; ++run) {
-        const unsigned from = last * kStuffRun + run;
+        const unsigned from = state(Stuffer{0, run, last});
         for (unsigned byte = 0; byte < 256; ++byte) {
           Stuffer st{0, run, last};
           for (unsigned i = 8; i-- > 0;) st.bit(static_cast<std::uint8_t>((byte >> i) & 1u));
-          next[from][byte] = static_cast<std::uint8_t>(state(st) << 2 | st.stuffed);
+          step[byte] |= std::uint64_t{effect(st)} << (8 * from);
         }
         for (unsigned k = 0; k < 8; ++k)
           for (unsigned bits = 0; bits < (1u << k); ++bits) {
             Stuffer st{0, run, last};
             for (unsigned i = k; i-- > 0;) st.bit(static_cast<std::uint8_t>((bits >> i) & 1u));
-            tail[from][(1u << k) | bits] = static_cast<std::uint8_t>(st.stuffed);
+            part[from][(1u << k) | bits] = effect(st);
           }
       }
   }
@@ -133,12 +141,12 @@ struct ByteTables {
 }  // namespace
 
 // What stuffed_region() and stuff_bits() give, without the stream and without a loop over its
-// bits (a bus in time asks it for every frame: docs/can-bus.md "Performance"). The fields after
-// SOF are one number; the CRC register starts at 0, so zeros in front of the region change
-// nothing and SOF (dominant) with the padding to a whole byte is one: the region goes through
-// the CRC four bytes at a time. The stuffing starts after SOF (last bit dominant, a run of one)
-// and takes the stream after SOF (fields, data, CRC) a byte at a time through the stuffing
-// table, the fewer than 8 bits left at its end through the tail table.
+// bits (a bus in time asks it for every frame: docs/can-bus.md "Performance"). SOF and the fields
+// after it, padded in front with zeros to whole bytes (3 bytes 11-bit, 5 bytes 29-bit), then the
+// data: the CRC register starts at 0, so the zeros in front change nothing and the region goes
+// through the CRC four bytes at a time. The stuffing starts after SOF (last bit dominant, a run
+// of one): the header's bits in SOF's byte (2 of 11-bit, 6 of 29-bit) through `part`, the
+// region's other bytes and the CRC's first 8 bits through `step`, its last 7 bits through `part`.
 std::uint32_t frame_bits_exact(const Frame& f) {
   static const ByteTables tables;
   const std::uint64_t rtr = f.remote ? 1 : 0, dlc = f.dlc & 0xFu;
@@ -151,9 +159,7 @@ std::uint32_t frame_bits_exact(const Frame& f) {
                                          std::uint64_t{f.id & 0x3FFFFu} << 7 | rtr << 6 | dlc
                                    : std::uint64_t{f.id & 0x7FFu} << 7 | rtr << 6 | dlc;
   const std::span<const std::uint8_t> data = f.payload();
-  // SOF and the header padded in front to whole bytes (3 bytes 11-bit, 5 bytes 29-bit), then the
-  // data: at most 13 bytes.
-  std::array<std::uint8_t, 16> region{};
+  std::array<std::uint8_t, 16> region{};  // at most 5 + 8 bytes
   const unsigned header_bytes = ext ? 5 : 3;
   for (unsigned i = 0; i < header_bytes; ++i)
     region[i] = static_cast<std::uint8_t>(header >> (8 * (header_bytes - 1 - i)));
@@ -171,25 +177,20 @@ std::uint32_t frame_bits_exact(const Frame& f) {
   for (; i < region_bytes; ++i)
     crc = ((crc << 8) ^ tables.crc[0][((crc >> 7) ^ region[i]) & 0xFF]) & 0x7FFF;
 
-  unsigned state = ByteTables::state(Stuffer{0, 1, 0});  // after SOF
-  std::uint32_t stuffed = 0;
-  std::uint64_t acc = 0;  // bits not yet stuffed, fewer than 8 between pushes
-  unsigned pending = 0;
-  auto push = [&](std::uint64_t value, unsigned width) {
-    acc = acc << width | value;
-    pending += width;
-    while (pending >= 8) {
-      pending -= 8;
-      const std::uint8_t n = tables.next[state][(acc >> pending) & 0xFF];
-      stuffed += n & 3u;
-      state = n >> 2;
-    }
-    acc &= (std::uint64_t{1} << pending) - 1;
-  };
-  push(header, header_bits);
-  for (const auto byte : data) push(byte, 8);
-  push(crc, 15);
-  stuffed += tables.tail[state][(1u << pending) | acc];
+  // `at`: 8 × the stuffing state; after SOF, state 0 (last bit dominant, a run of one).
+  const unsigned lead = header_bits % 8;  // the header's bits in SOF's byte
+  unsigned n = tables.part[0][(1u << lead) | (region[0] & ((1u << lead) - 1))];
+  std::uint32_t stuffed = n >> 6;
+  unsigned at = n & 0x3Fu;
+  for (unsigned k = 1; k < region_bytes; ++k) {
+    n = static_cast<unsigned>(tables.step[region[k]] >> at) & 0xFFu;
+    stuffed += n >> 6;
+    at = n & 0x3Fu;
+  }
+  n = static_cast<unsigned>(tables.step[crc >> 7] >> at) & 0xFFu;
+  stuffed += n >> 6;
+  at = n & 0x3Fu;
+  stuffed += tables.part[at / 8][(1u << 7) | (crc & 0x7Fu)] >> 6;
   return 1 + header_bits + 8 * static_cast<std::uint32_t>(data.size()) + 15 + stuffed +
          kTrailerBits;
 }
