@@ -155,7 +155,7 @@ void VirtualBus::started(const TimedBus::OnBus& f) {
 // at a wrong bit rate or bus-off); a frame in error nobody has.
 void VirtualBus::ended(const TimedBus::OnBus& f) {
   in_frame_ = false;
-  changed();
+  ended_ = true;  // changed() once when advance() returns
   if (f.error != TimedBus::Error::None) return;
   deliver_all(nodes_[f.node], f.frame);
 }

@@ -185,7 +185,14 @@ class VirtualBus {
   // Starts and ends every frame due at or before `now` (taps at each start of frame, receivers at
   // each end).
   void advance(Time now) {
-    if (timed_) timed_->advance(now);
+    if (!timed_) return;
+    timed_->advance(now);
+    // The frames that ended are one change (their receivers are looked at after the advance:
+    // docs/can-bus.md "Performance").
+    if (ended_) {
+      ended_ = false;
+      changed();
+    }
   }
 
  private:
@@ -219,6 +226,7 @@ class VirtualBus {
   const Time* clock_ = nullptr;
   std::uint64_t frames_sent_ = 0;
   std::unique_ptr<TimedBus> timed_;
+  bool ended_ = false;                   // a frame ended in this advance()
   std::vector<VirtualEndpoint*> nodes_;  // by TimedBus node; null when detached
 };
 
