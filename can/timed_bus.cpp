@@ -44,6 +44,18 @@ TimedBus::TimedBus(std::uint32_t bitrate, Time origin)
       us_per_bit_(bitrate != 0 && kMicrosPerSecond % bitrate == 0 ? kMicrosPerSecond / bitrate : 0),
       origin_(origin) {}
 
+void TimedBus::recount() {
+  calm_ = std::all_of(nodes_.begin(), nodes_.end(), [](const Node& n) {
+    return (n.conf.tec | n.conf.rec) == 0 && !n.wrong_bitrate && n.conf.state == BusState::Ok;
+  });
+  acknowledgers_ = 0;
+  for (std::size_t i = 0; i < nodes_.size(); ++i)
+    if (receives(nodes_[i]) && nodes_[i].acknowledges) {
+      ++acknowledgers_;
+      acknowledger_ = i;
+    }
+}
+
 // Split so that neither product overflows: whole seconds, then the rest of one.
 // Bits and microseconds rounded up both ways, as the line in time (common/line_physics.hpp).
 Time TimedBus::time_of(std::uint64_t bit) const {
@@ -61,6 +73,7 @@ std::size_t TimedBus::add_node(std::size_t depth) {
   Node n;
   n.depth = depth;
   nodes_.push_back(std::move(n));
+  recount();
   moved();
   return nodes_.size() - 1;
 }
@@ -70,6 +83,7 @@ void TimedBus::remove_node(std::size_t node) {
   pending_ -= n.queue.size();
   n.queue.clear();
   n.present = false;
+  recount();
   moved();
 }
 
@@ -80,10 +94,11 @@ bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
     ++lost_;
     return false;
   }
-  n.queue.push_back(Pending{frame, now, bit_at(now), arbitration_key(frame)});
+  n.queue.push_back(
+      Pending{frame, now, bit_at(now), arbitration_key(frame), frame_bits_exact(frame)});
   ++pending_;
   // While a frame is on the bus the deadline is its end, whatever is queued: nothing moved.
-  if (!on_bus_) moved();
+  if (!busy_) moved();
   return true;
 }
 
@@ -111,7 +126,7 @@ std::uint64_t TimedBus::next_start() const {
 }
 
 std::uint64_t TimedBus::next_recovery() const {
-  if (on_bus_ || bus_off_nodes_ == 0) return kNoBit;
+  if (busy_ || bus_off_nodes_ == 0) return kNoBit;
   std::uint64_t first = kNoBit;
   for (const Node& n : nodes_) {
     if (!n.present || n.conf.state != BusState::BusOff || !n.run_from) continue;
@@ -134,7 +149,7 @@ std::optional<Time> TimedBus::next_deadline() const {
 }
 
 std::optional<Time> TimedBus::compute_deadline() const {
-  if (on_bus_) return on_bus_->end;
+  if (busy_) return on_bus_.end;
   const std::uint64_t s = next_start(), r = next_recovery();
   if (r != kNoBit && r <= s) return time_of(r);
   if (s != kNoBit) return time_of(s);
@@ -151,8 +166,8 @@ void TimedBus::advance(Time now) {
 
 void TimedBus::run(Time now) {
   while (true) {
-    if (on_bus_) {
-      if (on_bus_->end > now) return;
+    if (busy_) {
+      if (on_bus_.end > now) return;
       finish();
       continue;
     }
@@ -181,6 +196,7 @@ void TimedBus::recover(std::uint64_t bit) {
     n.suspend_until = 0;
     n.conf.state = BusState::Ok;
     --bus_off_nodes_;
+    recount();
     if (on_state_) on_state_(i, n.conf.state);
   }
 }
@@ -208,8 +224,8 @@ void TimedBus::start(std::uint64_t bit) {
     }
   }
   const Pending& p = winner->queue.front();
-  // The identifier's statistics are fetched while the frame's length is counted (a cache miss at
-  // every frame otherwise: docs/can-bus.md "Performance"); only a frame without error makes a
+  // The identifier's statistics are fetched while the frame's error is looked for (a cache miss
+  // at every frame otherwise: docs/can-bus.md "Performance"); only a frame without error makes a
   // new entry.
   IdStatistics* known = find_statistics(best);
   if (known) {
@@ -217,7 +233,7 @@ void TimedBus::start(std::uint64_t bit) {
     __builtin_prefetch(reinterpret_cast<const char*>(known + 1) - 1, 1);
   }
   const Error error = error_of(index, p.frame, at);
-  std::uint32_t bits = frame_bits_exact(p.frame);
+  std::uint32_t bits = p.bits;
   if (error != Error::None) {
     // The frame occupies the bus up to its error, then the error frame; it stays at the head of
     // its queue and contends again (automatic retransmission).
@@ -227,11 +243,20 @@ void TimedBus::start(std::uint64_t bit) {
                                                               : stuffed;
     bits = detect + kErrorFrameBits;
   }
-  on_bus_ = OnBus{index, p.frame, bit, bit + bits, p.requested, at, time_of(bit + bits), error};
+  // Field by field into the frame on the bus (a temporary copied whole stalled on its own stores).
+  busy_ = true;
+  on_bus_.node = index;
+  on_bus_.frame = p.frame;
+  on_bus_.start_bit = bit;
+  on_bus_.end_bit = bit + bits;
+  on_bus_.requested = p.requested;
+  on_bus_.start = at;
+  on_bus_.end = time_of(bit + bits);
+  on_bus_.error = error;
   count_bits(bit, bits);
   if (error != Error::None) {
     ++error_frames_;
-    if (on_start_) on_start_(*on_bus_);
+    if (on_start_) on_start_(on_bus_);
     return;
   }
   winner->queue.pop_front();  // p is on_bus_ from here
@@ -239,8 +264,8 @@ void TimedBus::start(std::uint64_t bit) {
   ++frames_;
 
   IdStatistics& s = known ? *known : id_statistics(best);
-  s.id = ident_of(on_bus_->frame);
-  s.remote = on_bus_->frame.remote;
+  s.id = ident_of(on_bus_.frame);
+  s.remote = on_bus_.frame.remote;
   if (s.frames > 0) {
     const Duration period = at - s.last_start;
     s.period_last = period;
@@ -248,13 +273,13 @@ void TimedBus::start(std::uint64_t bit) {
     s.period_max = std::max(s.period_max, period);
     s.period_sum += period;
   }
-  const Duration latency = at - on_bus_->requested;
+  const Duration latency = at - on_bus_.requested;
   s.latency_last = latency;
   s.latency_max = std::max(s.latency_max, latency);
   s.latency_sum += latency;
   s.last_start = at;
   ++s.frames;
-  if (on_start_) on_start_(*on_bus_);
+  if (on_start_) on_start_(on_bus_);
 }
 
 std::size_t TimedBus::id_slot(std::uint32_t key) const {
@@ -312,14 +337,16 @@ TimedBus::Error TimedBus::error_of(std::size_t node, const Frame& frame, Time at
   }
   if (nodes_[node].wrong_bitrate) return Error::WrongBitrate;
   if (error != Error::None || !check_ack_) return error;
-  for (std::size_t i = 0; i < nodes_.size(); ++i)
-    if (i != node && receives(nodes_[i]) && nodes_[i].acknowledges) return Error::None;
-  return Error::Ack;
+  // Another node takes the frame and acknowledges it (recount()).
+  const bool acked = acknowledgers_ > 1 || (acknowledgers_ == 1 && acknowledger_ != node);
+  return acked ? Error::None : Error::Ack;
 }
 
 void TimedBus::finish() {
-  const OnBus done = *on_bus_;
-  on_bus_.reset();
+  // The frame stays in on_bus_ until the next start of frame, which only run() makes: the hooks
+  // below read it there (no copy).
+  const OnBus& done = on_bus_;
+  busy_ = false;
   free_bit_ = done.end_bit;
   confine(done.node, done);
   // The frame's last 11 bits (ACK delimiter, end of frame, intermission; or error delimiter and
@@ -340,10 +367,7 @@ void TimedBus::confine(std::size_t tx, const OnBus& f) {
   if (!t.present) return;
   // A frame without error on a bus whose nodes are all error active with both counters at 0 and
   // none at a wrong bit rate changes no counter and no state (docs/can-bus.md "Performance").
-  if (!error && std::all_of(nodes_.begin(), nodes_.end(), [](const Node& n) {
-        return (n.conf.tec | n.conf.rec) == 0 && !n.wrong_bitrate && n.conf.state == BusState::Ok;
-      }))
-    return;
+  if (!error && calm_) return;
   if (error) {
     ++t.conf.error_frames_sent;
     if (!(f.error == Error::Ack && t.conf.state == BusState::ErrorPassive))
@@ -365,6 +389,7 @@ void TimedBus::confine(std::size_t tx, const OnBus& f) {
     set_state(i);
   }
   set_state(tx);
+  recount();  // the counters changed
   if (t.conf.state == BusState::BusOff) {
     // A bus-off controller's transmit buffer is emptied (docs/faults.md "CAN controller state").
     t.conf.discarded += t.queue.size();
@@ -387,6 +412,7 @@ void TimedBus::set_state(std::size_t node) {
                                                : BusState::Ok;
   if (s == n.conf.state) return;
   n.conf.state = s;
+  recount();
   if (s == BusState::BusOff) {
     ++bus_off_nodes_;
     ++n.conf.bus_off;
@@ -402,6 +428,7 @@ void TimedBus::clear_faults(std::optional<std::size_t> node) {
     nodes_[i].unplugged = false;
     nodes_[i].wrong_bitrate = false;
   }
+  recount();
   moved();
 }
 

@@ -144,13 +144,20 @@ class TimedBus {
   // The node sends nothing (its queue waits), acknowledges nothing, gets nothing.
   void set_unplugged(std::size_t node, bool on) {
     nodes_.at(node).unplugged = on;
+    recount();
     moved();
   }
   // The node runs at another bit rate: its frames are errors for all, the others' for it.
-  void set_wrong_bitrate(std::size_t node, bool on) { nodes_.at(node).wrong_bitrate = on; }
+  void set_wrong_bitrate(std::size_t node, bool on) {
+    nodes_.at(node).wrong_bitrate = on;
+    recount();
+  }
   bool wrong_bitrate(std::size_t node) const { return nodes_.at(node).wrong_bitrate; }
   // A node that receives but never acknowledges (a listen-only analyser): false.
-  void set_acknowledges(std::size_t node, bool on) { nodes_.at(node).acknowledges = on; }
+  void set_acknowledges(std::size_t node, bool on) {
+    nodes_.at(node).acknowledges = on;
+    recount();
+  }
   // Cancels a node's faults (error frames on it, unplugged, wrong bit rate), or with nullopt
   // every fault on the bus.
   void clear_faults(std::optional<std::size_t> node);
@@ -172,7 +179,7 @@ class TimedBus {
   Time time_of(std::uint64_t bit) const;
   // The first whole bit at or after `t`.
   std::uint64_t bit_at(Time t) const;
-  bool busy() const { return on_bus_.has_value(); }
+  bool busy() const { return busy_; }
   std::size_t queued(std::size_t node) const { return nodes_.at(node).queue.size(); }
 
   // Frames put on the bus without error (a frame in error counts in error_frames()).
@@ -190,6 +197,10 @@ class TimedBus {
     Time requested{0};
     std::uint64_t requested_bit = 0;  // bit_at(requested), counted once
     std::uint32_t key = 0;            // arbitration_key(frame), counted once
+    // frame_bits_exact(frame), counted at the request: the frame and the tables are in the cache
+    // then (a node sends its frames in bursts), and a frame repeated after an error is not
+    // counted again (docs/can-bus.md "Performance").
+    std::uint32_t bits = 0;
   };
   // A node's transmit queue: a ring that grows to the most frames it held, so that no frame
   // allocates (docs/can-bus.md "Performance").
@@ -264,7 +275,8 @@ class TimedBus {
   std::uint64_t us_per_bit_;  // when a bit is a whole number of microseconds, else 0
   Time origin_;
   std::vector<Node> nodes_;
-  std::optional<OnBus> on_bus_;
+  OnBus on_bus_;  // the frame on the bus while busy_, the last one after
+  bool busy_ = false;
   std::uint64_t free_bit_ = 0;  // the first bit after the last frame
   std::size_t pending_ = 0;     // frames in all queues
   Hook on_start_, on_end_;
@@ -298,6 +310,14 @@ class TimedBus {
   IdStatistics& id_statistics(std::uint32_t key);    // made on the first frame
   IdStatistics* find_statistics(std::uint32_t key);  // nullptr: none yet
   std::size_t bus_off_nodes_ = 0;  // nodes in BusOff (none: no recovery to look for)
+  // What every frame would otherwise ask of every node, counted again at each change of a node's
+  // counters, state or faults (docs/can-bus.md "Performance"): calm_, no node with an error
+  // counter above 0, a state other than error active or a wrong bit rate (a frame without error
+  // then changes no counter: confine()); the nodes that take frames and acknowledge them
+  // (error_of()'s ACK), and the last of them.
+  bool calm_ = true;
+  std::size_t acknowledgers_ = 0, acknowledger_ = 0;
+  void recount();
 };
 
 }  // namespace candp2::can
