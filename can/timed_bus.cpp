@@ -137,10 +137,17 @@ std::uint64_t TimedBus::next_recovery() const {
 
 void TimedBus::moved() {
   deadline_known_ = false;
-  if (on_moved_) on_moved_();
+  // Told once until somebody asks again: the owner marks the bus at the first call and asks
+  // next_deadline() for it before it trusts the bus's deadline again (a burst of requests to an
+  // idle bus told it once per frame: docs/can-bus.md "Performance").
+  if (on_moved_ && !told_) {
+    told_ = true;
+    on_moved_();
+  }
 }
 
 std::optional<Time> TimedBus::next_deadline() const {
+  told_ = false;
   if (!deadline_known_) {
     deadline_ = compute_deadline();
     deadline_known_ = true;

@@ -124,7 +124,10 @@ class TimedBus {
   // Called when next_deadline() may have moved (a request, an advance, a node leaving or
   // unplugged): the owner of many buses asks again only those (the plant, docs/can-bus.md
   // "Performance").
-  void on_moved(std::function<void()> hook) { on_moved_ = std::move(hook); }
+  void on_moved(std::function<void()> hook) {
+    on_moved_ = std::move(hook);
+    told_ = false;
+  }
   // Called when a node's confinement state changes (after the frame that changed it, or at its
   // bus-off recovery).
   void on_state(std::function<void(std::size_t node, BusState)> hook) {
@@ -291,6 +294,7 @@ class TimedBus {
   // next_deadline() as of the last change (request, advance, a node leaving or unplugged).
   mutable std::optional<Time> deadline_;
   mutable bool deadline_known_ = false;
+  mutable bool told_ = false;  // on_moved_ called, next_deadline() not asked since
   std::optional<Time> compute_deadline() const;
   std::function<void()> on_moved_;
   void moved();
