@@ -66,8 +66,12 @@ class EarliestDeadline {
     } else {
       for (const std::uint32_t i : pending_) {
         pending_flag_[i] = false;
+        // The same deadline: its live entry stands (a gateway that took a frame mostly waits for
+        // what it waited for; docs/can-bus.md "Performance").
+        const std::optional<Time> d = deadline_of(i);
+        if (d == at_[i]) continue;
         ++stamp_[i];
-        if (const std::optional<Time> d = at_[i] = deadline_of(i)) {
+        if ((at_[i] = d)) {
           heap_.push_back({*d, i, stamp_[i]});
           std::push_heap(heap_.begin(), heap_.end(), later);
         }
