@@ -156,6 +156,10 @@ class VirtualBus {
   // Grows with every frame sent and every change of a bus or endpoint state: while it stands
   // still, no endpoint's queue, bus state or lost count changed (the plant skips quiet buses).
   std::uint64_t changes() const { return changes_; }
+  // The changes but the frames that ended on a bus in time: while it stands still, no endpoint's
+  // bus state or lost count changed but by the frames it took (the plant gives a gateway its
+  // controller state again only then: docs/can-bus.md "Performance").
+  std::uint64_t state_changes() const { return state_changes_; }
   // Also counts them in `*shared` (the plant's count over all its buses); null: not.
   void count_changes_in(std::uint64_t* shared) { shared_changes_ = shared; }
   // And calls `hook` at each (the plant marks this bus's gateways for delivery); empty: none.
@@ -191,7 +195,7 @@ class VirtualBus {
     // docs/can-bus.md "Performance").
     if (ended_) {
       ended_ = false;
-      changed();
+      changed(false);
     }
   }
 
@@ -214,11 +218,12 @@ class VirtualBus {
   bool in_frame_ = false;
   Time frame_end_{0};
   BusState state_ = BusState::Ok;
-  std::uint64_t changes_ = 0;
+  std::uint64_t changes_ = 0, state_changes_ = 0;
   std::uint64_t* shared_changes_ = nullptr;
   std::function<void()> changed_hook_;
-  void changed() {
+  void changed(bool state = true) {
     ++changes_;
+    if (state) ++state_changes_;
     if (shared_changes_) ++*shared_changes_;
     if (changed_hook_) changed_hook_();
   }

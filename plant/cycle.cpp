@@ -236,14 +236,21 @@ bool Plant::deliver(Time now) {
         GatewayUnit* g = gateways_[w * 64 + bit].get();
         if (!g->endpoint_) continue;
         // A quiet virtual bus (no frame, no state change since) has nothing for the gateway.
-        const std::uint64_t changes = g->bus_->vbus_->changes();
+        const can::VirtualBus& bus = *g->bus_->vbus_;
+        const std::uint64_t changes = bus.changes();
         if (g->bus_seen_ == changes) continue;
+        // Only frames ended on its bus in time since it was last given its controller state, and
+        // none for it (the other gateway's): the state is what it was (docs/can-bus.md
+        // "Performance").
+        bool same_state = g->bus_seen_ && g->state_seen_ == bus.state_changes();
         while (auto f = g->endpoint_->receive()) {
           g->receive(*f, now_);
           work = true;
+          same_state = false;
         }
-        g->update_controller();
+        if (!same_state) g->update_controller();
         g->bus_seen_ = changes;
+        g->state_seen_ = bus.state_changes();
       }
     }
     for (auto& d : drives_)

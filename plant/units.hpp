@@ -96,6 +96,7 @@ class GatewayUnit final : private can::FrameSink {
   faults::CanFaultLayer faults_;
   std::unique_ptr<gw::Gateway> gateway_;
   std::optional<std::uint64_t> bus_seen_;  // the virtual bus's changes() when last delivered
+  std::uint64_t state_seen_ = 0;           // and its state_changes()
   bool listed_ = false;                    // in the plant's touched list
   // The controller state and IRQ_LOST total last given to the engine (update_controller).
   std::optional<std::pair<can::BusState, std::uint32_t>> applied_;
