@@ -2,7 +2,7 @@
 // time measured (docs/can-bus.md "The bus in time"), for bus_prediction_test.py to hold against
 // `candp2 validate --json`'s prediction (docs/validate.md "CAN buses"):
 //
-//   timed_bus_run CONFIG SECONDS [--writer longest|counter]
+//   timed_bus_run CONFIG SECONDS [--writer longest|counter] [--step-us N]
 //
 // --writer: from the first second on, a writer changes every output slot of every gateway between
 // two Data_Exchanges, every master cycle: the traffic validate predicts (each Tx slot's frame once
@@ -10,7 +10,9 @@
 // two longest data the slot's frame can carry (the most stuff bits with the real CRC-15, found
 // here by a dynamic programme over the data bits), so that the bus carries the longest real
 // frames; `counter`: every byte the cycle's number plus its place (cheap, for benchmarks:
-// bench/can_load.py). The run's wall time goes to stderr.
+// bench/can_load.py). --step-us: the plant's step (plant::Options::step; replay's 0 by default,
+// candp2d runs 1000: the engines in time advanced at most once a millisecond, as the daemon's
+// share of the work). The run's wall time goes to stderr.
 //
 // Prints one JSON line: {"buses": {NAME: {bitrate, load_last_pct, load_max_pct, frames, lost,
 // identifiers: [{id, extended, remote, frames, latency_max_us, latency_mean_us}]}} (an ideal bus:
@@ -197,10 +199,27 @@ nlohmann::json bus_json(plant::Plant& p) {
 }
 
 int run(int argc, char** argv) {
-  const std::string mode = argc == 5 && std::string(argv[3]) == "--writer" ? argv[4] : "";
-  const bool writer = mode == "longest" || mode == "counter";
-  if (argc != 3 && !writer) {
-    std::fprintf(stderr, "usage: timed_bus_run CONFIG SECONDS [--writer longest|counter]\n");
+  std::string mode;
+  long long step_us = 0;
+  bool ok = argc >= 3;
+  for (int i = 3; ok && i < argc; i += 2) {
+    const std::string flag = argv[i];
+    if (i + 1 >= argc) {
+      ok = false;
+    } else if (flag == "--writer") {
+      mode = argv[i + 1];
+      ok = mode == "longest" || mode == "counter";
+    } else if (flag == "--step-us") {
+      step_us = std::atoll(argv[i + 1]);
+      ok = step_us >= 0;
+    } else {
+      ok = false;
+    }
+  }
+  const bool writer = !mode.empty();
+  if (!ok) {
+    std::fprintf(stderr,
+                 "usage: timed_bus_run CONFIG SECONDS [--writer longest|counter] [--step-us N]\n");
     return 1;
   }
   const auto wall_start = std::chrono::steady_clock::now();
@@ -214,6 +233,7 @@ int run(int argc, char** argv) {
   plant::Options po;
   po.log = &log;
   po.first_cycle_at_start = true;  // cycles at 0, T, 2T, ... as replay runs them
+  po.step = Duration(step_us);     // candp2d's 1 ms, for its share of the work
   std::string error;
   auto plant = plant::Plant::build(cfg, std::move(po), Time{0}, &error);
   if (!plant) {
