@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
+#include <cstring>
 
 namespace candp2::can {
 
@@ -158,19 +160,31 @@ std::uint32_t frame_bits_exact(const Frame& f) {
                                          std::uint64_t{3} << 25 |
                                          std::uint64_t{f.id & 0x3FFFFu} << 7 | rtr << 6 | dlc
                                    : std::uint64_t{f.id & 0x7FFu} << 7 | rtr << 6 | dlc;
-  const std::span<const std::uint8_t> data = f.payload();
-  std::array<std::uint8_t, 16> region{};  // at most 5 + 8 bytes
+  const auto data_bytes = static_cast<unsigned>(f.payload().size());
+  // The region as two big-endian words: the header in front (zeros before it), then all 8 data
+  // bytes (only the payload's are read: the loops stop at region_bytes). Two stores that do not
+  // overlap, so that the loads below take their bytes from one store each.
+  std::array<std::uint8_t, 16> region;  // at most 5 + 8 bytes
   const unsigned header_bytes = ext ? 5 : 3;
-  for (unsigned i = 0; i < header_bytes; ++i)
-    region[i] = static_cast<std::uint8_t>(header >> (8 * (header_bytes - 1 - i)));
-  std::copy(data.begin(), data.end(), region.begin() + header_bytes);
-  const unsigned region_bytes = header_bytes + static_cast<unsigned>(data.size());
+  std::uint64_t data_be;
+  std::memcpy(&data_be, f.data.data(), 8);
+  auto big_endian = [](std::uint64_t v) {
+    return std::endian::native == std::endian::little ? __builtin_bswap64(v) : v;
+  };
+  data_be = big_endian(data_be);  // data[0] in the top byte
+  const std::uint64_t w0 = header << (64 - 8 * header_bytes) | data_be >> (8 * header_bytes);
+  const std::uint64_t w1 = data_be << (64 - 8 * header_bytes);
+  const std::uint64_t w0_bytes = big_endian(w0), w1_bytes = big_endian(w1);
+  std::memcpy(region.data(), &w0_bytes, 8);
+  std::memcpy(region.data() + 8, &w1_bytes, 8);
+  const unsigned region_bytes = header_bytes + data_bytes;
   std::uint32_t crc = 0;
   unsigned i = 0;
   for (; i + 4 <= region_bytes; i += 4) {
-    const std::uint32_t x = (std::uint32_t{region[i]} << 24 | std::uint32_t{region[i + 1]} << 16 |
-                             std::uint32_t{region[i + 2]} << 8 | region[i + 3]) ^
-                            crc << 17;
+    std::uint32_t word;
+    std::memcpy(&word, region.data() + i, 4);
+    if constexpr (std::endian::native == std::endian::little) word = __builtin_bswap32(word);
+    const std::uint32_t x = word ^ crc << 17;
     crc = tables.crc[3][x >> 24] ^ tables.crc[2][(x >> 16) & 0xFF] ^
           tables.crc[1][(x >> 8) & 0xFF] ^ tables.crc[0][x & 0xFF];
   }
@@ -191,8 +205,7 @@ std::uint32_t frame_bits_exact(const Frame& f) {
   stuffed += n >> 6;
   at = n & 0x3Fu;
   stuffed += tables.part[at / 8][(1u << 7) | (crc & 0x7Fu)] >> 6;
-  return 1 + header_bits + 8 * static_cast<std::uint32_t>(data.size()) + 15 + stuffed +
-         kTrailerBits;
+  return 1 + header_bits + 8 * data_bytes + 15 + stuffed + kTrailerBits;
 }
 
 std::uint32_t frame_bits_longest(const Frame& f) {
