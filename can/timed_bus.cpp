@@ -58,10 +58,7 @@ void TimedBus::recount() {
 
 // Split so that neither product overflows: whole seconds, then the rest of one.
 // Bits and microseconds rounded up both ways, as the line in time (common/line_physics.hpp).
-Time TimedBus::time_of(std::uint64_t bit) const {
-  // A bit a whole number of microseconds long (every CAN-DP/2 rate but 800k): no rounding, so
-  // bits_to_time() is that product (docs/can-bus.md "Performance": the divisions cost).
-  if (us_per_bit_ != 0) return origin_ + Duration(static_cast<std::int64_t>(bit * us_per_bit_));
+Time TimedBus::time_of_rounded(std::uint64_t bit) const {
   return origin_ + phy::bits_to_time(bitrate_, bit);
 }
 
@@ -105,14 +102,6 @@ bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
 bool TimedBus::contends(const Node& n, std::uint64_t bit, Time at) const {
   return !n.queue.empty() && !n.unplugged && n.conf.state != BusState::BusOff &&
          n.suspend_until <= bit && n.queue.front_requested() <= at;
-}
-
-bool TimedBus::receives(std::size_t node) const {
-  return receives(nodes_.at(node));
-}
-
-bool TimedBus::receives(const Node& n) {
-  return n.present && !n.unplugged && !n.wrong_bitrate && n.conf.state != BusState::BusOff;
 }
 
 std::uint64_t TimedBus::next_start() const {
@@ -239,7 +228,10 @@ void TimedBus::start(std::uint64_t bit) {
     __builtin_prefetch(known, 1);
     __builtin_prefetch(reinterpret_cast<const char*>(known + 1) - 1, 1);
   }
-  const Error error = error_of(index, p.frame, at);
+  // Without faults on cue or a wrong bit rate only the ACK can fail (error_of()'s walk skipped).
+  const Error error = !faults_.empty() || winner->wrong_bitrate ? error_of(index, p.frame, at)
+                      : !check_ack_ || acknowledged(index)      ? Error::None
+                                                                : Error::Ack;
   std::uint32_t bits = p.bits;
   if (error != Error::None) {
     // The frame occupies the bus up to its error, then the error frame; it stays at the head of
@@ -260,7 +252,12 @@ void TimedBus::start(std::uint64_t bit) {
   on_bus_.start = at;
   on_bus_.end = time_of(bit + bits);
   on_bus_.error = error;
-  count_bits(bit, bits);
+  if (bit + bits <= (window_ + 1) * bitrate_) {  // within the second being counted
+    busy_bits_ += bits;
+    window_bits_ += bits;
+  } else {
+    count_bits(bit, bits);
+  }
   if (error != Error::None) {
     ++error_frames_;
     if (on_start_) on_start_(on_bus_);
@@ -344,9 +341,7 @@ TimedBus::Error TimedBus::error_of(std::size_t node, const Frame& frame, Time at
   }
   if (nodes_[node].wrong_bitrate) return Error::WrongBitrate;
   if (error != Error::None || !check_ack_) return error;
-  // Another node takes the frame and acknowledges it (recount()).
-  const bool acked = acknowledgers_ > 1 || (acknowledgers_ == 1 && acknowledger_ != node);
-  return acked ? Error::None : Error::Ack;
+  return acknowledged(node) ? Error::None : Error::Ack;
 }
 
 void TimedBus::finish() {

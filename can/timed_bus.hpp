@@ -167,7 +167,7 @@ class TimedBus {
   const Confinement& confinement(std::size_t node) const { return nodes_.at(node).conf; }
   // The node takes a frame that ends without error: present, plugged, at the bus's bit rate and
   // not bus-off.
-  bool receives(std::size_t node) const;
+  bool receives(std::size_t node) const { return receives(nodes_.at(node)); }
   std::uint64_t error_frames() const { return error_frames_; }
   std::size_t nodes() const { return nodes_.size(); }
 
@@ -179,7 +179,12 @@ class TimedBus {
   void advance(Time now);
 
   std::uint32_t bitrate() const { return bitrate_; }
-  Time time_of(std::uint64_t bit) const;
+  Time time_of(std::uint64_t bit) const {
+    // A bit a whole number of microseconds long (every CAN-DP/2 rate but 800k): no rounding, so
+    // bits_to_time() is that product (docs/can-bus.md "Performance": the divisions cost).
+    if (us_per_bit_ != 0) return origin_ + Duration(static_cast<std::int64_t>(bit * us_per_bit_));
+    return time_of_rounded(bit);
+  }
   // The first whole bit at or after `t`.
   std::uint64_t bit_at(Time t) const;
   bool busy() const { return busy_; }
@@ -256,7 +261,14 @@ class TimedBus {
   // The node may start a frame at `bit`, whose time is `at` (present, plugged, not bus-off, not
   // suspended, a frame requested by then).
   bool contends(const Node& n, std::uint64_t bit, Time at) const;
-  static bool receives(const Node& n);
+  static bool receives(const Node& n) {
+    return n.present && !n.unplugged && !n.wrong_bitrate && n.conf.state != BusState::BusOff;
+  }
+  Time time_of_rounded(std::uint64_t bit) const;
+  // Another node takes a frame of `node` and acknowledges it (recount()).
+  bool acknowledged(std::size_t node) const {
+    return acknowledgers_ > 1 || (acknowledgers_ == 1 && acknowledger_ != node);
+  }
   // No such bit (plain numbers, not std::optional: these are asked at every start and end of
   // frame, docs/can-bus.md "Performance").
   static constexpr std::uint64_t kNoBit = ~std::uint64_t{0};
