@@ -350,7 +350,9 @@ void TimedBus::finish() {
   const OnBus& done = on_bus_;
   busy_ = false;
   free_bit_ = done.end_bit;
-  confine(done.node, done);
+  // A frame without error on a calm bus changes no counter (confine()'s fast path, without the
+  // call).
+  if (done.error != Error::None || !calm_) confine(done.node, done);
   // The frame's last 11 bits (ACK delimiter, end of frame, intermission; or error delimiter and
   // intermission) are recessive: a bus-off node's run starts there.
   if (bus_off_nodes_ > 0)

@@ -22,7 +22,7 @@ class EarliestDeadline {
   void resize(std::size_t n) {
     stamp_.assign(n, 0);
     at_.assign(n, std::nullopt);
-    pending_flag_.assign(n, false);
+    pending_flag_.assign(n, 0);
     pending_.clear();
     all_ = true;
   }
@@ -31,7 +31,7 @@ class EarliestDeadline {
   // Item i's deadline must be asked again (an item beyond size() is asked when it is added).
   void moved(std::size_t i) {
     if (all_ || i >= stamp_.size() || pending_flag_[i]) return;
-    pending_flag_[i] = true;
+    pending_flag_[i] = 1;
     pending_.push_back(static_cast<std::uint32_t>(i));
   }
   // Every item's deadline must be asked again.
@@ -60,12 +60,12 @@ class EarliestDeadline {
           heap_.push_back({*d, static_cast<std::uint32_t>(i), stamp_[i]});
       }
       std::make_heap(heap_.begin(), heap_.end(), later);
-      for (const std::uint32_t i : pending_) pending_flag_[i] = false;
+      for (const std::uint32_t i : pending_) pending_flag_[i] = 0;
       pending_.clear();
       all_ = false;
     } else {
       for (const std::uint32_t i : pending_) {
-        pending_flag_[i] = false;
+        pending_flag_[i] = 0;
         // The same deadline: its live entry stands (a gateway that took a frame mostly waits for
         // what it waited for; docs/can-bus.md "Performance").
         const std::optional<Time> d = deadline_of(i);
@@ -99,7 +99,7 @@ class EarliestDeadline {
   std::vector<Entry> heap_;
   std::vector<std::uint64_t> stamp_;  // an entry is live while its stamp is the item's
   std::vector<std::optional<Time>> at_;
-  std::vector<bool> pending_flag_;
+  std::vector<std::uint8_t> pending_flag_;  // bytes: tested and set at every move
   std::vector<std::uint32_t> pending_;
   bool all_ = true;
   std::optional<Time> first_;  // what the last refresh found
@@ -117,7 +117,7 @@ class DeadlineTree {
     leaves_ = 1;
     while (leaves_ < n) leaves_ *= 2;
     tree_.assign(2 * leaves_, kNone);
-    pending_flag_.assign(n, false);
+    pending_flag_.assign(n, 0);
     pending_.clear();
     all_ = true;
   }
@@ -126,7 +126,7 @@ class DeadlineTree {
   // Item i's deadline must be asked again.
   void moved(std::size_t i) {
     if (all_ || i >= size() || pending_flag_[i]) return;
-    pending_flag_[i] = true;
+    pending_flag_[i] = 1;
     pending_.push_back(static_cast<std::uint32_t>(i));
   }
 
@@ -136,12 +136,12 @@ class DeadlineTree {
     if (all_) {
       for (std::size_t i = 0; i < size(); ++i) tree_[leaves_ + i] = deadline_of(i).value_or(kNone);
       for (std::size_t k = leaves_; k-- > 1;) tree_[k] = std::min(tree_[2 * k], tree_[2 * k + 1]);
-      for (const std::uint32_t i : pending_) pending_flag_[i] = false;
+      for (const std::uint32_t i : pending_) pending_flag_[i] = 0;
       pending_.clear();
       all_ = false;
     }
     for (const std::uint32_t i : pending_) {
-      pending_flag_[i] = false;
+      pending_flag_[i] = 0;
       std::size_t k = leaves_ + i;
       tree_[k] = deadline_of(i).value_or(kNone);
       for (k /= 2; k >= 1; k /= 2) {
@@ -176,7 +176,7 @@ class DeadlineTree {
   static constexpr Time kNone = Time::max();
   std::size_t leaves_ = 1;
   std::vector<Time> tree_ = std::vector<Time>(2, kNone);  // [1] the root, [leaves_ + i] item i
-  std::vector<bool> pending_flag_;
+  std::vector<std::uint8_t> pending_flag_;                // bytes: tested and set at every move
   std::vector<std::uint32_t> pending_;
   bool all_ = true;
   mutable std::vector<std::size_t> walk_;  // due()'s nodes still to look at
