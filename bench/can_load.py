@@ -17,11 +17,15 @@ at the frames' exact lengths). The buses are timed at --bitrate (default "1000k"
            every output between two Data_Exchanges) for --virtual-s of virtual time, timed and
            ideal alternately: the wall time and the speed (virtual s per wall s)
 
+options of both:
+  --paired     the timed and the ideal run side by side (one on each core) instead of one after
+               the other: the shared VM's speed drifts by tens of per cent from minute to minute,
+               and a ratio of two runs minutes apart measures the drift (docs/can-bus.md
+               "Performance"); the timed row has the ratio of that pair
+replay options:
+  --step-us N  the plant's step (timed_bus_run --step-us; replay's 0 by default, candp2d's 1000:
+               the daemon's share of the work in virtual time)
 daemon options:
-  --paired     the timed and the ideal daemon run side by side (one on each core) instead of one
-               after the other: the shared VM's speed drifts by tens of per cent from minute to
-               minute, and a ratio of two runs minutes apart measures the drift (docs/can-bus.md
-               "Performance")
   --observer   over each run an open panel (the overview's event stream and a gateway panel's,
                /api/v1/events?gw=3, read continuously; GET /api/v1/status twice a second) and
                hostile HTTP clients beside it (every half second a burst of 200 connections
@@ -38,6 +42,7 @@ Prints one JSON line per run and the medians with the ratios timed / ideal.
 Usage: bench/can_load.py daemon --candp2d build/bin/candp2d [--seconds 10] [--rounds 2]
            [--paired] [--observer] [--stall-ms 300]
        bench/can_load.py replay --timed-bus-run build/tests/timed_bus_run [--virtual-s 60]
+           [--paired] [--step-us 1000]
 """
 
 import argparse
@@ -206,12 +211,13 @@ def measure_daemon(binary, bitrate, seconds, observe=False, stall_ms=0):
             r.stop()
 
 
-def measure_replay(binary, bitrate, virtual_s):
+def measure_replay(binary, bitrate, virtual_s, step_us=0):
     with tempfile.TemporaryDirectory(prefix="candp2-can-") as d:
         path = os.path.join(d, "can.json")
         with open(path, "w") as f:
             json.dump(config(bitrate), f)
-        r = subprocess.run([binary, path, str(virtual_s), "--writer", "counter"],
+        r = subprocess.run([binary, path, str(virtual_s), "--writer", "counter",
+                            "--step-us", str(step_us)],
                            capture_output=True, text=True, timeout=24 * 3600)
         if r.returncode != 0:
             sys.exit(r.stderr)
@@ -237,15 +243,20 @@ def main():
     ap.add_argument("--paired", action="store_true")
     ap.add_argument("--observer", action="store_true")
     ap.add_argument("--stall-ms", type=int, default=0)
+    ap.add_argument("--step-us", type=int, default=0)
     args = ap.parse_args()
     rows = []
     for _ in range(args.rounds):
-        if args.mode == "daemon" and args.paired:
+        if args.paired:
             out = {}
 
             def one(bitrate):
-                out[bitrate] = measure_daemon(args.candp2d, bitrate, args.seconds,
-                                              args.observer, args.stall_ms)
+                if args.mode == "daemon":
+                    out[bitrate] = measure_daemon(args.candp2d, bitrate, args.seconds,
+                                                  args.observer, args.stall_ms)
+                else:
+                    out[bitrate] = measure_replay(args.timed_bus_run, bitrate, args.virtual_s,
+                                                  args.step_us)
 
             runs = [threading.Thread(target=one, args=(b,)) for b in (args.bitrate, None)]
             for t in runs:
@@ -253,12 +264,15 @@ def main():
             for t in runs:
                 t.join()
             batch = [out[args.bitrate], out[None]]
-            batch[0]["ratio"] = round(batch[0]["cpu_pct"] / max(batch[1]["cpu_pct"], 0.1), 2)
+            if args.mode == "daemon":
+                batch[0]["ratio"] = round(batch[0]["cpu_pct"] / max(batch[1]["cpu_pct"], 0.1), 2)
+            else:
+                batch[0]["ratio"] = round(batch[0]["speed"] / max(batch[1]["speed"], 0.01), 3)
         elif args.mode == "daemon":
             batch = [measure_daemon(args.candp2d, b, args.seconds, args.observer, args.stall_ms)
                      for b in (args.bitrate, None)]
         else:
-            batch = [measure_replay(args.timed_bus_run, b, args.virtual_s)
+            batch = [measure_replay(args.timed_bus_run, b, args.virtual_s, args.step_us)
                      for b in (args.bitrate, None)]
         for row in batch:
             rows.append(row)
