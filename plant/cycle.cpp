@@ -239,16 +239,17 @@ bool Plant::deliver(Time now) {
         const can::VirtualBus& bus = *g->bus_->vbus_;
         const std::uint64_t changes = bus.changes();
         if (g->bus_seen_ == changes) continue;
-        // Only frames ended on its bus in time since it was last given its controller state, and
-        // none for it (the other gateway's): the state is what it was (docs/can-bus.md
-        // "Performance").
-        bool same_state = g->bus_seen_ && g->state_seen_ == bus.state_changes();
+        // Only frames ended on its bus in time since it was last given its controller state: the
+        // state is what it was, and so is its IRQ_LOST total unless a frame was lost on the way
+        // (its receive queue full, or dropped on cue) (docs/can-bus.md "Performance").
+        const bool same_state = g->bus_seen_ && g->state_seen_ == bus.state_changes();
         while (auto f = g->endpoint_->receive()) {
           g->receive(*f, now_);
           work = true;
-          same_state = false;
         }
-        if (!same_state) g->update_controller();
+        if (!same_state || !g->applied_ ||
+            g->applied_->second != g->faults_.rx_lost(g->endpoint_->rx_lost()))
+          g->update_controller();
         g->bus_seen_ = changes;
         g->state_seen_ = bus.state_changes();
       }
