@@ -201,5 +201,25 @@ TEST(TimedBus, OverloadGrowsLatency) {
   EXPECT_LT(high.latency_max, low.latency_max);
 }
 
+// docs/can-bus.md "Performance": the owner is told once that the deadline may have moved, until
+// it asks next_deadline() again; what it then asks is the deadline after every request.
+TEST(TimedBus, OwnerToldOnceUntilItAsksAgain) {
+  TimedBus bus(125000, Time(0));
+  const auto a = bus.add_node(8), b = bus.add_node(8), c = bus.add_node(8);
+  int told = 0;
+  bus.on_moved([&told] { ++told; });
+  request_all(bus, {{a, "123#11"}, {a, "124#22"}, {b, "080#"}}, Time(100));
+  EXPECT_EQ(told, 1);  // three requests to an idle bus, nobody asked in between
+  EXPECT_EQ(bus.next_deadline(), Time(104));  // requested at 100: the first whole bit, 13
+  ASSERT_TRUE(bus.request(c, F("000#"), Time(50)));
+  EXPECT_EQ(told, 2);                        // asked since: told again
+  EXPECT_EQ(bus.next_deadline(), Time(56));  // 000# requested at 50: its first bit at 56 µs
+  bus.advance(Time(56));                     // 000# starts; the advance moves the deadline
+  EXPECT_EQ(told, 3);
+  EXPECT_EQ(bus.next_deadline(), Time(56 + 53 * 8));
+  ASSERT_TRUE(bus.request(a, F("125#33"), Time(60)));  // while a frame is on the bus: not moved
+  EXPECT_EQ(told, 3);
+}
+
 }  // namespace
 }  // namespace candp2::can
