@@ -83,5 +83,41 @@ TEST(TimedBusInThePlant, WithAStepTheFramesKeepTheirTimes) {
       stepped.wakeups.end());
 }
 
+// docs/can-bus.md "Performance": on a bus in time a gateway is given its controller state again
+// only when something but the frames changed, or when its IRQ_LOST total moved. Frames dropped on
+// cue (docs/faults.md) still reach IRQ_LOST at the frame that was dropped.
+TEST(TimedBusInThePlant, FramesDroppedOnCueReachIrqLost) {
+  auto parsed = config::parse_daemon(R"({
+    "master": { "address": 1, "cycle_ms": 10 },
+    "buses": { "can0": { "type": "virtual", "bitrate": "125k" } },
+    "gateways": [ { "name": "gw3", "address": 3, "bus": "can0",
+                    "parameters": { "can_bitrate": "125k" },
+                    "slots": [ { "io": "input", "address": 0, "length": 2,
+                                 "comment": "02,89,B8" } ] } ]
+  })",
+                                     "bus.json");
+  const auto cfg = std::get<config::DaemonConfig>(parsed);
+  std::string error;
+  auto p = plant::Plant::build(cfg, plant::Options{}, Time{0}, &error);
+  ASSERT_TRUE(p) << error;
+  const auto peer = p->buses().at(0)->virtual_bus()->endpoint("peer");
+  auto run_to = [&](Time end) {
+    while (const auto next = p->next_deadline()) {
+      if (*next > end) break;
+      p->advance(*next);
+    }
+    p->advance(end);
+  };
+  run_to(Time{200'000});
+  plant::GatewayUnit& gw = *p->gateway("gw3");
+  const auto rx_before = gw.gateway().status().rx_frames;
+  p->drop_rx(gw, 2, p->now(), "(test)");
+  for (int i = 0; i < 3; ++i) peer->send(*can::parse_candump("289#1122").frame);
+  run_to(p->now() + milliseconds(5));
+  const auto status = gw.gateway().status();
+  EXPECT_EQ(status.irq_lost, 2u);
+  EXPECT_EQ(status.rx_frames, rx_before + 1);  // the third frame got through
+}
+
 }  // namespace
 }  // namespace candp2
