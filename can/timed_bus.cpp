@@ -15,15 +15,6 @@ constexpr std::uint64_t kMicrosPerSecond = 1'000'000;
 // an unacknowledged frame at its ACK slot (after the CRC delimiter).
 constexpr std::uint32_t kWrongBitrateDetectBits = 6;
 constexpr std::uint32_t kAckDetectAfterCrc = 2;
-// Bosch CAN 2.0 part B §8 / ISO 11898-1 fault confinement.
-constexpr std::uint32_t kTecOnError = 8;
-constexpr std::uint32_t kWarningLimit = 96;
-constexpr std::uint32_t kPassiveLimit = 128;
-constexpr std::uint32_t kBusOffLimit = 255;      // bus-off when TEC exceeds it
-constexpr std::uint32_t kRecAfterPassive = 127;  // REC > 127 on success: back to 119..127
-constexpr std::uint32_t kSuspendBits = 8;        // an error-passive transmitter's suspend
-constexpr std::uint32_t kRecessiveRun = 11;      // bus-off recovery: 128 runs of 11 bits
-constexpr std::uint32_t kRecoveryRuns = 128;
 // An arbitration key's first slot in an index of `size` (a power of two) slots: Fibonacci hashing
 // (the identifiers of one bus are often consecutive).
 std::size_t slot_of(std::uint32_t key, std::size_t size) {
@@ -43,18 +34,6 @@ TimedBus::TimedBus(std::uint32_t bitrate, Time origin)
     : bitrate_(bitrate),
       us_per_bit_(bitrate != 0 && kMicrosPerSecond % bitrate == 0 ? kMicrosPerSecond / bitrate : 0),
       origin_(origin) {}
-
-void TimedBus::recount() {
-  calm_ = std::all_of(nodes_.begin(), nodes_.end(), [](const Node& n) {
-    return (n.conf.tec | n.conf.rec) == 0 && !n.wrong_bitrate && n.conf.state == BusState::Ok;
-  });
-  acknowledgers_ = 0;
-  for (std::size_t i = 0; i < nodes_.size(); ++i)
-    if (receives(nodes_[i]) && nodes_[i].acknowledges) {
-      ++acknowledgers_;
-      acknowledger_ = i;
-    }
-}
 
 // Split so that neither product overflows: whole seconds, then the rest of one.
 // Bits and microseconds rounded up both ways, as the line in time (common/line_physics.hpp).
@@ -114,16 +93,6 @@ std::uint64_t TimedBus::next_start() const {
   return first;
 }
 
-std::uint64_t TimedBus::next_recovery() const {
-  if (busy_ || bus_off_nodes_ == 0) return kNoBit;
-  std::uint64_t first = kNoBit;
-  for (const Node& n : nodes_) {
-    if (!n.present || n.conf.state != BusState::BusOff || !n.run_from) continue;
-    first = std::min(first, *n.run_from + (kRecoveryRuns - n.recessive_runs) * kRecessiveRun);
-  }
-  return first;
-}
-
 void TimedBus::moved() {
   deadline_known_ = false;
   // Told once until somebody asks again: the owner marks the bus at the first call and asks
@@ -178,25 +147,6 @@ void TimedBus::run(Time now) {
   }
 }
 
-// Bosch CAN 2.0 part B §8 rule 12: after 128 occurrences of 11 consecutive recessive bits a
-// bus-off node is error active again with both counters 0.
-void TimedBus::recover(std::uint64_t bit) {
-  for (std::size_t i = 0; i < nodes_.size(); ++i) {
-    Node& n = nodes_[i];
-    if (n.conf.state != BusState::BusOff || !n.run_from ||
-        *n.run_from + (kRecoveryRuns - n.recessive_runs) * kRecessiveRun > bit)
-      continue;
-    n.conf.tec = n.conf.rec = 0;
-    n.recessive_runs = 0;
-    n.run_from.reset();
-    n.suspend_until = 0;
-    n.conf.state = BusState::Ok;
-    --bus_off_nodes_;
-    recount();
-    if (on_state_) on_state_(i, n.conf.state);
-  }
-}
-
 // ISO 11898-1 bitwise arbitration: of the frames ready when the bus goes idle (each node's head of
 // queue), the smallest arbitration field wins; the others wait for the next idle.
 void TimedBus::start(std::uint64_t bit) {
@@ -228,10 +178,7 @@ void TimedBus::start(std::uint64_t bit) {
     __builtin_prefetch(known, 1);
     __builtin_prefetch(reinterpret_cast<const char*>(known + 1) - 1, 1);
   }
-  // Without faults on cue or a wrong bit rate only the ACK can fail (error_of()'s walk skipped).
-  const Error error = !faults_.empty() || winner->wrong_bitrate ? error_of(index, p.frame, at)
-                      : !check_ack_ || acknowledged(index)      ? Error::None
-                                                                : Error::Ack;
+  const Error error = error_of(index, p.frame, at);
   std::uint32_t bits = p.bits;
   if (error != Error::None) {
     // The frame occupies the bus up to its error, then the error frame; it stays at the head of
@@ -252,12 +199,7 @@ void TimedBus::start(std::uint64_t bit) {
   on_bus_.start = at;
   on_bus_.end = time_of(bit + bits);
   on_bus_.error = error;
-  if (bit + bits <= (window_ + 1) * bitrate_) {  // within the second being counted
-    busy_bits_ += bits;
-    window_bits_ += bits;
-  } else {
-    count_bits(bit, bits);
-  }
+  count_bits(bit, bits);
   if (error != Error::None) {
     ++error_frames_;
     if (on_start_) on_start_(on_bus_);
@@ -320,38 +262,14 @@ std::map<std::uint32_t, TimedBus::IdStatistics> TimedBus::identifiers() const {
   return out;
 }
 
-TimedBus::Error TimedBus::error_of(std::size_t node, const Frame& frame, Time at) {
-  Error error = Error::None;
-  // Every fault that matches the frame counts it; expired ones go.
-  for (auto it = faults_.begin(); it != faults_.end();) {
-    ErrorFault& f = *it;
-    if (f.until && at >= *f.until) {
-      it = faults_.erase(it);
-      continue;
-    }
-    const bool match = f.node ? *f.node == node : (!f.id || *f.id == ident_of(frame));
-    if (match && f.matched++ % std::max<std::uint32_t>(f.every, 1) == 0) {
-      error = Error::Injected;
-      if (!f.until && --f.count == 0) {
-        it = faults_.erase(it);
-        continue;
-      }
-    }
-    ++it;
-  }
-  if (nodes_[node].wrong_bitrate) return Error::WrongBitrate;
-  if (error != Error::None || !check_ack_) return error;
-  return acknowledged(node) ? Error::None : Error::Ack;
-}
-
 void TimedBus::finish() {
   // The frame stays in on_bus_ until the next start of frame, which only run() makes: the hooks
   // below read it there (no copy).
   const OnBus& done = on_bus_;
   busy_ = false;
   free_bit_ = done.end_bit;
-  // A frame without error on a calm bus changes no counter (confine()'s fast path, without the
-  // call).
+  // A frame without error on a bus whose nodes are all error active with both counters at 0 and
+  // none at a wrong bit rate changes no counter and no state (docs/can-bus.md "Performance").
   if (done.error != Error::None || !calm_) confine(done.node, done);
   // The frame's last 11 bits (ACK delimiter, end of frame, intermission; or error delimiter and
   // intermission) are recessive: a bus-off node's run starts there.
@@ -361,89 +279,9 @@ void TimedBus::finish() {
   if (on_end_) on_end_(done);
 }
 
-// Bosch CAN 2.0 part B §8 (ISO 11898-1 fault confinement), the rules this model uses:
-// a transmitter's error TEC += 8 (rule 3), except an error-passive transmitter's ACK error
-// (exception 1 of rule 3); a receiver's error REC += 1 (rule 1); a frame sent without error
-// TEC −1 (rule 7); received without error REC −1, or from above 127 back to 127 (rule 8).
-void TimedBus::confine(std::size_t tx, const OnBus& f) {
-  Node& t = nodes_[tx];
-  const bool error = f.error != Error::None;
-  if (!t.present) return;
-  // A frame without error on a bus whose nodes are all error active with both counters at 0 and
-  // none at a wrong bit rate changes no counter and no state (docs/can-bus.md "Performance").
-  if (!error && calm_) return;
-  if (error) {
-    ++t.conf.error_frames_sent;
-    if (!(f.error == Error::Ack && t.conf.state == BusState::ErrorPassive))
-      t.conf.tec += kTecOnError;
-  } else if (t.conf.tec > 0) {
-    --t.conf.tec;
-  }
-  for (std::size_t i = 0; i < nodes_.size(); ++i) {
-    Node& n = nodes_[i];
-    if (i == tx || !n.present || n.unplugged || n.conf.state == BusState::BusOff) continue;
-    if (error || n.wrong_bitrate) {
-      ++n.conf.rec;
-      ++n.conf.error_frames_seen;
-    } else if (n.conf.rec > kRecAfterPassive) {
-      n.conf.rec = kRecAfterPassive;
-    } else if (n.conf.rec > 0) {
-      --n.conf.rec;
-    }
-    set_state(i);
-  }
-  set_state(tx);
-  recount();  // the counters changed
-  if (t.conf.state == BusState::BusOff) {
-    // A bus-off controller's transmit buffer is emptied (docs/faults.md "CAN controller state").
-    t.conf.discarded += t.queue.size();
-    pending_ -= t.queue.size();
-    t.queue.clear();
-  } else if (t.conf.state == BusState::ErrorPassive) {
-    t.suspend_until = f.end_bit + kSuspendBits;
-  }
-}
-
-// Bosch CAN 2.0 part B §8: error warning at 96 (the controllers' status flag), error passive at
-// 128, bus-off when TEC exceeds 255; bus-off lasts until its recovery (recover()).
-void TimedBus::set_state(std::size_t node) {
-  Node& n = nodes_[node];
-  if (n.conf.state == BusState::BusOff) return;
-  const std::uint32_t worst = std::max(n.conf.tec, n.conf.rec);
-  const BusState s = n.conf.tec > kBusOffLimit ? BusState::BusOff
-                     : worst >= kPassiveLimit  ? BusState::ErrorPassive
-                     : worst >= kWarningLimit  ? BusState::Warning
-                                               : BusState::Ok;
-  if (s == n.conf.state) return;
-  n.conf.state = s;
-  recount();
-  if (s == BusState::BusOff) {
-    ++bus_off_nodes_;
-    ++n.conf.bus_off;
-    n.recessive_runs = 0;
-  }
-  if (on_state_) on_state_(node, s);
-}
-
-void TimedBus::clear_faults(std::optional<std::size_t> node) {
-  std::erase_if(faults_, [&](const ErrorFault& f) { return !node || f.node == node; });
-  for (std::size_t i = 0; i < nodes_.size(); ++i) {
-    if (node && i != *node) continue;
-    nodes_[i].unplugged = false;
-    nodes_[i].wrong_bitrate = false;
-  }
-  recount();
-  moved();
-}
-
 // Second k of bus time holds bits [k·bitrate, (k+1)·bitrate): a frame across the boundary counts
 // in both, each its own bits.
-void TimedBus::count_bits(std::uint64_t from, std::uint64_t bits) {
-  busy_bits_ += bits;
-  if (from + bits <= (window_ + 1) * bitrate_) {  // within the second being counted
-    window_bits_ += bits;
-    return;
-  }
+void TimedBus::count_seconds(std::uint64_t from, std::uint64_t bits) {
   while (bits > 0) {
     const std::uint64_t w = from / bitrate_;
     if (w > window_) {

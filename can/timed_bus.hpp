@@ -19,7 +19,8 @@
 // the error frame, and is retransmitted. Errors come from faults set on cue (error frames on an
 // identifier or a node, noise, a node unplugged or at a wrong bit rate) and, once
 // check_acknowledgement(true), from frames nobody else acknowledges. Without them every frame is
-// received without error, as before.
+// received without error, as before. The frames' way over the bus is can/timed_bus.cpp, the
+// confinement rules can/timed_bus_confinement.cpp.
 //
 // Pure: no sockets, no clock, no threads; time passed in.
 #pragma once
@@ -269,6 +270,9 @@ class TimedBus {
   bool acknowledged(std::size_t node) const {
     return acknowledgers_ > 1 || (acknowledgers_ == 1 && acknowledger_ != node);
   }
+  // Bus-off recovery (Bosch CAN 2.0 part B §8 rule 12): 128 occurrences of 11 recessive bits.
+  static constexpr std::uint32_t kRecessiveRun = 11;
+  static constexpr std::uint32_t kRecoveryRuns = 128;
   // No such bit (plain numbers, not std::optional: these are asked at every start and end of
   // frame, docs/can-bus.md "Performance").
   static constexpr std::uint64_t kNoBit = ~std::uint64_t{0};
@@ -280,11 +284,32 @@ class TimedBus {
   void run(Time now);
   void recover(std::uint64_t bit);
   void start(std::uint64_t bit);
-  Error error_of(std::size_t node, const Frame& frame, Time at);
+  // Why the frame `node` starts at `at` ends in an error frame, if it does. Without faults on cue
+  // or a wrong bit rate only the ACK can fail, read from recount()'s count (at every frame:
+  // docs/can-bus.md "Performance").
+  Error error_of(std::size_t node, const Frame& frame, Time at) {
+    const bool injected = !faults_.empty() && count_faults(node, frame, at);
+    if (nodes_[node].wrong_bitrate) return Error::WrongBitrate;
+    if (injected) return Error::Injected;
+    return !check_ack_ || acknowledged(node) ? Error::None : Error::Ack;
+  }
+  // Every fault on cue that matches the frame counts it, expired ones go; true: one of them puts
+  // an error frame on it.
+  bool count_faults(std::size_t node, const Frame& frame, Time at);
   void finish();
-  void confine(std::size_t node, const OnBus& f);
+  // The counters and states after frame `f` of node `tx`; not asked for a frame without error on
+  // a calm bus (calm_), which changes none.
+  void confine(std::size_t tx, const OnBus& f);
   void set_state(std::size_t node);
-  void count_bits(std::uint64_t from, std::uint64_t bits);
+  // The frame's bits in the load: within the second being counted at once, else count_seconds().
+  void count_bits(std::uint64_t from, std::uint64_t bits) {
+    busy_bits_ += bits;
+    if (from + bits <= (window_ + 1) * bitrate_)
+      window_bits_ += bits;
+    else
+      count_seconds(from, bits);
+  }
+  void count_seconds(std::uint64_t from, std::uint64_t bits);
 
   std::uint32_t bitrate_;
   std::uint64_t us_per_bit_;  // when a bit is a whole number of microseconds, else 0
