@@ -28,7 +28,7 @@ void GatewayUnit::update_controller() {
     endpoint_->set_own_bitrate(gw::bitrate_bps(gateway_->user_prm()->bitrate_index));
   // Given again only when it changed: the same state twice changes nothing in the engine, nor
   // what it waits for.
-  const std::pair state{faults_.state(channel_->bus_state()), faults_.rx_lost(channel_->rx_lost())};
+  const std::pair state{faults_.state(channel_->bus_state()), lost_total()};
   if (applied_ == state) return;
   applied_ = state;
   gateway_->set_controller_status(state.first, state.second);
@@ -247,8 +247,7 @@ bool Plant::deliver(Time now) {
           g->receive(*f, now_);
           work = true;
         }
-        if (!same_state || !g->applied_ ||
-            g->applied_->second != g->faults_.rx_lost(g->endpoint_->rx_lost()))
+        if (!same_state || !g->applied_ || g->applied_->second != g->lost_total())
           g->update_controller();
         g->bus_seen_ = changes;
         g->state_seen_ = bus.state_changes();

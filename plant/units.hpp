@@ -80,6 +80,8 @@ class GatewayUnit final : private can::FrameSink {
   void send(const can::Frame& frame) override;  // the gateway transmits
   void receive(const can::Frame& frame, Time now);
   void update_controller();
+  // The IRQ_LOST total given to the engine: the channel's lost frames and the fault layer's.
+  std::uint32_t lost_total() const { return faults_.rx_lost(channel_->rx_lost()); }
   // Something reached the engine: its deadline is asked again (docs/architecture.md "The plant":
   // a line in time wakes the plant for every telegram, and a scan of every gateway's slots each
   // time would cost more than the line itself), its bus looked at.
