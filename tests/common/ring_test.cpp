@@ -7,40 +7,44 @@
 namespace candp2 {
 namespace {
 
+// Pushes from..to-1.
+void push(Ring<int>& r, int from, int to) {
+  for (int i = from; i < to; ++i) r.push_back(i);
+}
+
+// Takes from..to-1 from the front, in this order.
+void expect_front_to_back(Ring<int>& r, int from, int to) {
+  for (int i = from; i < to; ++i) {
+    ASSERT_EQ(r.front(), i);
+    r.pop_front();
+  }
+}
+
 TEST(Ring, FirstInFirstOutAcrossTheEndOfItsArray) {
   Ring<int> r;
   EXPECT_TRUE(r.empty());
-  for (int i = 0; i < 6; ++i) r.push_back(i);  // 8 long
-  for (int i = 0; i < 5; ++i) {
-    EXPECT_EQ(r.front(), i);
-    r.pop_front();
-  }
-  for (int i = 6; i < 12; ++i) r.push_back(i);  // wraps: items at 5..7 and 0..3
+  push(r, 0, 6);  // 8 long
+  expect_front_to_back(r, 0, 5);
+  push(r, 6, 12);  // wraps: items at 5..7 and 0..3
   EXPECT_EQ(r.size(), 7u);
-  for (int i = 5; i < 12; ++i) {
-    EXPECT_EQ(r.front(), i);
-    r.pop_front();
-  }
+  expect_front_to_back(r, 5, 12);
   EXPECT_TRUE(r.empty());
 }
 
 TEST(Ring, GrowsWhileWrappedAndKeepsTheOrder) {
   Ring<int> r;
-  for (int i = 0; i < 8; ++i) r.push_back(i);
+  push(r, 0, 8);
   for (int i = 0; i < 3; ++i) r.pop_front();
-  for (int i = 8; i < 11; ++i) r.push_back(i);   // full and wrapped: the head is not at 0
-  for (int i = 11; i < 40; ++i) r.push_back(i);  // grows twice
+  push(r, 8, 11);   // full and wrapped: the head is not at 0
+  push(r, 11, 40);  // grows twice
   EXPECT_EQ(r.size(), 37u);
-  for (int i = 3; i < 40; ++i) {
-    ASSERT_EQ(r.front(), i);
-    r.pop_front();
-  }
+  expect_front_to_back(r, 3, 40);
   EXPECT_TRUE(r.empty());
 }
 
 TEST(Ring, ClearEmptiesAndTheRingIsUsedAgain) {
   Ring<int> r;
-  for (int i = 0; i < 5; ++i) r.push_back(i);
+  push(r, 0, 5);
   r.pop_front();
   r.clear();
   EXPECT_TRUE(r.empty());
