@@ -261,12 +261,4 @@ std::chrono::nanoseconds bits_duration(std::uint64_t bits, std::uint32_t bitrate
   return std::chrono::nanoseconds(bitrate == 0 ? 0 : bits * 1'000'000'000ull / bitrate);
 }
 
-std::uint32_t arbitration_key(const Ident& id, bool remote) {
-  // 32 bits: base ID (11), RTR or SRR, IDE, extended ID (18), RTR of an extended frame.
-  const std::uint32_t rtr = remote ? 1 : 0;
-  if (id.extended)
-    return ((id.id >> 18) & 0x7FF) << 21 | 1u << 20 | 1u << 19 | (id.id & 0x3FFFF) << 1 | rtr;
-  return (id.id & 0x7FF) << 21 | rtr << 20;
-}
-
 }  // namespace candp2::can

@@ -78,7 +78,14 @@ inline std::chrono::nanoseconds frame_duration(const Frame& f, std::uint32_t bit
 // Bitwise arbitration (ISO 11898-1): the arbitration field as one number whose smaller value wins.
 // 11-bit frames and 29-bit frames with the same base identifier meet at RTR against SRR and at IDE,
 // so a base frame beats an extended one, and a data frame beats a remote frame of its identifier.
-std::uint32_t arbitration_key(const Ident& id, bool remote);
+// Inline: asked at every request on a bus in time (docs/can-bus.md "Performance").
+inline std::uint32_t arbitration_key(const Ident& id, bool remote) {
+  // 32 bits: base ID (11), RTR or SRR, IDE, extended ID (18), RTR of an extended frame.
+  const std::uint32_t rtr = remote ? 1 : 0;
+  if (id.extended)
+    return ((id.id >> 18) & 0x7FF) << 21 | 1u << 20 | 1u << 19 | (id.id & 0x3FFFF) << 1 | rtr;
+  return (id.id & 0x7FF) << 21 | rtr << 20;
+}
 inline std::uint32_t arbitration_key(const Frame& f) {
   return arbitration_key(ident_of(f), f.remote);
 }

@@ -42,7 +42,14 @@ Time TimedBus::time_of_rounded(std::uint64_t bit) const {
 }
 
 std::uint64_t TimedBus::bit_at(Time t) const {
-  return t <= origin_ ? 0 : phy::time_to_bits(bitrate_, t - origin_);
+  if (t <= origin_) return 0;
+  // A bit a whole number of microseconds long: the microseconds over it, rounded up, which is
+  // what time_to_bits() gives, without its divisions (asked at every request).
+  if (us_per_bit_ != 0) {
+    const auto us = static_cast<std::uint64_t>((t - origin_).count());
+    return us_per_bit_ == 1 ? us : (us + us_per_bit_ - 1) / us_per_bit_;
+  }
+  return phy::time_to_bits(bitrate_, t - origin_);
 }
 
 std::size_t TimedBus::add_node(std::size_t depth) {
@@ -83,12 +90,22 @@ bool TimedBus::contends(const Node& n, std::uint64_t bit, Time at) const {
          n.suspend_until <= bit && n.queue.front_requested() <= at;
 }
 
-std::uint64_t TimedBus::next_start() const {
+std::uint64_t TimedBus::next_start(std::size_t& winner) const {
   if (pending_ == 0) return kNoBit;
   std::uint64_t first = kNoBit;
-  for (const Node& n : nodes_) {
+  std::uint32_t best = 0;
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    const Node& n = nodes_[i];
     if (n.queue.empty() || n.unplugged || n.conf.state == BusState::BusOff) continue;
-    first = std::min(first, std::max({free_bit_, n.queue.front_bit(), n.suspend_until}));
+    const std::uint64_t ready = std::max({free_bit_, n.queue.front_bit(), n.suspend_until});
+    const std::uint32_t key = n.queue.front_key();
+    // The earliest ready; of those ready at the same bit the smallest key, the first node of
+    // equal keys (as arbitrate() picks).
+    if (ready < first || (ready == first && key < best)) {
+      first = ready;
+      best = key;
+      winner = i;
+    }
   }
   return first;
 }
@@ -115,7 +132,8 @@ std::optional<Time> TimedBus::next_deadline() const {
 
 std::optional<Time> TimedBus::compute_deadline() const {
   if (busy_) return on_bus_.end;
-  const std::uint64_t s = next_start(), r = next_recovery();
+  std::size_t winner = 0;
+  const std::uint64_t s = next_start(winner), r = next_recovery();
   if (r != kNoBit && r <= s) return time_of(r);
   if (s != kNoBit) return time_of(s);
   return std::nullopt;
@@ -136,39 +154,50 @@ void TimedBus::run(Time now) {
       finish();
       continue;
     }
-    const std::uint64_t s = next_start(), r = next_recovery();
+    std::size_t winner = 0;
+    const std::uint64_t s = next_start(winner), r = next_recovery();
     if (r != kNoBit && r <= s) {
       if (time_of(r) > now) return;
       recover(r);
       continue;
     }
     if (s == kNoBit || time_of(s) > now) return;
-    start(s);
+    // A bit a whole number of microseconds long: the nodes that contend at s are those ready at
+    // s, so next_start()'s pick is arbitration's (docs/can-bus.md "Performance"); else a frame
+    // requested within the microsecond of s contends too, as arbitrate() finds.
+    start(s, us_per_bit_ != 0 ? winner : arbitrate(s));
   }
 }
 
 // ISO 11898-1 bitwise arbitration: of the frames ready when the bus goes idle (each node's head of
 // queue), the smallest arbitration field wins; the others wait for the next idle.
-void TimedBus::start(std::uint64_t bit) {
+std::size_t TimedBus::arbitrate(std::uint64_t bit) const {
   const Time at = time_of(bit);
-  Node* winner = nullptr;
-  std::size_t index = 0;
+  std::size_t index = nodes_.size();
   std::uint32_t best = 0;
   for (std::size_t i = 0; i < nodes_.size(); ++i) {
-    Node& n = nodes_[i];
-    // A bus-off node counts the recessive run this start of frame ends.
-    if (n.conf.state == BusState::BusOff && n.run_from) {
-      n.recessive_runs += static_cast<std::uint32_t>((bit - *n.run_from) / kRecessiveRun);
-      n.run_from.reset();
-    }
+    const Node& n = nodes_[i];
     if (!contends(n, bit, at)) continue;
     const std::uint32_t key = n.queue.front_key();
-    if (!winner || key < best) {
-      winner = &n;
+    if (index == nodes_.size() || key < best) {
       index = i;
       best = key;
     }
   }
+  return index;
+}
+
+void TimedBus::start(std::uint64_t bit, std::size_t index) {
+  const Time at = time_of(bit);
+  // A bus-off node counts the recessive run this start of frame ends.
+  if (bus_off_nodes_ > 0)
+    for (Node& n : nodes_)
+      if (n.conf.state == BusState::BusOff && n.run_from) {
+        n.recessive_runs += static_cast<std::uint32_t>((bit - *n.run_from) / kRecessiveRun);
+        n.run_from.reset();
+      }
+  Node* const winner = &nodes_[index];
+  const std::uint32_t best = winner->queue.front_key();
   const Pending& p = winner->queue.front();
   // The identifier's statistics are fetched while the frame's error is looked for (a cache miss
   // at every frame otherwise: docs/can-bus.md "Performance"); only a frame without error makes a

@@ -169,6 +169,8 @@ class TimedBus {
   // The node takes a frame that ends without error: present, plugged, at the bus's bit rate and
   // not bus-off.
   bool receives(std::size_t node) const { return receives(nodes_.at(node)); }
+  // Every node on the bus receives (none unplugged, at a wrong bit rate or bus-off; recount()).
+  bool all_receive() const { return all_receive_; }
   std::uint64_t error_frames() const { return error_frames_; }
   std::size_t nodes() const { return nodes_.size(); }
 
@@ -276,14 +278,18 @@ class TimedBus {
   // No such bit (plain numbers, not std::optional: these are asked at every start and end of
   // frame, docs/can-bus.md "Performance").
   static constexpr std::uint64_t kNoBit = ~std::uint64_t{0};
-  // The bit the next frame may start at (kNoBit: nothing queued).
-  std::uint64_t next_start() const;
+  // The bit the next frame may start at (kNoBit: nothing queued), and in `winner` the node ready
+  // at it with the smallest arbitration key (the first of equal keys).
+  std::uint64_t next_start(std::size_t& winner) const;
   // The first bit a bus-off node recovers at, if the bus stays idle (kNoBit: none).
   std::uint64_t next_recovery() const;
   // advance()'s loop: every start, end and recovery due by `now`.
   void run(Time now);
   void recover(std::uint64_t bit);
-  void start(std::uint64_t bit);
+  // The node that wins arbitration at `bit` (some node contends there).
+  std::size_t arbitrate(std::uint64_t bit) const;
+  // The head of node `index`'s queue starts at `bit`.
+  void start(std::uint64_t bit, std::size_t index);
   // Why the frame `node` starts at `at` ends in an error frame, if it does. Without faults on cue
   // or a wrong bit rate only the ACK can fail, read from recount()'s count (at every frame:
   // docs/can-bus.md "Performance").
@@ -355,8 +361,9 @@ class TimedBus {
   // counters, state or faults (docs/can-bus.md "Performance"): calm_, no node with an error
   // counter above 0, a state other than error active or a wrong bit rate (a frame without error
   // then changes no counter: confine()); the nodes that take frames and acknowledge them
-  // (error_of()'s ACK), and the last of them.
-  bool calm_ = true;
+  // (error_of()'s ACK), and the last of them; all_receive_, every node present receives
+  // (deliveries at the end of a frame).
+  bool calm_ = true, all_receive_ = true;
   std::size_t acknowledgers_ = 0, acknowledger_ = 0;
   void recount();
 };

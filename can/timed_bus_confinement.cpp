@@ -22,11 +22,14 @@ void TimedBus::recount() {
     return (n.conf.tec | n.conf.rec) == 0 && !n.wrong_bitrate && n.conf.state == BusState::Ok;
   });
   acknowledgers_ = 0;
-  for (std::size_t i = 0; i < nodes_.size(); ++i)
+  all_receive_ = true;
+  for (std::size_t i = 0; i < nodes_.size(); ++i) {
+    if (nodes_[i].present && !receives(nodes_[i])) all_receive_ = false;
     if (receives(nodes_[i]) && nodes_[i].acknowledges) {
       ++acknowledgers_;
       acknowledger_ = i;
     }
+  }
 }
 
 std::uint64_t TimedBus::next_recovery() const {

@@ -221,7 +221,7 @@ void VirtualBus::deliver_all(VirtualEndpoint* from, const Frame& frame) {
   for (std::size_t i = 0; i < endpoints_.size(); ++i) {
     VirtualEndpoint* ep = endpoints_[i];
     if (ep == from && !ep->receive_own_) continue;
-    if (timed_ && ep != from && !timed_->receives(ep->node_)) continue;
+    if (timed_ && ep != from && !timed_->all_receive() && !timed_->receives(ep->node_)) continue;
     ep->deliver(frame);
   }
 }
