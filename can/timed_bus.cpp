@@ -41,15 +41,8 @@ Time TimedBus::time_of_rounded(std::uint64_t bit) const {
   return origin_ + phy::bits_to_time(bitrate_, bit);
 }
 
-std::uint64_t TimedBus::bit_at(Time t) const {
-  if (t <= origin_) return 0;
-  // A bit a whole number of microseconds long: the microseconds over it, rounded up, which is
-  // what time_to_bits() gives, without its divisions (asked at every request).
-  if (us_per_bit_ != 0) {
-    const auto us = static_cast<std::uint64_t>((t - origin_).count());
-    return us_per_bit_ == 1 ? us : (us + us_per_bit_ - 1) / us_per_bit_;
-  }
-  return phy::time_to_bits(bitrate_, t - origin_);
+std::uint64_t TimedBus::bit_at_rounded(Time t) const {
+  return t <= origin_ ? 0 : phy::time_to_bits(bitrate_, t - origin_);
 }
 
 std::size_t TimedBus::add_node(std::size_t depth) {
@@ -71,7 +64,7 @@ void TimedBus::remove_node(std::size_t node) {
 }
 
 bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
-  Node& n = nodes_.at(node);
+  Node& n = nodes_[node];  // the owner's own node (add_node())
   if (n.present && n.conf.state == BusState::BusOff) return false;
   if (!n.present || n.queue.size() >= n.depth) {
     ++lost_;

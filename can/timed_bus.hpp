@@ -118,6 +118,7 @@ class TimedBus {
   // The node asks to send `frame` at `now` (not before the last advance). False: its queue is full
   // and the frame is lost (counted in lost()), or the node is bus-off (not counted: its owner
   // refuses to send while bus-off).
+  // `node` is one add_node() gave.
   bool request(std::size_t node, const Frame& frame, Time now);
 
   void on_start(Hook hook) { on_start_ = std::move(hook); }
@@ -189,7 +190,14 @@ class TimedBus {
     return time_of_rounded(bit);
   }
   // The first whole bit at or after `t`.
-  std::uint64_t bit_at(Time t) const;
+  std::uint64_t bit_at(Time t) const {
+    // A bit a whole number of microseconds long: the microseconds over it, rounded up, which is
+    // what time_to_bits() gives, without its divisions (asked at every request).
+    if (us_per_bit_ == 0) return bit_at_rounded(t);
+    if (t <= origin_) return 0;
+    const auto us = static_cast<std::uint64_t>((t - origin_).count());
+    return us_per_bit_ == 1 ? us : (us + us_per_bit_ - 1) / us_per_bit_;
+  }
   bool busy() const { return busy_; }
   std::size_t queued(std::size_t node) const { return nodes_.at(node).queue.size(); }
 
@@ -268,6 +276,7 @@ class TimedBus {
     return n.present && !n.unplugged && !n.wrong_bitrate && n.conf.state != BusState::BusOff;
   }
   Time time_of_rounded(std::uint64_t bit) const;
+  std::uint64_t bit_at_rounded(Time t) const;
   // Another node takes a frame of `node` and acknowledges it (recount()).
   bool acknowledged(std::size_t node) const {
     return acknowledgers_ > 1 || (acknowledgers_ == 1 && acknowledger_ != node);

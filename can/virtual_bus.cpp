@@ -134,21 +134,22 @@ void VirtualEndpoint::set_tx_queue(TxQueue q) {
 void VirtualBus::started(const TimedBus::OnBus& f) {
   in_frame_ = true;
   frame_end_ = f.end;
-  if (f.error != TimedBus::Error::None) {
-    if (!error_tap_) return;
-    const auto& c = timed_->confinement(f.node);
-    const VirtualEndpoint* from = nodes_[f.node];
-    error_tap_(BusError{.time = timed_->time_of(TimedBus::error_flag_bit(f)),
-                        .error = f.error,
-                        .tec = c.tec,
-                        .rec = c.rec,
-                        .node = from ? std::string_view(from->name()) : std::string_view()});
-    return;
-  }
+  if (f.error != TimedBus::Error::None) return started_in_error(f);
   ++frames_sent_;
   const VirtualEndpoint* from = nodes_[f.node];
   const std::string_view sender = from ? std::string_view(from->name()) : std::string_view();
   for (const auto& tap : taps_) tap(f.frame, f.start, sender);
+}
+
+void VirtualBus::started_in_error(const TimedBus::OnBus& f) {
+  if (!error_tap_) return;
+  const auto& c = timed_->confinement(f.node);
+  const VirtualEndpoint* from = nodes_[f.node];
+  error_tap_(BusError{.time = timed_->time_of(TimedBus::error_flag_bit(f)),
+                      .error = f.error,
+                      .tec = c.tec,
+                      .rec = c.rec,
+                      .node = from ? std::string_view(from->name()) : std::string_view()});
 }
 
 // Its last bit has passed: every other node that takes part in traffic has it (not one unplugged,
