@@ -45,6 +45,8 @@ Usage: bench/can_load.py daemon --candp2d build/bin/candp2d [--seconds 10] [--ro
            [--paired] [--step-us 1000]
 """
 
+from __future__ import annotations
+
 import argparse
 import json
 import os
@@ -56,25 +58,35 @@ import sys
 import tempfile
 import threading
 import time
+from typing import TYPE_CHECKING, Any
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "e2e"))
-from http_common import LINE_GATEWAYS, LINE_SLOTS, SLOT_LEN, line_slot_address  # noqa: E402
+# tests/e2e is on sys.path at run time only, and untyped: mypy sees its names as Any.
+from http_common import (  # type: ignore[import]  # noqa: E402
+    LINE_GATEWAYS, LINE_SLOTS, SLOT_LEN, line_slot_address)
+
+if TYPE_CHECKING:  # imported where used: replay needs neither pymodbus nor line_load
+    from line_load import Observer
+
+# A row printed: figures by name, which depend on the mode and the options.
+Row = dict[str, Any]
 
 WRITE_REGISTERS = 560  # Q 0..1119: every output slot of line_slot_address
 CYCLE_MS = 10
 
 
-def config(bitrate):
+def config(bitrate: str | None) -> dict[str, object]:
     """122 gateways, two a bus; with `bitrate` the buses are timed."""
-    gws, buses = [], {}
+    gws: list[dict[str, object]] = []
+    buses: dict[str, dict[str, str]] = {}
     for i in range(LINE_GATEWAYS):
         a = 3 + i
         bus = "can%d" % (i // 2)
         buses[bus] = {"type": "virtual", **({"bitrate": bitrate} if bitrate else {})}
         tx, rx = (0x100, 0x300) if i % 2 == 0 else (0x300, 0x100)
-        slots = []
+        slots: list[dict[str, object]] = []
         for io, base in (("output", tx), ("input", rx)):
             for k in range(LINE_SLOTS):
                 ident = base + k
@@ -87,7 +99,7 @@ def config(bitrate):
             "log": {"level": "warn"}}
 
 
-def counters(status):
+def counters(status: dict[str, Any]) -> dict[str, int]:
     g = status["gateways"]
     return {"tx": sum(x.get("counters", {}).get("tx_frames", 0) for x in g),
             "rx": sum(x.get("counters", {}).get("rx_frames", 0) for x in g),
@@ -100,24 +112,24 @@ class Hostile:
     idle connections held, a header trickled a byte at a time (tests/e2e/http_hostile_e2e.py
     asserts what the daemon does with each)."""
 
-    def __init__(self, http_port):
+    def __init__(self, http_port: int) -> None:
         self.port, self.conns, self.stop = http_port, 0, threading.Event()
         self.threads = [threading.Thread(target=self.bursts, daemon=True),
                         threading.Thread(target=self.trickle, daemon=True)]
-        self.idle = []
+        self.idle: list[socket.socket] = []
         for _ in range(20):
             self.idle.append(socket.create_connection(("127.0.0.1", http_port), timeout=5))
             self.conns += 1
         for t in self.threads:
             t.start()
 
-    def bursts(self):
+    def bursts(self) -> None:
         from http_burst import burst  # noqa: E402
         while not self.stop.wait(0.5):
             burst(self.port, n=200, deadline_s=1.0)
             self.conns += 200
 
-    def trickle(self):
+    def trickle(self) -> None:
         while not self.stop.is_set():
             try:
                 with socket.create_connection(("127.0.0.1", self.port), timeout=5) as c:
@@ -129,13 +141,13 @@ class Hostile:
             except OSError:
                 pass  # cut by the daemon (its idle timeout): open the next one
 
-    def close(self):
+    def close(self) -> None:
         self.stop.set()
         for c in self.idle:
             c.close()
 
 
-def watchers(http_port):
+def watchers(http_port: int) -> tuple[Observer, Observer, Hostile]:
     """An open panel (line_load.Observer: the overview's stream, the status twice a second), a
     gateway panel's stream, and the hostile clients."""
     from line_load import Observer  # noqa: E402
@@ -143,17 +155,18 @@ def watchers(http_port):
             Hostile(http_port))
 
 
-def measure_daemon(binary, bitrate, seconds, observe=False, stall_ms=0):
+def measure_daemon(binary: str, bitrate: str | None, seconds: float, observe: bool = False,
+                   stall_ms: int = 0) -> Row:
     from line_load import Run  # noqa: E402  (pymodbus)
     from pymodbus.client import ModbusTcpClient  # noqa: E402
     with tempfile.TemporaryDirectory(prefix="candp2-can-") as d:
         r = Run(binary, CYCLE_MS, d, cfg=config(bitrate))
-        seen = None
+        seen: tuple[Observer, Observer, Hostile] | None = None
         try:
             r.wait_data_exch()
             stop, rounds = threading.Event(), [0]
 
-            def writer():
+            def writer() -> None:
                 mb = ModbusTcpClient("127.0.0.1", port=r.modbus, timeout=5)
                 mb.connect()
                 nxt = time.monotonic()
@@ -186,10 +199,10 @@ def measure_daemon(binary, bitrate, seconds, observe=False, stall_ms=0):
             stop.set()
             t.join(10)
             hz = os.sysconf("SC_CLK_TCK")
-            row = {"bus": bitrate or "ideal",
-                   "cpu_pct": round(100.0 * (c1 - c0) / hz / (t1 - t0), 1),
-                   "writes_per_s": round((w1 - w0) / (t1 - t0), 1),
-                   **{k: s1[k] - s0[k] for k in s1}}
+            row: Row = {"bus": bitrate or "ideal",
+                        "cpu_pct": round(100.0 * (c1 - c0) / hz / (t1 - t0), 1),
+                        "writes_per_s": round((w1 - w0) / (t1 - t0), 1),
+                        **{k: s1[k] - s0[k] for k in s1}}
             lat, stalled = st1["cycle"]["lateness_us"], (st1["host_stalls"]["total_ms"]
                                                          - st0["host_stalls"]["total_ms"])
             # The simulated world pauses with the host (docs/daemon.md "Host stalls"): the cycles
@@ -206,12 +219,13 @@ def measure_daemon(binary, bitrate, seconds, observe=False, stall_ms=0):
                             "poll_errors": panel.poll_errors, "hostile_conns": hostile.conns})
             return row
         finally:
-            for watcher in seen or ():
+            watching: tuple[Observer | Hostile, ...] = seen or ()
+            for watcher in watching:
                 watcher.close()
             r.stop()
 
 
-def measure_replay(binary, bitrate, virtual_s, step_us=0):
+def measure_replay(binary: str, bitrate: str | None, virtual_s: int, step_us: int = 0) -> Row:
     with tempfile.TemporaryDirectory(prefix="candp2-can-") as d:
         path = os.path.join(d, "can.json")
         with open(path, "w") as f:
@@ -231,7 +245,7 @@ def measure_replay(binary, bitrate, virtual_s, step_us=0):
                                           default=0), 2)}
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("mode", choices=["daemon", "replay"])
     ap.add_argument("--candp2d")
@@ -245,12 +259,12 @@ def main():
     ap.add_argument("--stall-ms", type=int, default=0)
     ap.add_argument("--step-us", type=int, default=0)
     args = ap.parse_args()
-    rows = []
+    rows: list[Row] = []
     for _ in range(args.rounds):
         if args.paired:
-            out = {}
+            out: dict[str | None, Row] = {}
 
-            def one(bitrate):
+            def one(bitrate: str | None) -> None:
                 if args.mode == "daemon":
                     out[bitrate] = measure_daemon(args.candp2d, bitrate, args.seconds,
                                                   args.observer, args.stall_ms)
@@ -278,7 +292,7 @@ def main():
             rows.append(row)
             print(json.dumps(row), flush=True)
     keys = [k for k, v in rows[-1].items() if isinstance(v, (int, float))]
-    med = {}
+    med: dict[str, dict[str, float]] = {}
     for bus in (args.bitrate, "ideal"):
         med[bus] = {k: statistics.median(r[k] for r in rows if r["bus"] == bus) for k in keys}
         print(json.dumps({"bus": bus, "median": med[bus]}))

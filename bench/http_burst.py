@@ -26,14 +26,15 @@ import urllib.request
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def free_port():
+def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+        port: int = s.getsockname()[1]
+        return port
 
 
-def burst(port, n=1000, deadline_s=3.0):
-    socks = []
+def burst(port: int, n: int = 1000, deadline_s: float = 3.0) -> None:
+    socks: list[socket.socket] = []
     for _ in range(n):
         s = socket.socket()
         s.setblocking(False)
@@ -55,7 +56,7 @@ def burst(port, n=1000, deadline_s=3.0):
         s.close()
 
 
-def one_run(binary, workdir, wait_s):
+def one_run(binary: str, workdir: str, wait_s: float) -> float | None:
     with open(os.path.join(ROOT, "config", "demo.json")) as f:
         cfg = json.load(f)
     http = free_port()
@@ -93,7 +94,7 @@ def one_run(binary, workdir, wait_s):
         proc.wait(5)
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--a", required=True, help="candp2d A (e.g. the build before)")
     ap.add_argument("--b", required=True, help="candp2d B (e.g. build/bin/candp2d)")

@@ -26,14 +26,15 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "e2e"))
-from cdp import Browser  # noqa: E402
-from http_common import Daemon, SseReader  # noqa: E402
+# tests/e2e is on sys.path at run time only, and untyped: mypy sees its names as Any.
+from cdp import Browser  # type: ignore[import]  # noqa: E402
+from http_common import Daemon, SseReader  # type: ignore[import]  # noqa: E402
 
 from pymodbus.client import ModbusTcpClient  # noqa: E402  python3-pymodbus
 
 
-def config(n):
-    gws = []
+def config(n: int) -> dict[str, object]:
+    gws: list[dict[str, object]] = []
     for i in range(n):
         a = 3 + i
         tx, rx = 0x400 + a, 0x500 + a
@@ -48,7 +49,7 @@ def config(n):
             "buses": {"can0": {"type": "virtual"}}, "gateways": gws, "log": {"level": "info"}}
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--candp2d", required=True)
     ap.add_argument("--gateways", type=int, default=122)
@@ -65,7 +66,7 @@ def main():
                prefix=("chrt", "-f", "20") if args.fifo else ())
     writer_stop = False
 
-    def writer():
+    def writer() -> None:
         mb = ModbusTcpClient("127.0.0.1", port=d.modbus_port, timeout=3)
         mb.connect()
         k = 0
@@ -79,14 +80,15 @@ def main():
             time.sleep(0.1)
         mb.close()
 
-    results = []
+    results: list[dict[str, object]] = []
     try:
         d.wait_for("every gateway in Data_Exch",
                    lambda s: all(g["dp_state"] == "Data_Exch" for g in s["gateways"]), timeout=60)
         wt = threading.Thread(target=writer, daemon=True)
         wt.start()
         for phase in args.order.split(","):
-            readers, browser = [], None
+            readers: list[SseReader] = []
+            browser: Browser | None = None
             if phase == "clients":
                 readers = [SseReader(d.http_port) for _ in range(args.sse)]
                 for r in readers:

@@ -38,11 +38,14 @@ import sys
 import threading
 import time
 import urllib.request
+from typing import Any, TypedDict
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "e2e"))
-from cdp import Browser  # noqa: E402
-from http_common import Daemon, SseReader, demo_config, line_config  # noqa: E402
+# tests/e2e is on sys.path at run time only, and untyped: mypy sees its names as Any.
+from cdp import Browser  # type: ignore[import]  # noqa: E402
+from http_common import (  # type: ignore[import]  # noqa: E402
+    Daemon, SseReader, demo_config, line_config)
 
 from pymodbus.client import ModbusTcpClient  # noqa: E402  python3-pymodbus
 
@@ -50,11 +53,11 @@ from pymodbus.client import ModbusTcpClient  # noqa: E402  python3-pymodbus
 class Writer(threading.Thread):
     """Changes every output byte of the image every 100 ms (bench/line_load.py)."""
 
-    def __init__(self, port):
+    def __init__(self, port: int) -> None:
         super().__init__(daemon=True)
         self.port, self.stop = port, threading.Event()
 
-    def run(self):
+    def run(self) -> None:
         mb = ModbusTcpClient("127.0.0.1", port=self.port, timeout=5)
         mb.connect()
         k = 0
@@ -67,10 +70,10 @@ class Writer(threading.Thread):
         mb.close()
 
 
-def metrics(d):
+def metrics(d: Daemon) -> dict[str, float]:
     with urllib.request.urlopen(d.base + "/metrics", timeout=30) as r:
         text = r.read().decode()
-    out = {}
+    out: dict[str, float] = {}
     for name, key in (("candp2_master_cycles_total", "cycles"),
                       ("candp2_master_cycles_missed_total", "missed"),
                       ('candp2_master_cycle_lateness_seconds{quantile="0.99"}', "p99"),
@@ -81,14 +84,29 @@ def metrics(d):
     return out
 
 
-def cpu_ticks(pid):
+def cpu_ticks(pid: int) -> int:
     with open("/proc/%d/stat" % pid) as f:
         fields = f.read().rsplit(")", 1)[1].split()
     return int(fields[11]) + int(fields[12])
 
 
-def phase(d, name, cycle_ms, seconds, chromium):
-    readers, browser = [], None
+class Phase(TypedDict):
+    """What phase() measured, in the order it is printed."""
+    phase: str
+    cycles: int
+    due: int
+    missed: int
+    window_inside_phase: bool
+    p99_us_median: int
+    p99_us_max: int
+    max_us: int
+    cpu_pct: float
+    bytes_per_s_each: list[int]
+
+
+def phase(d: Daemon, name: str, cycle_ms: int, seconds: float, chromium: str) -> Phase:
+    readers: list[SseReader] = []
+    browser: Browser | None = None
     if name.startswith("sse"):
         readers = [SseReader(d.http_port) for _ in range(int(name[3:]))]
         for r in readers:
@@ -108,7 +126,7 @@ def phase(d, name, cycle_ms, seconds, chromium):
         # The daemon's lateness window is the last 4096 cycles: only readings whose window lies
         # inside this phase count (after 41 s at 10 ms, 4 s at 1 ms); else the last reading.
         window = 4096 * cycle_ms / 1000.0
-        readings = []
+        readings: list[tuple[float, float, float]] = []  # (s into the phase, p99 us, max us)
         while time.monotonic() - t0 < seconds:
             time.sleep(min(3.0, max(0.0, seconds - (time.monotonic() - t0))))
             m = metrics(d)
@@ -139,9 +157,10 @@ def phase(d, name, cycle_ms, seconds, chromium):
             "bytes_per_s_each": [round((b - a) / (t1 - t0)) for a, b in zip(b0, b1)]}
 
 
-def run(binary, cycle_ms, phases, seconds, wrapper, chromium, write=True):
+def run(binary: str, cycle_ms: int, phases: list[str], seconds: float,
+        wrapper: tuple[str, ...], chromium: str, write: bool = True) -> list[dict[str, object]]:
     d = Daemon(binary, config=line_config(cycle_ms), timeout=60, prefix=wrapper)
-    rows = []
+    rows: list[dict[str, object]] = []
     try:
         d.wait_for("every gateway in Data_Exch",
                    lambda s: all(g["dp_state"] == "Data_Exch" for g in s["gateways"]), timeout=60)
@@ -160,7 +179,8 @@ def run(binary, cycle_ms, phases, seconds, wrapper, chromium, write=True):
     return rows
 
 
-def stream_bytes(binary, config, query, seconds, wrapper):
+def stream_bytes(binary: str, config: dict[str, Any], query: str, seconds: float,
+                 wrapper: tuple[str, ...]) -> int:
     d = Daemon(binary, config=config, timeout=60, prefix=wrapper)
     try:
         d.wait_for("every gateway in Data_Exch",
@@ -175,12 +195,13 @@ def stream_bytes(binary, config, query, seconds, wrapper):
         b1, t1 = r.bytes, time.monotonic()
         r.stop.set()
         w.stop.set()
-        return round((b1 - b0) / (t1 - t0))
+        bps: int = round((b1 - b0) / (t1 - t0))
+        return bps
     finally:
         d.stop()
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--a", required=True, help="candp2d binary A")
     ap.add_argument("--b", help="candp2d binary B (alternating with A)")
@@ -195,7 +216,7 @@ def main():
                     "a periodic task, run for --seconds before each daemon")
     ap.add_argument("--chromium", default=os.environ.get("CHROMIUM", "/usr/bin/chromium"))
     args = ap.parse_args()
-    wrapper = ("chrt", "-f", "20") if args.fifo else ()
+    wrapper: tuple[str, ...] = ("chrt", "-f", "20") if args.fifo else ()
     binaries = [("A", args.a)] + ([("B", args.b)] if args.b else [])
     if args.bytes:
         for name, binary in binaries:

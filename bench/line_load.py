@@ -42,18 +42,20 @@ import tempfile
 import threading
 import time
 import urllib.request
+from typing import Any, Literal, TypedDict
 
 from pymodbus.client import ModbusTcpClient  # noqa: E402  python3-pymodbus
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "e2e"))
-from http_common import line_config  # noqa: E402
+# tests/e2e is on sys.path at run time only, and untyped: mypy sees its names as Any.
+from http_common import line_config  # type: ignore[import]  # noqa: E402
 
 
-def config(cycle_ms, baud=None):
+def config(cycle_ms: int, baud: int | None = None) -> dict[str, Any]:
     """122 x 48 six-byte slots (tests/e2e/http_common.line_config), quieter log; with `baud` a
     line in time."""
-    cfg = line_config(cycle_ms)
+    cfg: dict[str, Any] = line_config(cycle_ms)
     cfg["log"] = {"level": "warn"}
     if baud:
         cfg["master"]["baud"] = baud
@@ -64,7 +66,7 @@ class Observer:
     """An open panel: its event stream (`stream`) read continuously, the status document twice a
     second (unless `poll` is false: a second view of the same page)."""
 
-    def __init__(self, http_port, stream="/api/v1/events", poll=True):
+    def __init__(self, http_port: int, stream: str = "/api/v1/events", poll: bool = True) -> None:
         self.port, self.bytes, self.stop = http_port, 0, threading.Event()
         self.stream, self.poll_errors = stream, 0
         self.threads = [threading.Thread(target=self.events, daemon=True)]
@@ -73,7 +75,7 @@ class Observer:
         for t in self.threads:
             t.start()
 
-    def events(self):
+    def events(self) -> None:
         try:
             with urllib.request.urlopen("http://127.0.0.1:%d%s" % (self.port, self.stream),
                                         timeout=30) as r:
@@ -85,7 +87,7 @@ class Observer:
         except (OSError, http.client.HTTPException):
             pass  # the daemon stopped at the end of the run
 
-    def poll(self):
+    def poll(self) -> None:
         while not self.stop.wait(0.5):
             try:
                 with urllib.request.urlopen("http://127.0.0.1:%d/api/v1/status" % self.port,
@@ -95,7 +97,7 @@ class Observer:
                 if not self.stop.is_set():  # during the run: counted (poll_errors)
                     self.poll_errors += 1
 
-    def close(self):
+    def close(self) -> None:
         self.stop.set()
 
 
@@ -103,7 +105,8 @@ class Run:
     """candp2d on `cfg` (default: config(cycle_ms, baud)), its Modbus and HTTP ports learnt from
     its ready line (bench/can_load.py runs its own configuration)."""
 
-    def __init__(self, binary, cycle_ms, workdir, baud=None, cfg=None):
+    def __init__(self, binary: str, cycle_ms: int, workdir: str, baud: int | None = None,
+                 cfg: dict[str, Any] | None = None) -> None:
         self.path = os.path.join(workdir, "line.json")
         with open(self.path, "w") as f:
             json.dump(cfg or config(cycle_ms, baud), f)
@@ -125,32 +128,33 @@ class Run:
                 sys.exit("no ready line")
             time.sleep(0.05)
 
-    def wait_data_exch(self, timeout=60):
+    def wait_data_exch(self, timeout: float = 60) -> None:
         end = time.monotonic() + timeout
         while not all(g["dp_state"] == "Data_Exch" for g in self.status()["gateways"]):
             if time.monotonic() > end:
                 sys.exit("not every gateway reached Data_Exch")
             time.sleep(0.2)
 
-    def status(self):
+    def status(self) -> dict[str, Any]:
         with urllib.request.urlopen("http://127.0.0.1:%d/api/v1/status" % self.http,
                                     timeout=30) as r:
-            return json.loads(r.read())
+            doc: dict[str, Any] = json.loads(r.read())
+            return doc
 
-    def cpu_ticks(self):
+    def cpu_ticks(self) -> int:
         with open("/proc/%d/stat" % self.proc.pid) as f:
             fields = f.read().rsplit(")", 1)[1].split()
         return int(fields[11]) + int(fields[12])  # utime + stime
 
-    def memory_kb(self):
-        out = {}
+    def memory_kb(self) -> tuple[int, int]:
+        out: dict[str, int] = {}
         with open("/proc/%d/status" % self.proc.pid) as f:
             for line in f:
                 if line.startswith(("VmRSS:", "VmHWM:")):
                     out[line.split(":")[0]] = int(line.split()[1])
         return out.get("VmRSS", 0), out.get("VmHWM", 0)
 
-    def stop(self):
+    def stop(self) -> None:
         self.proc.terminate()
         try:
             self.proc.wait(10)
@@ -159,19 +163,43 @@ class Run:
         self.log.close()
 
 
-def frames_sent(status):
+def frames_sent(status: dict[str, Any]) -> int:
     return sum(g.get("counters", {}).get("tx_frames", 0) for g in status["gateways"])
 
 
-def measure(binary, cycle_ms, seconds, baud=None, observe=False):
+class Measurement(TypedDict):
+    """One run of measure(), in the order it is printed."""
+    line: str
+    cycle_ms: int
+    bus_cycle_mean_us: float
+    bus_cycle_max_us: float
+    events_bytes: int
+    poll_errors: int
+    cycles_done: int
+    cycles_due: int
+    p99_us: float
+    max_us: float
+    cpu_pct: float
+    rss_kb: int
+    hwm_kb: int
+    frames: int
+
+
+# The figures the summary takes the median of.
+SummaryKey = Literal["cycles_done", "cycles_due", "p99_us", "cpu_pct", "rss_kb", "hwm_kb",
+                     "bus_cycle_mean_us", "bus_cycle_max_us"]
+
+
+def measure(binary: str, cycle_ms: int, seconds: float, baud: int | None = None,
+            observe: bool = False) -> Measurement:
     with tempfile.TemporaryDirectory(prefix="candp2-line-") as d:
         r = Run(binary, cycle_ms, d, baud)
-        observer = None
+        observer: Observer | None = None
         try:
             r.wait_data_exch()
             stop = threading.Event()
 
-            def writer():
+            def writer() -> None:
                 mb = ModbusTcpClient("127.0.0.1", port=r.modbus, timeout=5)
                 mb.connect()
                 k = 0
@@ -213,7 +241,7 @@ def measure(binary, cycle_ms, seconds, baud=None, observe=False):
             r.stop()
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--a", required=True, help="candp2d binary A")
     ap.add_argument("--b", help="candp2d binary B (alternating with A)")
@@ -226,22 +254,21 @@ def main():
     args = ap.parse_args()
     lines = [None if x == "ideal" else int(x) for x in args.lines.split(",")]
     binaries = [("A", args.a)] + ([("B", args.b)] if args.b else [])
-    rows = []
+    rows: list[tuple[str, Measurement]] = []  # (binary, its run)
     for cycle in [int(c) for c in args.cycles.split(",")]:
         for _ in range(args.rounds):
             for baud in lines:
                 for name, binary in binaries:
-                    row = {"binary": name,
-                           **measure(binary, cycle, args.seconds, baud, args.observer)}
-                    rows.append(row)
-                    print(json.dumps(row), flush=True)
+                    row = measure(binary, cycle, args.seconds, baud, args.observer)
+                    rows.append((name, row))
+                    print(json.dumps({"binary": name, **row}), flush=True)
     print("summary (medians):")
-    keys = ("cycles_done", "cycles_due", "p99_us", "cpu_pct", "rss_kb", "hwm_kb",
-            "bus_cycle_mean_us", "bus_cycle_max_us")
-    for cycle in sorted({r["cycle_ms"] for r in rows}):
+    keys: tuple[SummaryKey, ...] = ("cycles_done", "cycles_due", "p99_us", "cpu_pct", "rss_kb",
+                                    "hwm_kb", "bus_cycle_mean_us", "bus_cycle_max_us")
+    for cycle in sorted({r["cycle_ms"] for _, r in rows}):
         for baud in lines:
             for name, _ in binaries:
-                sel = [r for r in rows if r["cycle_ms"] == cycle and r["binary"] == name
+                sel = [r for b, r in rows if r["cycle_ms"] == cycle and b == name
                        and r["line"] == str(baud or "ideal")]
                 med = {k: statistics.median(r[k] for r in sel) for k in keys}
                 print(json.dumps({"binary": name, "line": str(baud or "ideal"),

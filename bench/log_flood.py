@@ -15,10 +15,11 @@ import struct
 import threading
 import time
 
+# python/ is on PYTHONPATH at run time only: mypy run from bench/ sees candp2 as Any.
 import candp2
 
 
-def garbage(address, stop, sent):
+def garbage(address: tuple[str, int], stop: threading.Event, sent: list[int]) -> None:
     while not stop.is_set():
         try:
             with socket.create_connection(address, timeout=2) as s:
@@ -29,7 +30,7 @@ def garbage(address, stop, sent):
             time.sleep(0.001)
 
 
-def poll(address, stop, result):
+def poll(address: tuple[str, int], stop: threading.Event, result: dict[str, int]) -> None:
     request = struct.pack(">HHHBBHH", 1, 0, 6, 3, 4, 8192, 1)
     with socket.create_connection(address, timeout=2) as s:
         while not stop.is_set():
@@ -43,7 +44,7 @@ def poll(address, stop, result):
             time.sleep(0.01)
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--candp2d", required=True)
     ap.add_argument("--clients", type=int, default=40)

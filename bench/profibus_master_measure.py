@@ -21,15 +21,16 @@ import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                                 "python"))
+# python/ is on sys.path at run time only: mypy run from bench/ sees candp2 as Any.
 import candp2  # noqa: E402
 
 
-def slots(i):
+def slots(i: int) -> list[dict[str, object]]:
     return [{"io": "input", "address": 8 * i, "length": 6, "comment": "02,89,B8"},
             {"io": "output", "address": 8 * i, "length": 6, "comment": "03,09,B8"}]
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--candp2d", required=True)
     ap.add_argument("--gateways", type=int, default=1)
@@ -50,7 +51,7 @@ def main():
              "gateways": [{"name": "gw%d" % d, "address": d, "slots": slots(i)}
                           for i, d in enumerate(addrs)],
              "log": {"level": "warn"}}
-    daemons = []
+    daemons: list[candp2.Daemon] = []
     try:
         daemons.append(candp2.Daemon(s_cfg, a.candp2d))
         m = candp2.Daemon(m_cfg, a.candp2d)
@@ -59,20 +60,24 @@ def main():
         for g in stations:
             g.wait_until(lambda g: g.state == "Data_Exch", timeout=20)
 
-        def exchanges():
-            return sum(g.status["data_exchanges"] for g in stations)
+        def num(v: object) -> int:  # a counter of the status (its type allows tuples too)
+            assert isinstance(v, int)
+            return v
+
+        def exchanges() -> int:
+            return sum(num(g.status["data_exchanges"]) for g in stations)
 
         n0, t0 = exchanges(), time.monotonic()
         time.sleep(a.seconds)
         n1, t1 = exchanges(), time.monotonic()
         blocks = [g.status for g in stations]
         rate = (n1 - n0) / (t1 - t0)
-        last = sorted(b["response_us"] for b in blocks)
+        last = sorted(num(b["response_us"]) for b in blocks)
         print("gateways %d, cycle_ms %d, baud %d: %.0f Data_Exchange/s (%.0f per station), "
               "response last median %d us, max %d us, retries %d" % (
                   a.gateways, a.cycle_ms, a.baud, rate, rate / a.gateways, last[len(last) // 2],
-                  max(b["response_max_us"] for b in blocks),
-                  sum(b["station_retries"] for b in blocks)))
+                  max(num(b["response_max_us"]) for b in blocks),
+                  sum(num(b["station_retries"]) for b in blocks)))
     finally:
         for d in reversed(daemons):
             d.stop(check=False)

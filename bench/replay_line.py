@@ -23,13 +23,14 @@ import tempfile
 import time
 
 
-def config(stations, cycle_ms, baud):
-    gws, buses = [], {}
+def config(stations: int, cycle_ms: int, baud: int | None) -> dict[str, object]:
+    gws: list[dict[str, object]] = []
+    buses: dict[str, dict[str, str]] = {}
     for i in range(stations):
         a = 3 + i
         bus = "can%d" % a
         buses[bus] = {"type": "virtual"}
-        slots = []
+        slots: list[dict[str, object]] = []
         for k, (io, base) in enumerate((("output", 0x200), ("output", 0x300),
                                         ("input", 0x180), ("input", 0x280))):
             slots.append({"io": io, "address": (i * 12 + (k % 2) * 6) % 4000, "length": 6,
@@ -43,7 +44,8 @@ def config(stations, cycle_ms, baud):
             "gateways": gws, "log": {"level": "warn"}}
 
 
-def run(candp2, workdir, stations, cycle_ms, baud, hours):
+def run(candp2: str, workdir: str, stations: int, cycle_ms: int, baud: int | None,
+        hours: float) -> float:
     cfg = os.path.join(workdir, "line-%s.json" % (baud or "ideal"))
     with open(cfg, "w") as f:
         json.dump(config(stations, cycle_ms, baud), f)
@@ -63,7 +65,7 @@ def run(candp2, workdir, stations, cycle_ms, baud, hours):
     return wall
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--candp2", required=True)
     ap.add_argument("--stations", type=int, default=32)
@@ -72,7 +74,7 @@ def main():
     ap.add_argument("--cycle-ms", type=int, default=10)
     ap.add_argument("--rounds", type=int, default=3)
     args = ap.parse_args()
-    walls = {"ideal": [], "timed": []}
+    walls: dict[str, list[float]] = {"ideal": [], "timed": []}
     with tempfile.TemporaryDirectory(prefix="candp2-replay-") as d:
         for _ in range(args.rounds):
             for name, baud in (("ideal", None), ("timed", args.baud)):

@@ -22,15 +22,17 @@ import subprocess
 import tempfile
 import time
 import urllib.request
+from typing import Any, NotRequired, TypedDict
 
 
-def free_port():
+def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+        port: int = s.getsockname()[1]
+        return port
 
 
-def expect(sock, want, buf=b""):
+def expect(sock: socket.socket, want: bytes, buf: bytes = b"") -> bytes:
     deadline = time.monotonic() + 5
     while want not in buf:
         if time.monotonic() > deadline:
@@ -39,19 +41,32 @@ def expect(sock, want, buf=b""):
     return buf[buf.index(want) + len(want):]
 
 
-def status(http):
+def status(http: int) -> dict[str, Any]:
     with urllib.request.urlopen("http://127.0.0.1:%d/api/v1/status" % http, timeout=10) as r:
-        return json.load(r)
+        doc: dict[str, Any] = json.load(r)
+        return doc
 
 
-def counts(http):
+def counts(http: int) -> tuple[int, int | None]:
+    """The frames the bus counted and the gateway's Rx counter (None: not in the status)."""
     st = status(http)
     bus = st["buses"][0]
     gw = st["gateways"][0]
     return bus["frames"], gw.get("rx_frames", gw.get("counters", {}).get("rx_frames"))
 
 
-def one_run(candp2d, frames, timeout):
+class Result(TypedDict):
+    """One run, in the order it is printed."""
+    sent: int
+    counted: int
+    gateway_rx: int
+    lost: int
+    send_s: float
+    frames_per_s: int
+    binary: NotRequired[str]  # set by main()
+
+
+def one_run(candp2d: str, frames: int, timeout: float) -> Result:
     tmp = tempfile.mkdtemp(prefix="ingest-")
     modbus, scand, http = free_port(), free_port(), free_port()
     cfg = {"modbus": {"listen": "127.0.0.1:%d" % modbus},
@@ -108,7 +123,7 @@ def one_run(candp2d, frames, timeout):
         proc.wait(timeout=10)
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--a", required=True)
     ap.add_argument("--b")
@@ -117,7 +132,7 @@ def main():
     ap.add_argument("--timeout", type=float, default=60)
     args = ap.parse_args()
     bins = [("A", args.a)] + ([("B", args.b)] if args.b else [])
-    results = {name: [] for name, _ in bins}
+    results: dict[str, list[Result]] = {name: [] for name, _ in bins}
     for _ in range(args.rounds):
         for name, path in bins:
             r = one_run(path, args.frames, args.timeout)
