@@ -33,6 +33,10 @@ daemon options:
                100 ms): the row counts the events' bytes, failed polls and hostile connections
   --stall-ms N candp2d stopped (SIGSTOP) for N ms once in the middle of the run: the row has the
                host stalls candp2d counted (docs/daemon.md "Host stalls")
+  --against B  two builds on the same buses side by side instead (A = --candp2d, B = this one;
+               --bitrate, or "ideal"), one on each core, which starts first alternating: each
+               round's B / A of the CPU, and their median (a change's cost where a ratio of two
+               runs minutes apart would measure the VM's drift)
 Each daemon row also has what was lost: irq_lost, tx_lost, rx_short (frames sent that the other
 gateway did not take: on these buses every frame sent is an Rx slot of the other gateway), the
 master cycles run against those due and the cycle lateness (p99, max).
@@ -41,6 +45,7 @@ Prints one JSON line per run and the medians with the ratios timed / ideal.
 
 Usage: bench/can_load.py daemon --candp2d build/bin/candp2d [--seconds 10] [--rounds 2]
            [--paired] [--observer] [--stall-ms 300]
+       bench/can_load.py daemon --candp2d A/candp2d --against B/candp2d [--bitrate ideal]
        bench/can_load.py replay --timed-bus-run build/tests/timed_bus_run [--virtual-s 60]
            [--paired] [--step-us 1000]
 """
@@ -245,6 +250,30 @@ def measure_replay(binary: str, bitrate: str | None, virtual_s: int, step_us: in
                                           default=0), 2)}
 
 
+def against(a: str, b: str, bitrate: str | None, seconds: float, rounds: int) -> None:
+    """--against: the builds A and B on the same buses side by side, B / A of the CPU."""
+    ratios: list[float] = []
+    for r in range(rounds):
+        out: dict[str, Row] = {}
+
+        def one(build: str, binary: str) -> None:
+            out[build] = measure_daemon(binary, bitrate, seconds)
+
+        runs = [threading.Thread(target=one, args=x) for x in (("A", a), ("B", b))]
+        if r % 2:  # which one starts first alternates
+            runs.reverse()
+        for t in runs:
+            t.start()
+        for t in runs:
+            t.join()
+        ratios.append(out["B"]["cpu_pct"] / max(out["A"]["cpu_pct"], 0.1))
+        for build in ("A", "B"):
+            print(json.dumps({"build": build, **out[build]}), flush=True)
+        print(json.dumps({"round": r + 1, "b_over_a_cpu": round(ratios[-1], 3)}), flush=True)
+    print(json.dumps({"bus": bitrate or "ideal",
+                      "median_b_over_a_cpu": round(statistics.median(ratios), 3)}))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("mode", choices=["daemon", "replay"])
@@ -258,7 +287,12 @@ def main() -> None:
     ap.add_argument("--observer", action="store_true")
     ap.add_argument("--stall-ms", type=int, default=0)
     ap.add_argument("--step-us", type=int, default=0)
+    ap.add_argument("--against")
     args = ap.parse_args()
+    if args.against:
+        bitrate = None if args.bitrate == "ideal" else args.bitrate
+        against(args.candp2d, args.against, bitrate, args.seconds, args.rounds)
+        return
     rows: list[Row] = []
     for _ in range(args.rounds):
         if args.paired:
