@@ -117,8 +117,7 @@ class TimedBus {
   void remove_node(std::size_t node);
   // The node asks to send `frame` at `now` (not before the last advance). False: its queue is full
   // and the frame is lost (counted in lost()), or the node is bus-off (not counted: its owner
-  // refuses to send while bus-off).
-  // `node` is one add_node() gave.
+  // refuses to send while bus-off). `node` is one add_node() gave.
   bool request(std::size_t node, const Frame& frame, Time now);
 
   void on_start(Hook hook) { on_start_ = std::move(hook); }
@@ -184,15 +183,17 @@ class TimedBus {
 
   std::uint32_t bitrate() const { return bitrate_; }
   Time time_of(std::uint64_t bit) const {
-    // A bit a whole number of microseconds long (every CAN-DP/2 rate but 800k): no rounding, so
-    // bits_to_time() is that product (docs/can-bus.md "Performance": the divisions cost).
+    // A bit a whole number of microseconds long (every CAN-DP/2 rate but 666.6k, 333.3k, 166k,
+    // 66.6k and 33.3k): no rounding, so bits_to_time() is that product (docs/can-bus.md
+    // "Performance": the divisions cost).
     if (us_per_bit_ != 0) return origin_ + Duration(static_cast<std::int64_t>(bit * us_per_bit_));
     return time_of_rounded(bit);
   }
   // The first whole bit at or after `t`.
   std::uint64_t bit_at(Time t) const {
     // A bit a whole number of microseconds long: the microseconds over it, rounded up, which is
-    // what time_to_bits() gives, without its divisions (asked at every request).
+    // what time_to_bits() gives, with one division instead of its two, none at 1 µs a bit (asked
+    // at every request).
     if (us_per_bit_ == 0) return bit_at_rounded(t);
     if (t <= origin_) return 0;
     const auto us = static_cast<std::uint64_t>((t - origin_).count());

@@ -24,8 +24,10 @@ void TimedBus::recount() {
   acknowledgers_ = 0;
   all_receive_ = true;
   for (std::size_t i = 0; i < nodes_.size(); ++i) {
-    if (nodes_[i].present && !receives(nodes_[i])) all_receive_ = false;
-    if (receives(nodes_[i]) && nodes_[i].acknowledges) {
+    const Node& n = nodes_[i];
+    if (!receives(n)) {
+      if (n.present) all_receive_ = false;
+    } else if (n.acknowledges) {
       ++acknowledgers_;
       acknowledger_ = i;
     }
