@@ -63,6 +63,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -250,25 +251,32 @@ def measure_replay(binary: str, bitrate: str | None, virtual_s: int, step_us: in
                                           default=0), 2)}
 
 
+def side_by_side(jobs: list[Callable[[], Row]], reverse: bool = False) -> list[Row]:
+    """The jobs at once, one thread each (one daemon or replay per core), started in order or
+    `reverse`d; their rows in the jobs' order."""
+    out: list[Row | None] = [None] * len(jobs)
+
+    def one(i: int) -> None:
+        out[i] = jobs[i]()
+
+    runs = [threading.Thread(target=one, args=(i,)) for i in range(len(jobs))]
+    for t in reversed(runs) if reverse else runs:
+        t.start()
+    for t in runs:
+        t.join()
+    return [row for row in out if row is not None]
+
+
 def against(a: str, b: str, bitrate: str | None, seconds: float, rounds: int) -> None:
     """--against: the builds A and B on the same buses side by side, B / A of the CPU."""
     ratios: list[float] = []
     for r in range(rounds):
-        out: dict[str, Row] = {}
-
-        def one(build: str, binary: str) -> None:
-            out[build] = measure_daemon(binary, bitrate, seconds)
-
-        runs = [threading.Thread(target=one, args=x) for x in (("A", a), ("B", b))]
-        if r % 2:  # which one starts first alternates
-            runs.reverse()
-        for t in runs:
-            t.start()
-        for t in runs:
-            t.join()
-        ratios.append(out["B"]["cpu_pct"] / max(out["A"]["cpu_pct"], 0.1))
-        for build in ("A", "B"):
-            print(json.dumps({"build": build, **out[build]}), flush=True)
+        row_a, row_b = side_by_side([lambda: measure_daemon(a, bitrate, seconds),
+                                     lambda: measure_daemon(b, bitrate, seconds)],
+                                    reverse=r % 2 == 1)  # which one starts first alternates
+        ratios.append(row_b["cpu_pct"] / max(row_a["cpu_pct"], 0.1))
+        for build, row in (("A", row_a), ("B", row_b)):
+            print(json.dumps({"build": build, **row}), flush=True)
         print(json.dumps({"round": r + 1, "b_over_a_cpu": round(ratios[-1], 3)}), flush=True)
     print(json.dumps({"bus": bitrate or "ideal",
                       "median_b_over_a_cpu": round(statistics.median(ratios), 3)}))
@@ -296,22 +304,13 @@ def main() -> None:
     rows: list[Row] = []
     for _ in range(args.rounds):
         if args.paired:
-            out: dict[str | None, Row] = {}
-
-            def one(bitrate: str | None) -> None:
+            def one(bitrate: str | None) -> Row:
                 if args.mode == "daemon":
-                    out[bitrate] = measure_daemon(args.candp2d, bitrate, args.seconds,
-                                                  args.observer, args.stall_ms)
-                else:
-                    out[bitrate] = measure_replay(args.timed_bus_run, bitrate, args.virtual_s,
-                                                  args.step_us)
+                    return measure_daemon(args.candp2d, bitrate, args.seconds, args.observer,
+                                          args.stall_ms)
+                return measure_replay(args.timed_bus_run, bitrate, args.virtual_s, args.step_us)
 
-            runs = [threading.Thread(target=one, args=(b,)) for b in (args.bitrate, None)]
-            for t in runs:
-                t.start()
-            for t in runs:
-                t.join()
-            batch = [out[args.bitrate], out[None]]
+            batch = side_by_side([lambda: one(args.bitrate), lambda: one(None)])
             if args.mode == "daemon":
                 batch[0]["ratio"] = round(batch[0]["cpu_pct"] / max(batch[1]["cpu_pct"], 0.1), 2)
             else:
