@@ -221,5 +221,25 @@ TEST(TimedBus, OwnerToldOnceUntilItAsksAgain) {
   EXPECT_EQ(told, 3);
 }
 
+// docs/can-bus.md "Round 6": at a rate whose bit is not a whole number of microseconds (666.6k:
+// 1.50015 µs) a frame requested within the microsecond of the start bit contends there: 000#
+// ends at bit 53, 79.5 µs, stamped 80 µs; 001# requested at 80 µs (its own first whole bit 54)
+// still wins the idle at bit 53 against 7FF#, queued since 0.
+TEST(TimedBus, RequestWithinTheMicrosecondOfTheStartBitContends) {
+  TimedBus bus(666600, Time(0));
+  Trace trace(bus);
+  const auto a = bus.add_node(8), b = bus.add_node(8);
+  request_all(bus, {{a, "000#"}, {a, "7FF#"}}, Time(0));
+  bus.advance(Time(0));
+  EXPECT_EQ(bus.next_deadline(), Time(80));
+  EXPECT_EQ(bus.bit_at(Time(80)), 54u);
+  ASSERT_TRUE(bus.request(b, F("001#"), Time(80)));
+  run(bus);
+  ASSERT_EQ(trace.lines.size(), 3u);
+  EXPECT_EQ(trace.lines[1].substr(0, 3), "80 ");
+  EXPECT_EQ(trace.lines[1].substr(trace.lines[1].size() - 6), "1 001#");
+  EXPECT_EQ(trace.lines[2].substr(trace.lines[2].size() - 6), "0 7FF#");
+}
+
 }  // namespace
 }  // namespace candp2::can
