@@ -1,6 +1,7 @@
 #include "can/timed_bus.hpp"
 
 #include <algorithm>
+#include <limits>
 
 #include "can/frame_bits.hpp"
 #include "common/line_physics.hpp"
@@ -70,8 +71,7 @@ bool TimedBus::request(std::size_t node, const Frame& frame, Time now) {
     ++lost_;
     return false;
   }
-  n.queue.push_back(
-      Pending{frame, now, bit_at(now), arbitration_key(frame), frame_bits_exact(frame)});
+  n.queue.push_back(frame, now, bit_at(now), arbitration_key(frame), frame_bits_exact(frame));
   ++pending_;
   // While a frame is on the bus the deadline is its end, whatever is queued: nothing moved.
   if (!busy_) moved();
@@ -192,14 +192,11 @@ void TimedBus::start(std::uint64_t bit, std::size_t index) {
   Node* const winner = &nodes_[index];
   const std::uint32_t best = winner->queue.front_key();
   const Pending& p = winner->queue.front();
-  // The identifier's statistics are fetched while the frame's error is looked for (a cache miss
-  // at every frame otherwise: docs/can-bus.md "Performance"); only a frame without error makes a
+  // The identifier's counts are fetched while the frame's error is looked for (a cache miss at
+  // every frame otherwise: docs/can-bus.md "Performance"); only a frame without error makes a
   // new entry.
-  IdStatistics* known = find_statistics(best);
-  if (known) {
-    __builtin_prefetch(known, 1);
-    __builtin_prefetch(reinterpret_cast<const char*>(known + 1) - 1, 1);
-  }
+  const std::uint32_t known = counts_of(*winner, best);
+  if (known) __builtin_prefetch(&id_counts_[known - 1], 1);
   const Error error = error_of(index, p.frame, at);
   std::uint32_t bits = p.bits;
   if (error != Error::None) {
@@ -231,23 +228,38 @@ void TimedBus::start(std::uint64_t bit, std::size_t index) {
   --pending_;
   ++frames_;
 
-  IdStatistics& s = known ? *known : id_statistics(best);
-  s.id = ident_of(on_bus_.frame);
-  s.remote = on_bus_.frame.remote;
-  if (s.frames > 0) {
-    const Duration period = at - s.last_start;
-    s.period_last = period;
-    s.period_min = s.frames == 1 ? period : std::min(s.period_min, period);
-    s.period_max = std::max(s.period_max, period);
-    s.period_sum += period;
-  }
-  const Duration latency = at - on_bus_.requested;
-  s.latency_last = latency;
-  s.latency_max = std::max(s.latency_max, latency);
-  s.latency_sum += latency;
-  s.last_start = at;
-  ++s.frames;
+  count_frame(*winner, known ? known : id_counts(best), at, on_bus_.requested);
   if (on_start_) on_start_(on_bus_);
+}
+
+namespace {
+// A period or a latency as IdCounts keeps it.
+std::uint32_t micros32(Duration d) {
+  return static_cast<std::uint32_t>(
+      std::min<std::int64_t>(d.count(), std::numeric_limits<std::uint32_t>::max()));
+}
+}  // namespace
+
+void TimedBus::count_frame(Node& n, std::uint32_t entry, Time at, Time requested) {
+  IdCounts& c = id_counts_[entry - 1];
+  // The node's order: its last frame's entry leads to this one (already so when it was guessed).
+  if (n.guess != entry && n.last != 0) id_counts_[n.last - 1].after = entry;
+  n.last = entry;
+  n.guess = c.after;
+  if (c.frames > 0) {
+    const Duration period = at - Time(c.last_start);
+    const std::uint32_t p = micros32(period);
+    c.period_last = p;
+    c.period_min = c.frames == 1 ? p : std::min(c.period_min, p);
+    c.period_max = std::max(c.period_max, p);
+    c.period_sum += period.count();
+  }
+  const Duration latency = at - requested;
+  c.latency_last = micros32(latency);
+  c.latency_max = std::max(c.latency_max, c.latency_last);
+  c.latency_sum += latency.count();
+  c.last_start = at.count();
+  ++c.frames;
 }
 
 std::size_t TimedBus::id_slot(std::uint32_t key) const {
@@ -256,14 +268,12 @@ std::size_t TimedBus::id_slot(std::uint32_t key) const {
   return i;
 }
 
-TimedBus::IdStatistics* TimedBus::find_statistics(std::uint32_t key) {
-  if (id_index_.empty()) return nullptr;
-  const IdSlot& e = id_index_[id_slot(key)];
-  return e.index ? &id_stats_[e.index - 1] : nullptr;
+std::uint32_t TimedBus::find_counts(std::uint32_t key) const {
+  return id_index_.empty() ? 0 : id_index_[id_slot(key)].index;
 }
 
-TimedBus::IdStatistics& TimedBus::id_statistics(std::uint32_t key) {
-  if (2 * (id_stats_.size() + 1) > id_index_.size()) {  // grow: at most half full
+std::uint32_t TimedBus::id_counts(std::uint32_t key) {
+  if (2 * (id_counts_.size() + 1) > id_index_.size()) {  // grow: at most half full
     std::vector<IdSlot> old(std::max<std::size_t>(64, 2 * id_index_.size()));
     old.swap(id_index_);
     for (const IdSlot& e : old)
@@ -271,16 +281,32 @@ TimedBus::IdStatistics& TimedBus::id_statistics(std::uint32_t key) {
   }
   IdSlot& e = id_index_[id_slot(key)];
   if (!e.index) {
-    id_stats_.emplace_back();
-    e = IdSlot{key, static_cast<std::uint32_t>(id_stats_.size())};
+    id_counts_.emplace_back().key = key;
+    e = IdSlot{key, static_cast<std::uint32_t>(id_counts_.size())};
   }
-  return id_stats_[e.index - 1];
+  return e.index;
 }
 
 std::map<std::uint32_t, TimedBus::IdStatistics> TimedBus::identifiers() const {
   std::map<std::uint32_t, IdStatistics> out;
-  for (const IdSlot& e : id_index_)
-    if (e.index) out.emplace(e.key, id_stats_[e.index - 1]);
+  for (const IdCounts& c : id_counts_) {
+    IdStatistics& s = out[c.key];
+    // The arbitration key's fields (arbitration_key()): base identifier, RTR or SRR, IDE,
+    // extended identifier, RTR of an extended frame.
+    const bool extended = (c.key >> 19 & 1u) != 0;
+    s.id = extended ? Ident{(c.key >> 21) << 18 | (c.key >> 1 & 0x3FFFF), true}
+                    : Ident{c.key >> 21, false};
+    s.remote = ((extended ? c.key : c.key >> 20) & 1u) != 0;
+    s.frames = c.frames;
+    s.last_start = Time(c.last_start);
+    s.period_last = Duration(c.period_last);
+    s.period_min = Duration(c.period_min);
+    s.period_max = Duration(c.period_max);
+    s.period_sum = Duration(c.period_sum);
+    s.latency_last = Duration(c.latency_last);
+    s.latency_max = Duration(c.latency_max);
+    s.latency_sum = Duration(c.latency_sum);
+  }
   return out;
 }
 

@@ -234,9 +234,20 @@ class TimedBus {
     Time front_requested() const { return front_requested_; }
     std::uint64_t front_bit() const { return front_bit_; }
     std::uint32_t front_key() const { return front_key_; }
-    void push_back(const Pending& p) {
-      ring_.push_back(p);
-      if (ring_.size() == 1) keep_front();
+    // Queues a frame, its fields written in place.
+    void push_back(const Frame& frame, Time requested, std::uint64_t bit, std::uint32_t key,
+                   std::uint32_t bits) {
+      Pending& p = ring_.push_back_slot();
+      p.frame = frame;
+      p.requested = requested;
+      p.requested_bit = bit;
+      p.key = key;
+      p.bits = bits;
+      if (ring_.size() == 1) {
+        front_requested_ = requested;
+        front_bit_ = bit;
+        front_key_ = key;
+      }
     }
     void pop_front() {
       ring_.pop_front();
@@ -269,6 +280,8 @@ class TimedBus {
     // run began (nullopt while a frame is on the bus).
     std::uint32_t recessive_runs = 0;
     std::optional<std::uint64_t> run_from;
+    // Its last frame's and (guessed) next frame's identifier counts, + 1 (0: none): IdCounts.
+    std::uint32_t last = 0, guess = 0;
   };
   // The node may start a frame at `bit`, whose time is `at` (present, plugged, not bus-off, not
   // suspended, a frame requested by then).
@@ -351,21 +364,43 @@ class TimedBus {
   std::optional<Time> compute_deadline() const;
   std::function<void()> on_moved_;
   void moved();
-  // Each identifier's statistics, found per frame by arbitration key: a small index (open
-  // addressing, linear probing, at most half full) into statistics kept densely in the order
-  // the identifiers first appeared (a std::unordered_map's node walk, then a std::map's node
-  // apart from every other, cost more than the rest of start(): docs/can-bus.md "Performance").
-  // identifiers() sorts them for the status.
+  // Each identifier's counts as start() keeps them, in one cache line (identifiers() gives them
+  // as IdStatistics): periods and latencies in microseconds up to 2^32 − 1 (71 min 35 s), larger
+  // ones read as that. `after`: the entry of the frame its node started next the last time (+ 1;
+  // 0 none): a node sends its frames in the same order cycle after cycle, so its next frame's
+  // entry is found without the index (docs/can-bus.md "Performance").
+  struct alignas(64) IdCounts {
+    std::uint32_t key = 0;
+    std::uint32_t after = 0;
+    std::uint64_t frames = 0;
+    std::int64_t last_start = 0;  // µs since the epoch of Time
+    std::int64_t period_sum = 0, latency_sum = 0;
+    std::uint32_t period_last = 0, period_min = 0, period_max = 0;
+    std::uint32_t latency_last = 0, latency_max = 0;
+  };
+  static_assert(sizeof(IdCounts) == 64);
+  // Found by arbitration key when the node's guess fails: a small index (open addressing, linear
+  // probing, at most half full) into the counts kept densely in the order the identifiers first
+  // appeared (a std::unordered_map's node walk, then a std::map's node apart from every other,
+  // cost more than the rest of start(): docs/can-bus.md "Performance"). identifiers() sorts them
+  // for the status.
   struct IdSlot {
     std::uint32_t key = 0;
-    std::uint32_t index = 0;  // into id_stats_ + 1; 0: empty
+    std::uint32_t index = 0;  // into id_counts_ + 1; 0: empty
   };
   std::vector<IdSlot> id_index_;
-  std::vector<IdStatistics> id_stats_;
+  std::vector<IdCounts> id_counts_;
   // The slot of `key` in id_index_, or the empty slot where it would go.
   std::size_t id_slot(std::uint32_t key) const;
-  IdStatistics& id_statistics(std::uint32_t key);    // made on the first frame
-  IdStatistics* find_statistics(std::uint32_t key);  // nullptr: none yet
+  std::uint32_t id_counts(std::uint32_t key);          // index + 1, made on the first frame
+  std::uint32_t find_counts(std::uint32_t key) const;  // index + 1, 0: none yet
+  // The counts of the frame node `n` starts now (key `key`): the node's guess, else the index.
+  std::uint32_t counts_of(const Node& n, std::uint32_t key) const {
+    if (n.guess != 0 && id_counts_[n.guess - 1].key == key) return n.guess;
+    return find_counts(key);
+  }
+  // Counts a frame of node `n` without error that started at `at` (entry + 1 of its key).
+  void count_frame(Node& n, std::uint32_t entry, Time at, Time requested);
   std::size_t bus_off_nodes_ = 0;  // nodes in BusOff (none: no recovery to look for)
   // What every frame would otherwise ask of every node, counted again at each change of a node's
   // counters, state or faults (docs/can-bus.md "Performance"): calm_, no node with an error

@@ -20,6 +20,12 @@ class Ring {
     items_[(head_ + size_) & mask_] = item;
     ++size_;
   }
+  // A new last item to be filled in place (an item built whole and copied in is read back in
+  // parts, a stall: docs/can-bus.md "Performance").
+  T& push_back_slot() {
+    if (size_ == items_.size()) grow();
+    return items_[(head_ + size_++) & mask_];
+  }
   void pop_front() {
     head_ = (head_ + 1) & mask_;
     --size_;

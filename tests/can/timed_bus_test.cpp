@@ -5,7 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
 #include <initializer_list>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -239,6 +242,88 @@ TEST(TimedBus, RequestWithinTheMicrosecondOfTheStartBitContends) {
   EXPECT_EQ(trace.lines[1].substr(0, 3), "80 ");
   EXPECT_EQ(trace.lines[1].substr(trace.lines[1].size() - 6), "1 001#");
   EXPECT_EQ(trace.lines[2].substr(trace.lines[2].size() - 6), "0 7FF#");
+}
+
+// docs/can-bus.md "Round 7": an identifier's counts are found through its node's guess (the entry
+// that followed the node's last frame the last time) and, when the guess fails, through the index.
+// A node that changes its order, two nodes sending one identifier, 29-bit and remote frames: the
+// counts equal those kept from the starts of frame by a plain map.
+TEST(TimedBus, IdentifierCountsFollowANodeThatChangesItsOrder) {
+  TimedBus bus(500000, Time(0));
+  const auto a = bus.add_node(16), b = bus.add_node(16);
+  std::map<std::uint32_t, TimedBus::IdStatistics> expected;
+  bus.on_start([&expected](const TimedBus::OnBus& f) {
+    TimedBus::IdStatistics& s = expected[arbitration_key(f.frame)];
+    s.id = ident_of(f.frame);
+    s.remote = f.frame.remote;
+    if (s.frames > 0) {
+      const Duration period = f.start - s.last_start;
+      s.period_last = period;
+      s.period_min = s.frames == 1 ? period : std::min(s.period_min, period);
+      s.period_max = std::max(s.period_max, period);
+      s.period_sum += period;
+    }
+    s.latency_last = f.start - f.requested;
+    s.latency_max = std::max(s.latency_max, s.latency_last);
+    s.latency_sum += s.latency_last;
+    s.last_start = f.start;
+    ++s.frames;
+  });
+  const std::vector<std::vector<const char*>> orders = {
+      {"101#01", "102#0203", "12345678#04", "103#R"},
+      {"103#R", "101#05", "12345678#06", "102#0708"},
+      {"102#09", "101#0A"},
+  };
+  for (int k = 0; k < 12; ++k) {
+    const Time at(k * 5000);
+    bus.advance(at);
+    for (const char* text : orders[static_cast<std::size_t>(k / 4 % 3)])
+      ASSERT_TRUE(bus.request(a, F(text), at));
+    if (k % 2) {
+      ASSERT_TRUE(bus.request(b, F("102#FF"), at + Duration(30)));
+    }
+    run(bus);
+  }
+  const auto got = bus.identifiers();
+  ASSERT_EQ(got.size(), expected.size());
+  ASSERT_EQ(got.size(), 4u);
+  for (const auto& [key, e] : expected) {
+    SCOPED_TRACE(key);
+    const TimedBus::IdStatistics& s = got.at(key);
+    EXPECT_EQ(s.id, e.id);
+    EXPECT_EQ(s.remote, e.remote);
+    EXPECT_EQ(s.frames, e.frames);
+    EXPECT_EQ(s.last_start, e.last_start);
+    EXPECT_EQ(s.period_last, e.period_last);
+    EXPECT_EQ(s.period_min, e.period_min);
+    EXPECT_EQ(s.period_max, e.period_max);
+    EXPECT_EQ(s.period_sum, e.period_sum);
+    EXPECT_EQ(s.latency_last, e.latency_last);
+    EXPECT_EQ(s.latency_max, e.latency_max);
+    EXPECT_EQ(s.latency_sum, e.latency_sum);
+  }
+  EXPECT_TRUE(got.at(arbitration_key(F("12345678#"))).id.extended);
+  EXPECT_TRUE(got.at(arbitration_key(F("103#R"))).remote);
+}
+
+// docs/can-bus.md "Seen from outside": a period or latency is kept to 2^32 − 1 µs (71 min 35 s);
+// a longer one reads as that, and the means stay exact.
+TEST(TimedBus, PeriodsBeyondSeventyOneMinutesReadAsTheirLimit) {
+  TimedBus bus(1000000, Time(0));
+  const auto a = bus.add_node(4);
+  const Duration two_hours = std::chrono::hours(2);
+  for (const Time at : {Time(0), Time(0) + two_hours, Time(0) + two_hours + Duration(1000)}) {
+    bus.advance(at);
+    ASSERT_TRUE(bus.request(a, F("080#"), at));
+    run(bus);
+  }
+  const auto s = bus.identifiers().at(arbitration_key(F("080#")));
+  constexpr Duration kLimit(0xFFFFFFFFll);
+  EXPECT_EQ(s.frames, 3u);
+  EXPECT_EQ(s.period_max, kLimit);
+  EXPECT_EQ(s.period_min, Duration(1000));
+  EXPECT_EQ(s.period_last, Duration(1000));
+  EXPECT_EQ(s.period_mean(), (two_hours + Duration(1000)) / 2);
 }
 
 }  // namespace
