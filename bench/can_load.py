@@ -39,7 +39,8 @@ daemon options:
                runs minutes apart would measure the VM's drift)
 Each daemon row also has what was lost: irq_lost, tx_lost, rx_short (frames sent that the other
 gateway did not take: on these buses every frame sent is an Rx slot of the other gateway), the
-master cycles run against those due and the cycle lateness (p99, max).
+master cycles run against those due (between the middles of the two status requests; status_ms
+the longer request) and the cycle lateness (p99, max).
 
 Prints one JSON line per run and the medians with the ratios timed / ideal.
 
@@ -190,6 +191,10 @@ def measure_daemon(binary: str, bitrate: str | None, seconds: float, observe: bo
             if observe:
                 seen = watchers(r.http)
             time.sleep(1.0)
+            # A status is the daemon's state at some moment of its request: the cycles due are
+            # counted between the middles of the two requests (with observers attached the first
+            # may wait a hundred ms behind their connections), and the row says the longest wait.
+            a0 = time.monotonic()
             st0 = r.status()
             s0, c0, w0, t0 = counters(st0), r.cpu_ticks(), rounds[0], time.monotonic()
             if stall_ms:
@@ -200,8 +205,10 @@ def measure_daemon(binary: str, bitrate: str | None, seconds: float, observe: bo
                 time.sleep(seconds / 2)
             else:
                 time.sleep(seconds)
+            a1 = time.monotonic()
             st1 = r.status()
             s1, c1, w1, t1 = counters(st1), r.cpu_ticks(), rounds[0], time.monotonic()
+            between_ms = ((t1 + a1) - (t0 + a0)) * 500.0
             stop.set()
             t.join(10)
             hz = os.sysconf("SC_CLK_TCK")
@@ -215,7 +222,8 @@ def measure_daemon(binary: str, bitrate: str | None, seconds: float, observe: bo
             # due are those of the wall time less the stalls.
             row.update({"rx_short": row["tx"] - row["rx"],
                         "cycles_done": st1["cycle"]["cycles"] - st0["cycle"]["cycles"],
-                        "cycles_due": round(((t1 - t0) * 1000.0 - stalled) / CYCLE_MS),
+                        "cycles_due": round((between_ms - stalled) / CYCLE_MS),
+                        "status_ms": round(1000.0 * max(t0 - a0, t1 - a1)),
                         "p99_us": lat["p99"], "max_us": lat["max"],
                         "stalls": st1["host_stalls"]["count"] - st0["host_stalls"]["count"],
                         "stall_ms": round(stalled, 1)})
