@@ -233,10 +233,11 @@ void TimedBus::start(std::uint64_t bit, std::size_t index) {
 }
 
 namespace {
-// A period or a latency as IdCounts keeps it.
+// A period or a latency as IdCounts keeps it (neither is negative: a frame starts at or after its
+// request, after the last start of its identifier).
 std::uint32_t micros32(Duration d) {
   return static_cast<std::uint32_t>(
-      std::min<std::int64_t>(d.count(), std::numeric_limits<std::uint32_t>::max()));
+      std::clamp<std::int64_t>(d.count(), 0, std::numeric_limits<std::uint32_t>::max()));
 }
 }  // namespace
 

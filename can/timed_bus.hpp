@@ -83,7 +83,8 @@ class TimedBus {
 
   // Per identifier (the arbitration field: identifier, IDE and RTR; a remote frame apart from the
   // data frames of its identifier). Period: the time between two starts of frame; jitter: the
-  // largest period less the smallest. Latency: send request to start of frame.
+  // largest period less the smallest. Latency: send request to start of frame. The last, smallest
+  // and largest period and latency are kept up to 2^32 − 1 µs (71 min 35 s); the sums are exact.
   struct IdStatistics {
     Ident id;
     bool remote = false;
