@@ -89,5 +89,15 @@ inline std::uint32_t arbitration_key(const Ident& id, bool remote) {
 inline std::uint32_t arbitration_key(const Frame& f) {
   return arbitration_key(ident_of(f), f.remote);
 }
+// The identifier and kind an arbitration key was made of (its inverse).
+struct ArbitrationField {
+  Ident id;
+  bool remote = false;
+};
+inline ArbitrationField arbitration_field(std::uint32_t key) {
+  if ((key >> 19 & 1u) != 0)  // IDE recessive: extended
+    return {{(key >> 21) << 18 | (key >> 1 & 0x3FFFFu), true}, (key & 1u) != 0};
+  return {{key >> 21, false}, (key >> 20 & 1u) != 0};
+}
 
 }  // namespace candp2::can

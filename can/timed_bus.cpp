@@ -292,12 +292,9 @@ std::map<std::uint32_t, TimedBus::IdStatistics> TimedBus::identifiers() const {
   std::map<std::uint32_t, IdStatistics> out;
   for (const IdCounts& c : id_counts_) {
     IdStatistics& s = out[c.key];
-    // The arbitration key's fields (arbitration_key()): base identifier, RTR or SRR, IDE,
-    // extended identifier, RTR of an extended frame.
-    const bool extended = (c.key >> 19 & 1u) != 0;
-    s.id = extended ? Ident{(c.key >> 21) << 18 | (c.key >> 1 & 0x3FFFF), true}
-                    : Ident{c.key >> 21, false};
-    s.remote = ((extended ? c.key : c.key >> 20) & 1u) != 0;
+    const ArbitrationField field = arbitration_field(c.key);
+    s.id = field.id;
+    s.remote = field.remote;
     s.frames = c.frames;
     s.last_start = Time(c.last_start);
     s.period_last = Duration(c.period_last);

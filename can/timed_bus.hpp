@@ -244,11 +244,7 @@ class TimedBus {
       p.requested_bit = bit;
       p.key = key;
       p.bits = bits;
-      if (ring_.size() == 1) {
-        front_requested_ = requested;
-        front_bit_ = bit;
-        front_key_ = key;
-      }
+      if (ring_.size() == 1) keep_front();
     }
     void pop_front() {
       ring_.pop_front();

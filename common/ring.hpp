@@ -15,11 +15,7 @@ class Ring {
   bool empty() const { return size_ == 0; }
   std::size_t size() const { return size_; }
   const T& front() const { return items_[head_]; }
-  void push_back(const T& item) {
-    if (size_ == items_.size()) grow();
-    items_[(head_ + size_) & mask_] = item;
-    ++size_;
-  }
+  void push_back(const T& item) { push_back_slot() = item; }
   // A new last item to be filled in place (an item built whole and copied in is read back in
   // parts, a stall: docs/can-bus.md "Performance").
   T& push_back_slot() {

@@ -262,5 +262,17 @@ TEST(Arbitration, Order) {
   EXPECT_LT(arbitration_key({0x0400000, true}, false), arbitration_key({0x0400000, true}, true));
 }
 
+// The key's inverse gives back the identifier and kind it was made of (identifiers() shows them,
+// docs/can-bus.md "Seen from outside").
+TEST(Arbitration, FieldIsTheKeysInverse) {
+  for (const Ident id : {Ident{0x000, false}, Ident{0x7FF, false}, Ident{0x123, false},
+                         Ident{0x00000000, true}, Ident{0x1FFFFFFF, true}, Ident{0x12345678, true}})
+    for (const bool remote : {false, true}) {
+      const ArbitrationField f = arbitration_field(arbitration_key(id, remote));
+      EXPECT_EQ(f.id, id);
+      EXPECT_EQ(f.remote, remote);
+    }
+}
+
 }  // namespace
 }  // namespace candp2::can
