@@ -243,10 +243,9 @@ std::uint32_t micros32(Duration d) {
 
 void TimedBus::count_frame(Node& n, std::uint32_t entry, Time at, Time requested) {
   IdCounts& c = id_counts_[entry - 1];
-  // The node's order: its last frame's entry leads to this one (already so when it was guessed).
-  if (n.guess != entry && n.last != 0) id_counts_[n.last - 1].after = entry;
+  // The node's order: its last frame's entry leads to this one.
+  if (n.last != 0) id_counts_[n.last - 1].after = entry;
   n.last = entry;
-  n.guess = c.after;
   if (c.frames > 0) {
     const Duration period = at - Time(c.last_start);
     const std::uint32_t p = micros32(period);

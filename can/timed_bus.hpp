@@ -277,8 +277,8 @@ class TimedBus {
     // run began (nullopt while a frame is on the bus).
     std::uint32_t recessive_runs = 0;
     std::optional<std::uint64_t> run_from;
-    // Its last frame's and (guessed) next frame's identifier counts, + 1 (0: none): IdCounts.
-    std::uint32_t last = 0, guess = 0;
+    // Its last frame's identifier counts, + 1 (0: none): IdCounts.
+    std::uint32_t last = 0;
   };
   // The node may start a frame at `bit`, whose time is `at` (present, plugged, not bus-off, not
   // suspended, a frame requested by then).
@@ -376,11 +376,11 @@ class TimedBus {
     std::uint32_t latency_last = 0, latency_max = 0;
   };
   static_assert(sizeof(IdCounts) == 64);
-  // Found by arbitration key when the node's guess fails: a small index (open addressing, linear
-  // probing, at most half full) into the counts kept densely in the order the identifiers first
-  // appeared (a std::unordered_map's node walk, then a std::map's node apart from every other,
-  // cost more than the rest of start(): docs/can-bus.md "Performance"). identifiers() sorts them
-  // for the status.
+  // Found by arbitration key when the entry after the node's last one is not the frame's: a small
+  // index (open addressing, linear probing, at most half full) into the counts kept densely in the
+  // order the identifiers first appeared (a std::unordered_map's node walk, then a std::map's node
+  // apart from every other, cost more than the rest of start(): docs/can-bus.md "Performance").
+  // identifiers() sorts them for the status.
   struct IdSlot {
     std::uint32_t key = 0;
     std::uint32_t index = 0;  // into id_counts_ + 1; 0: empty
@@ -391,9 +391,13 @@ class TimedBus {
   std::size_t id_slot(std::uint32_t key) const;
   std::uint32_t id_counts(std::uint32_t key);          // index + 1, made on the first frame
   std::uint32_t find_counts(std::uint32_t key) const;  // index + 1, 0: none yet
-  // The counts of the frame node `n` starts now (key `key`): the node's guess, else the index.
+  // The counts of the frame node `n` starts now (key `key`): those that followed its last frame
+  // the last time, else the index's.
   std::uint32_t counts_of(const Node& n, std::uint32_t key) const {
-    if (n.guess != 0 && id_counts_[n.guess - 1].key == key) return n.guess;
+    if (n.last != 0)
+      if (const std::uint32_t next = id_counts_[n.last - 1].after;
+          next != 0 && id_counts_[next - 1].key == key)
+        return next;
     return find_counts(key);
   }
   // Counts a frame of node `n` without error that started at `at` (entry + 1 of its key).
