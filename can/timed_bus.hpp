@@ -387,6 +387,9 @@ class TimedBus {
   };
   std::vector<IdSlot> id_index_;
   std::vector<IdCounts> id_counts_;
+  // The position after the last frame's counts, and how many counts advance() fetches from there.
+  std::size_t last_counted_ = 0;
+  static constexpr std::size_t kCountsAhead = 6;
   // The slot of `key` in id_index_, or the empty slot where it would go.
   std::size_t id_slot(std::uint32_t key) const;
   std::uint32_t id_counts(std::uint32_t key);          // index + 1, made on the first frame
