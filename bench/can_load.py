@@ -36,7 +36,8 @@ daemon options:
   --against B  two builds on the same buses side by side instead (A = --candp2d, B = this one;
                --bitrate, or "ideal"), one on each core, which starts first alternating: each
                round's B / A of the CPU, and their median (a change's cost where a ratio of two
-               runs minutes apart would measure the VM's drift)
+               runs minutes apart would measure the VM's drift); with --observer both
+               have their observers
 Each daemon row also has what was lost: irq_lost, tx_lost, rx_short (frames sent that the other
 gateway did not take: on these buses every frame sent is an Rx slot of the other gateway), the
 master cycles run against those due (between the middles of the two status requests; status_ms
@@ -275,12 +276,13 @@ def side_by_side(jobs: list[Callable[[], Row]], reverse: bool = False) -> list[R
     return [row for row in out if row is not None]
 
 
-def against(a: str, b: str, bitrate: str | None, seconds: float, rounds: int) -> None:
+def against(a: str, b: str, bitrate: str | None, seconds: float, rounds: int,
+            observe: bool = False) -> None:
     """--against: the builds A and B on the same buses side by side, B / A of the CPU."""
     ratios: list[float] = []
     for r in range(rounds):
-        row_a, row_b = side_by_side([lambda: measure_daemon(a, bitrate, seconds),
-                                     lambda: measure_daemon(b, bitrate, seconds)],
+        row_a, row_b = side_by_side([lambda: measure_daemon(a, bitrate, seconds, observe),
+                                     lambda: measure_daemon(b, bitrate, seconds, observe)],
                                     reverse=r % 2 == 1)  # which one starts first alternates
         ratios.append(row_b["cpu_pct"] / max(row_a["cpu_pct"], 0.1))
         for build, row in (("A", row_a), ("B", row_b)):
@@ -307,7 +309,7 @@ def main() -> None:
     args = ap.parse_args()
     if args.against:
         bitrate = None if args.bitrate == "ideal" else args.bitrate
-        against(args.candp2d, args.against, bitrate, args.seconds, args.rounds)
+        against(args.candp2d, args.against, bitrate, args.seconds, args.rounds, args.observer)
         return
     rows: list[Row] = []
     for _ in range(args.rounds):

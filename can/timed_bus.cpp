@@ -297,24 +297,38 @@ std::uint32_t TimedBus::id_counts(std::uint32_t key) {
   return e.index;
 }
 
+TimedBus::IdStatistics TimedBus::statistics(const IdCounts& c) {
+  IdStatistics s;
+  const ArbitrationField field = arbitration_field(c.key);
+  s.id = field.id;
+  s.remote = field.remote;
+  s.frames = c.frames;
+  s.last_start = Time(c.last_start);
+  s.period_last = Duration(c.period_last);
+  s.period_min = Duration(c.period_min);
+  s.period_max = Duration(c.period_max);
+  s.period_sum = Duration(c.period_sum);
+  s.latency_last = Duration(c.latency_last);
+  s.latency_max = Duration(c.latency_max);
+  s.latency_sum = Duration(c.latency_sum);
+  return s;
+}
+
 std::map<std::uint32_t, TimedBus::IdStatistics> TimedBus::identifiers() const {
   std::map<std::uint32_t, IdStatistics> out;
-  for (const IdCounts& c : id_counts_) {
-    IdStatistics& s = out[c.key];
-    const ArbitrationField field = arbitration_field(c.key);
-    s.id = field.id;
-    s.remote = field.remote;
-    s.frames = c.frames;
-    s.last_start = Time(c.last_start);
-    s.period_last = Duration(c.period_last);
-    s.period_min = Duration(c.period_min);
-    s.period_max = Duration(c.period_max);
-    s.period_sum = Duration(c.period_sum);
-    s.latency_last = Duration(c.latency_last);
-    s.latency_max = Duration(c.latency_max);
-    s.latency_sum = Duration(c.latency_sum);
-  }
+  for (const IdCounts& c : id_counts_) out.emplace(c.key, statistics(c));
   return out;
+}
+
+void TimedBus::identifiers(std::vector<IdStatistics>& out) const {
+  // The counts are kept in the order their identifiers first started: sorted by key here.
+  std::vector<const IdCounts*> order;
+  order.reserve(id_counts_.size());
+  for (const IdCounts& c : id_counts_) order.push_back(&c);
+  std::sort(order.begin(), order.end(),
+            [](const IdCounts* a, const IdCounts* b) { return a->key < b->key; });
+  out.clear();
+  for (const IdCounts* c : order) out.push_back(statistics(*c));
 }
 
 void TimedBus::finish() {

@@ -211,6 +211,10 @@ class TimedBus {
   Load load(Time now) const;
   // By arbitration_key (the order of priority); built at each call (the status's, not per frame).
   std::map<std::uint32_t, IdStatistics> identifiers() const;
+  // The same in the same order as a list, into `out` (cleared, its storage kept): the status
+  // documents list every identifier of every bus, twice a second with a panel open, and a map's
+  // node per identifier cost more than the rest (docs/can-bus.md "Performance").
+  void identifiers(std::vector<IdStatistics>& out) const;
 
  private:
   struct Pending {
@@ -387,6 +391,7 @@ class TimedBus {
   };
   std::vector<IdSlot> id_index_;
   std::vector<IdCounts> id_counts_;
+  static IdStatistics statistics(const IdCounts& c);
   // The position after the last frame's counts, and how many counts advance() fetches from there.
   std::size_t last_counted_ = 0;
   static constexpr std::size_t kCountsAhead = 6;

@@ -71,7 +71,7 @@ bool StatusBuild::step(Time now) {
     out_ += ",\"buses\":[";
   } else if (bus_ < buses) {
     if (bus_ > 0) out_ += ',';
-    out_ += model_.bus_json(bus_++, now, true).dump();
+    out_ += model_.bus_text(bus_++, now, true);
   } else if (!drives_) {
     drives_ = true;
     nlohmann::json drives = nlohmann::json::array();
@@ -196,8 +196,10 @@ void MetricsBuild::timed_buses() {
   auto per_id = [&](std::string_view name, std::string_view type, std::string_view help,
                     auto value) {
     family(name, type, help);
+    std::vector<can::TimedBus::IdStatistics> list;  // by arbitration key, as the status
     each([&](const std::string& bus, const can::TimedBus& t) {
-      for (const auto& [key, s] : t.identifiers()) {
+      t.identifiers(list);
+      for (const auto& s : list) {
         std::string labels = "bus=\"" + bus + "\",id=\"" + std::to_string(s.id.id) + "\"";
         if (s.id.extended) labels += ",ext=\"1\"";
         if (s.remote) labels += ",rtr=\"1\"";

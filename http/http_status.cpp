@@ -1,6 +1,7 @@
 #include "http/http_status.hpp"
 
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 
@@ -342,7 +343,7 @@ json StatusModel::trace_frame(const BusMonitor::Traced& t) const {
           {"data", hex_bytes(t.frame.payload())}};
 }
 
-json StatusModel::bus_json(std::size_t i, Time now, bool trace) {
+json StatusModel::bus_json(std::size_t i, Time now, bool trace, bool identifiers) {
   update_load(now);
   const auto& b = src_.buses[i];
   json e = {{"name", b.cfg->name},
@@ -355,7 +356,7 @@ json StatusModel::bus_json(std::size_t i, Time now, bool trace) {
     // a bus in time (the same number as its `load.last_pct`).
     e["load_pct"] = b.timed ? b.timed->load(now).last_pct : load_[i].load * 100.0;
     e["frames_per_s"] = load_[i].fps;
-    if (b.timed) e.update(timed_json(*b.timed, now));
+    if (b.timed) e.update(timed_json(*b.timed, now, identifiers));
     if (b.timed && b.faults) e["faults"] = faults_json(b.faults(now));
     if (trace) {
       json frames = json::array();
@@ -381,22 +382,83 @@ json StatusModel::faults_json(const std::vector<plant::CanFaultView>& faults) {
   return out;
 }
 
+std::string StatusModel::bus_text(std::size_t i, Time now, bool trace) {
+  std::string text = bus_json(i, now, trace, false).dump();
+  const can::TimedBus* t = src_.buses[i].timed;
+  if (!t || !src_.buses[i].monitor) return text;
+  // The member's key cannot occur anywhere else in the text: a quote inside a string is escaped,
+  // and no other object of a bus has an "identifiers" member.
+  constexpr std::string_view placeholder = "\"identifiers\":null";
+  const std::size_t at = text.find(placeholder);
+  if (at == std::string::npos) return text;
+  std::string ids;
+  put_identifiers(ids, *t);
+  text.replace(at + placeholder.size() - 4, 4, ids);
+  return text;
+}
+
+namespace {
+double ms(Duration d) {
+  return static_cast<double>(d.count()) / 1000.0;
+}
+
+void put_number(std::string& out, double v) {
+  // nlohmann::json's dump of a finite double (its own shortest round-trip digits), so that the
+  // text is the one the json value would give, byte for byte.
+  std::array<char, 64> buf{};
+  out.append(buf.data(), nlohmann::detail::to_chars(buf.data(), buf.data() + buf.size(), v));
+}
+
+void put_number(std::string& out, std::uint64_t v) {
+  std::array<char, 24> buf{};
+  out.append(buf.data(), std::to_chars(buf.data(), buf.data() + buf.size(), v).ptr);
+}
+}  // namespace
+
+// The members in nlohmann::json's order (its objects are std::maps: sorted keys), as
+// timed_json() builds them with `identifiers`.
+void StatusModel::put_identifiers(std::string& out, const can::TimedBus& t) {
+  std::vector<can::TimedBus::IdStatistics>& list = id_list_;
+  t.identifiers(list);
+  out += '[';
+  for (std::size_t k = 0; k < list.size(); ++k) {
+    const auto& s = list[k];
+    if (k > 0) out += ',';
+    out += s.id.extended ? "{\"ext\":true,\"frames\":" : "{\"ext\":false,\"frames\":";
+    put_number(out, s.frames);
+    out += ",\"id\":";
+    put_number(out, std::uint64_t{s.id.id});
+    out += ",\"jitter_ms\":";
+    put_number(out, ms(s.jitter()));
+    out += ",\"latency_ms\":{\"last\":";
+    put_number(out, ms(s.latency_last));
+    out += ",\"max\":";
+    put_number(out, ms(s.latency_max));
+    out += ",\"mean\":";
+    put_number(out, ms(s.latency_mean()));
+    out += "},\"period_ms\":";
+    put_number(out, ms(s.period_mean()));
+    out += s.remote ? ",\"rtr\":true}" : ",\"rtr\":false}";
+  }
+  out += ']';
+}
+
 // docs/can-bus.md "Seen from outside": the bus in time's own figures, exact (additive fields).
-json StatusModel::timed_json(const can::TimedBus& t, Time now) {
-  auto ms = [](Duration d) { return static_cast<double>(d.count()) / 1000.0; };
+json StatusModel::timed_json(const can::TimedBus& t, Time now, bool identifiers) {
   const can::TimedBus::Load load = t.load(now);
-  json ids = json::array();
-  for (const auto& [key, s] : t.identifiers())
-    ids.push_back({{"id", s.id.id},
-                   {"ext", s.id.extended},
-                   {"rtr", s.remote},
-                   {"frames", s.frames},
-                   {"period_ms", ms(s.period_mean())},
-                   {"jitter_ms", ms(s.jitter())},
-                   {"latency_ms",
-                    {{"last", ms(s.latency_last)},
-                     {"mean", ms(s.latency_mean())},
-                     {"max", ms(s.latency_max)}}}});
+  json ids = identifiers ? json::array() : json(nullptr);
+  if (identifiers)
+    for (const auto& [key, s] : t.identifiers())
+      ids.push_back({{"id", s.id.id},
+                     {"ext", s.id.extended},
+                     {"rtr", s.remote},
+                     {"frames", s.frames},
+                     {"period_ms", ms(s.period_mean())},
+                     {"jitter_ms", ms(s.jitter())},
+                     {"latency_ms",
+                      {{"last", ms(s.latency_last)},
+                       {"mean", ms(s.latency_mean())},
+                       {"max", ms(s.latency_max)}}}});
   // docs/can-bus.md "Error confinement": each node present on the bus, its counters and state.
   json nodes = json::array();
   for (std::size_t n = 0; n < t.nodes(); ++n) {

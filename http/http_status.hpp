@@ -171,8 +171,14 @@ class StatusModel {
   nlohmann::json http_json() const;
   // {"count", "total_ms", "longest_ms"}: the host stalls (docs/daemon.md "Host stalls").
   nlohmann::json host_stalls_json() const;
-  nlohmann::json bus_json(std::size_t bus, Time now, bool trace);
-  static nlohmann::json timed_json(const can::TimedBus& t, Time now);
+  // With `identifiers` false, a bus in time's "identifiers" member is null (bus_text()).
+  nlohmann::json bus_json(std::size_t bus, Time now, bool trace, bool identifiers = true);
+  // bus_json(...).dump(), with a bus in time's identifiers written straight as text (the status
+  // documents list each identifier of each bus: docs/can-bus.md "Performance").
+  std::string bus_text(std::size_t bus, Time now, bool trace);
+  static nlohmann::json timed_json(const can::TimedBus& t, Time now, bool identifiers = true);
+  // A bus in time's "identifiers" array as nlohmann::json dumps the one timed_json() builds.
+  void put_identifiers(std::string& out, const can::TimedBus& t);
   static nlohmann::json faults_json(const std::vector<plant::CanFaultView>& faults);
   nlohmann::json trace_frame(const BusMonitor::Traced& t) const;
   nlohmann::json drive_json(std::size_t drive) const;
@@ -212,6 +218,7 @@ class StatusModel {
   };
   std::vector<LoadWindow> load_;
   std::vector<std::vector<dp::EntryAddress>> addresses_;  // per gateway: PLC addresses of entries
+  std::vector<can::TimedBus::IdStatistics> id_list_;      // put_identifiers()' list, kept
 };
 
 }  // namespace candp2::http

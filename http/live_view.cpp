@@ -167,7 +167,7 @@ bool LiveView::step(Time now) {
           continue;
         }
         const std::size_t b = r.buses[r.index++];
-        stage(buses_[b], model_.bus_json(b, now, false).dump());
+        stage(buses_[b], model_.bus_text(b, now, false));
         // A traced frame never changes: the text of one the last round had is taken from there.
         std::vector<Traced> frames;
         if (const auto* m = model_.sources().buses[b].monitor) {

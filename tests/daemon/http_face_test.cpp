@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
+#include <random>
 #include <variant>
 
 #include "can/frame_bits.hpp"
@@ -239,6 +240,43 @@ TEST_F(TimedFace, TheStatusAndTheMetricsShowTheBusInTime) {
   EXPECT_EQ(nodes[0]["state"], "ok");
   EXPECT_EQ(nodes[1]["name"], "drive:ack");
   EXPECT_EQ(later["buses"][0]["error_frames"], 0);
+}
+
+// docs/can-bus.md "Performance": the status documents write a bus in time's identifiers as text;
+// that text is the bus's json dumped, byte for byte (the documents' bytes do not change).
+TEST_F(TimedFace, TheBusTextIsItsJsonDumped) {
+  run_until(Time{3'000'000});
+  for (const bool trace : {true, false}) {
+    const std::string text = model->bus_text(0, now, trace);
+    EXPECT_EQ(text, model->bus_json(0, now, trace).dump());
+    EXPECT_NE(text.find("\"identifiers\":[{"), std::string::npos) << text;
+    EXPECT_EQ(model->bus_text(1, now, trace), model->bus_json(1, now, trace).dump());  // ideal
+  }
+}
+
+// The same for identifiers of every kind (11- and 29-bit, data and remote, DLC 0..8) and
+// latencies and periods of every size, queued on a bus with three nodes.
+TEST_F(TimedFace, EveryIdentifiersTextIsItsJsonDumped) {
+  can::TimedBus bus(125'000, Time{0});
+  for (int n = 0; n < 3; ++n) bus.add_node(255);
+  std::mt19937 random(7);
+  Time t{0};
+  for (int k = 0; k < 3000; ++k) {
+    can::Frame f;
+    f.extended = random() % 3 == 0;
+    f.id = static_cast<std::uint32_t>(random() % (f.extended ? 0x20000000u : 0x800u)) % 64;
+    f.remote = random() % 5 == 0;
+    f.dlc = static_cast<std::uint8_t>(random() % 9);
+    for (auto& b : f.data) b = static_cast<std::uint8_t>(random());
+    bus.request(random() % 3, f, t);
+    t += Duration(static_cast<std::int64_t>(random() % (k % 100 == 0 ? 4'000'000 : 3'000)));
+    bus.advance(t);
+  }
+  bus.advance(t + seconds(60));
+  std::string text;
+  model->put_identifiers(text, bus);
+  EXPECT_EQ(text, http::StatusModel::timed_json(bus, t)["identifiers"].dump());
+  EXPECT_GT(json::parse(text).size(), 100u);
 }
 
 // docs/can-bus.md "Seen from outside": the CAN faults on cue in force on a bus in time, what is
