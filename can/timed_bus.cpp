@@ -134,15 +134,17 @@ std::optional<Time> TimedBus::compute_deadline() const {
 
 void TimedBus::advance(Time now) {
   // Nothing due by now: the bus stays as it is (the loop below would return at once).
-  if (const auto d = next_deadline(); !d || *d > now) return;
-  // The identifiers' counts are kept in the order their frames first started, and a bus's frames
-  // start in much the same order cycle after cycle: the lines after the last frame's are those
-  // of this step's frames. Fetched together now, they arrive while the first frame is chosen
-  // (one at a time at each start of frame otherwise, each a cold line: docs/can-bus.md
-  // "Performance").
-  if (const std::size_t size = id_counts_.size(); size > 0)
-    for (std::size_t k = 0, e = last_counted_ % size; k < kCountsAhead && k < size;
-         ++k, e = e + 1 == size ? 0 : e + 1)
+  const auto d = next_deadline();
+  if (!d || *d > now) return;
+  // Behind by a step (candp2d), several frames are due. The identifiers' counts are kept in the
+  // order their frames first started, and a bus's frames start in much the same order cycle
+  // after cycle: the lines after the last frame's are those of this step's frames. Fetched
+  // together now, they arrive while the first frame is chosen (one at a time at each start of
+  // frame otherwise, each a cold line: docs/can-bus.md "Performance"). Advanced at its deadline
+  // (replay), the bus has one event to run: nothing to fetch ahead.
+  if (const std::size_t size = id_counts_.size(); *d < now && size > 0)
+    for (std::size_t k = 0, e = last_counted_ < size ? last_counted_ : 0;
+         k < kCountsAhead && k < size; ++k, e = e + 1 == size ? 0 : e + 1)
       __builtin_prefetch(&id_counts_[e], 1);
   run(now);
   // Known again at the next ask (a hook may have asked while the bus was changing).

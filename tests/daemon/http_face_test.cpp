@@ -264,7 +264,8 @@ TEST_F(TimedFace, EveryIdentifiersTextIsItsJsonDumped) {
   for (int k = 0; k < 3000; ++k) {
     can::Frame f;
     f.extended = random() % 3 == 0;
-    f.id = static_cast<std::uint32_t>(random() % (f.extended ? 0x20000000u : 0x800u)) % 64;
+    // 64 identifiers of each kind, the 29-bit ones at the top of their range.
+    f.id = static_cast<std::uint32_t>(random() % 64) + (f.extended ? 0x1FFFFFC0u : 0x7C0u);
     f.remote = random() % 5 == 0;
     f.dlc = static_cast<std::uint8_t>(random() % 9);
     for (auto& b : f.data) b = static_cast<std::uint8_t>(random());
