@@ -415,10 +415,11 @@ void put_number(std::string& out, std::uint64_t v) {
 }
 }  // namespace
 
-// The members in nlohmann::json's order (its objects are std::maps: sorted keys), as
-// timed_json() builds them with `identifiers`.
+// The identifiers' members, defined here once: the status documents take this text, timed_json()
+// its parse. In nlohmann::json's order (its objects are std::maps: sorted keys) and with its
+// digits, so that the text is the json's dump byte for byte.
 void StatusModel::put_identifiers(std::string& out, const can::TimedBus& t) {
-  std::vector<can::TimedBus::IdStatistics>& list = id_list_;
+  std::vector<can::TimedBus::IdStatistics> list;
   t.identifiers(list);
   out += '[';
   for (std::size_t k = 0; k < list.size(); ++k) {
@@ -446,19 +447,12 @@ void StatusModel::put_identifiers(std::string& out, const can::TimedBus& t) {
 // docs/can-bus.md "Seen from outside": the bus in time's own figures, exact (additive fields).
 json StatusModel::timed_json(const can::TimedBus& t, Time now, bool identifiers) {
   const can::TimedBus::Load load = t.load(now);
-  json ids = identifiers ? json::array() : json(nullptr);
-  if (identifiers)
-    for (const auto& [key, s] : t.identifiers())
-      ids.push_back({{"id", s.id.id},
-                     {"ext", s.id.extended},
-                     {"rtr", s.remote},
-                     {"frames", s.frames},
-                     {"period_ms", ms(s.period_mean())},
-                     {"jitter_ms", ms(s.jitter())},
-                     {"latency_ms",
-                      {{"last", ms(s.latency_last)},
-                       {"mean", ms(s.latency_mean())},
-                       {"max", ms(s.latency_max)}}}});
+  json ids;  // null: bus_text() writes them
+  if (identifiers) {
+    std::string text;
+    put_identifiers(text, t);
+    ids = json::parse(text);
+  }
   // docs/can-bus.md "Error confinement": each node present on the bus, its counters and state.
   json nodes = json::array();
   for (std::size_t n = 0; n < t.nodes(); ++n) {

@@ -177,8 +177,8 @@ class StatusModel {
   // documents list each identifier of each bus: docs/can-bus.md "Performance").
   std::string bus_text(std::size_t bus, Time now, bool trace);
   static nlohmann::json timed_json(const can::TimedBus& t, Time now, bool identifiers = true);
-  // A bus in time's "identifiers" array as nlohmann::json dumps the one timed_json() builds.
-  void put_identifiers(std::string& out, const can::TimedBus& t);
+  // A bus in time's "identifiers" array, as text (timed_json() gives its parse).
+  static void put_identifiers(std::string& out, const can::TimedBus& t);
   static nlohmann::json faults_json(const std::vector<plant::CanFaultView>& faults);
   nlohmann::json trace_frame(const BusMonitor::Traced& t) const;
   nlohmann::json drive_json(std::size_t drive) const;
@@ -218,7 +218,6 @@ class StatusModel {
   };
   std::vector<LoadWindow> load_;
   std::vector<std::vector<dp::EntryAddress>> addresses_;  // per gateway: PLC addresses of entries
-  std::vector<can::TimedBus::IdStatistics> id_list_;      // put_identifiers()' list, kept
 };
 
 }  // namespace candp2::http

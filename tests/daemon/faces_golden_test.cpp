@@ -1,7 +1,8 @@
 // The faces' documents, byte for byte (docs/development.md "Golden documents"): the Modbus map
 // (`candp2d --print-modbus-map [--json]`), GET /api/v1/status and GET /metrics, rendered in
-// virtual time from config/demo.json, config/plc-line.json (generic slaves) and a line of 122
-// gateways × 48 slots (tests/e2e/http_common.py line_config). They guard refactorings of the
+// virtual time from config/demo.json, config/plc-line.json (generic slaves),
+// config/timed-bus-125k.json (a CAN bus in time) and a line of 122 gateways × 48 slots
+// (tests/e2e/http_common.py line_config). They guard refactorings of the
 // vocabulary the faces share (status/station_status.hpp): a change of any document shows here.
 //
 // The small documents are kept whole in tests/daemon/golden/; the 122 × 48 ones (megabytes) by
@@ -154,6 +155,12 @@ TEST(FacesGolden, Demo) {
 
 TEST(FacesGolden, PlcLineWithGenericSlaves) {
   check_documents("plc-line", load("config/plc-line.json"), Time{2'000'000}, true);
+}
+
+// A bus in time (docs/can-bus.md "Seen from outside"): its load, identifiers and nodes in the
+// status, its families in /metrics, at 3 s of the overload the configuration shows.
+TEST(FacesGolden, TimedBus) {
+  check_documents("timed-bus-125k", load("config/timed-bus-125k.json"), Time{3'000'000}, true);
 }
 
 // Modbus requests of a test: FC 16 to a unit (values from `first`), FC 04 / 03 reads, each

@@ -254,8 +254,10 @@ TEST_F(TimedFace, TheBusTextIsItsJsonDumped) {
   }
 }
 
-// The same for identifiers of every kind (11- and 29-bit, data and remote, DLC 0..8) and
-// latencies and periods of every size, queued on a bus with three nodes.
+// For identifiers of every kind (11- and 29-bit, data and remote, DLC 0..8) and latencies and
+// periods of every size, queued on a bus with three nodes: the text holds each identifier's
+// statistics in arbitration order, and it is what nlohmann::json dumps for its parse (its key
+// order, its digits).
 TEST_F(TimedFace, EveryIdentifiersTextIsItsJsonDumped) {
   can::TimedBus bus(125'000, Time{0});
   for (int n = 0; n < 3; ++n) bus.add_node(255);
@@ -275,9 +277,27 @@ TEST_F(TimedFace, EveryIdentifiersTextIsItsJsonDumped) {
   }
   bus.advance(t + seconds(60));
   std::string text;
-  model->put_identifiers(text, bus);
-  EXPECT_EQ(text, http::StatusModel::timed_json(bus, t)["identifiers"].dump());
-  EXPECT_GT(json::parse(text).size(), 100u);
+  http::StatusModel::put_identifiers(text, bus);
+  const json ids = json::parse(text);
+  EXPECT_EQ(text, ids.dump());
+  EXPECT_EQ(http::StatusModel::timed_json(bus, t)["identifiers"], ids);
+  const auto stats = bus.identifiers();
+  ASSERT_EQ(ids.size(), stats.size());
+  EXPECT_GT(ids.size(), 100u);
+  auto ms = [](Duration d) { return static_cast<double>(d.count()) / 1000.0; };
+  std::size_t k = 0;
+  for (const auto& [key, s] : stats) {
+    const json& e = ids[k++];
+    EXPECT_EQ(e["id"], s.id.id);
+    EXPECT_EQ(e["ext"], s.id.extended);
+    EXPECT_EQ(e["rtr"], s.remote);
+    EXPECT_EQ(e["frames"], s.frames);
+    EXPECT_EQ(e["period_ms"], ms(s.period_mean()));
+    EXPECT_EQ(e["jitter_ms"], ms(s.jitter()));
+    EXPECT_EQ(e["latency_ms"]["last"], ms(s.latency_last));
+    EXPECT_EQ(e["latency_ms"]["mean"], ms(s.latency_mean()));
+    EXPECT_EQ(e["latency_ms"]["max"], ms(s.latency_max));
+  }
 }
 
 // docs/can-bus.md "Seen from outside": the CAN faults on cue in force on a bus in time, what is
