@@ -16,20 +16,7 @@ constexpr std::uint64_t kMicrosPerSecond = 1'000'000;
 // an unacknowledged frame at its ACK slot (after the CRC delimiter).
 constexpr std::uint32_t kWrongBitrateDetectBits = 6;
 constexpr std::uint32_t kAckDetectAfterCrc = 2;
-// An arbitration key's first slot in an index of `size` (a power of two) slots: Fibonacci hashing
-// (the identifiers of one bus are often consecutive).
-std::size_t slot_of(std::uint32_t key, std::size_t size) {
-  return static_cast<std::size_t>((std::uint64_t{key} * 0x9E3779B97F4A7C15ull) >> 32) & (size - 1);
-}
 }  // namespace
-
-Duration TimedBus::IdStatistics::period_mean() const {
-  return frames > 1 ? period_sum / static_cast<std::int64_t>(frames - 1) : Duration(0);
-}
-
-Duration TimedBus::IdStatistics::latency_mean() const {
-  return frames ? latency_sum / static_cast<std::int64_t>(frames) : Duration(0);
-}
 
 TimedBus::TimedBus(std::uint32_t bitrate, Time origin)
     : bitrate_(bitrate),
@@ -136,16 +123,11 @@ void TimedBus::advance(Time now) {
   // Nothing due by now: the bus stays as it is (the loop below would return at once).
   const auto d = next_deadline();
   if (!d || *d > now) return;
-  // Behind by a step (candp2d), several frames are due. The identifiers' counts are kept in the
-  // order their frames first started, and a bus's frames start in much the same order cycle
-  // after cycle: the lines after the last frame's are those of this step's frames. Fetched
-  // together now, they arrive while the first frame is chosen (one at a time at each start of
-  // frame otherwise, each a cold line: docs/can-bus.md "Performance"). Advanced at its deadline
-  // (replay), the bus has one event to run: nothing to fetch ahead.
-  if (const std::size_t size = id_counts_.size(); *d < now && size > 0)
-    for (std::size_t k = 0, e = last_counted_ < size ? last_counted_ : 0;
-         k < kCountsAhead && k < size; ++k, e = e + 1 == size ? 0 : e + 1)
-      __builtin_prefetch(&id_counts_[e], 1);
+  // Behind by a step (candp2d), several frames are due: the counts of this step's frames are
+  // fetched together now, arriving while the first frame is chosen (one cold line at each start
+  // of frame otherwise: docs/can-bus.md "Performance"), from the last frame's (its node's last
+  // counted entry). Advanced at its deadline (replay), the bus has one event: nothing to fetch.
+  if (*d < now && !nodes_.empty()) ids_.prefetch_after(nodes_[on_bus_.node].last);
   run(now);
   // Known again at the next ask (a hook may have asked while the bus was changing).
   moved();
@@ -206,8 +188,8 @@ void TimedBus::start(std::uint64_t bit, std::size_t index) {
   // The identifier's counts are fetched while the frame's error is looked for (a cache miss at
   // every frame otherwise: docs/can-bus.md "Performance"); only a frame without error makes a
   // new entry.
-  const std::uint32_t known = counts_of(*winner, best);
-  if (known) __builtin_prefetch(&id_counts_[known - 1], 1);
+  const std::uint32_t known = ids_.find(winner->last, best);
+  if (known) ids_.prefetch(known);
   const Error error = error_of(index, p.frame, at);
   std::uint32_t bits = p.bits;
   if (error != Error::None) {
@@ -239,98 +221,8 @@ void TimedBus::start(std::uint64_t bit, std::size_t index) {
   --pending_;
   ++frames_;
 
-  count_frame(*winner, known ? known : id_counts(best), at, on_bus_.requested);
+  ids_.count(winner->last, known ? known : ids_.add(best), at, on_bus_.requested);
   if (on_start_) on_start_(on_bus_);
-}
-
-namespace {
-// A period or a latency as IdCounts keeps it (neither is negative: a frame starts at or after its
-// request, after the last start of its identifier).
-std::uint32_t micros32(Duration d) {
-  return static_cast<std::uint32_t>(
-      std::clamp<std::int64_t>(d.count(), 0, std::numeric_limits<std::uint32_t>::max()));
-}
-}  // namespace
-
-void TimedBus::count_frame(Node& n, std::uint32_t entry, Time at, Time requested) {
-  IdCounts& c = id_counts_[entry - 1];
-  last_counted_ = entry;  // the next entry's position (entry is its index + 1)
-  // The node's order: its last frame's entry leads to this one.
-  if (n.last != 0) id_counts_[n.last - 1].after = entry;
-  n.last = entry;
-  if (c.frames > 0) {
-    const Duration period = at - Time(c.last_start);
-    const std::uint32_t p = micros32(period);
-    c.period_last = p;
-    c.period_min = c.frames == 1 ? p : std::min(c.period_min, p);
-    c.period_max = std::max(c.period_max, p);
-    c.period_sum += period.count();
-  }
-  const Duration latency = at - requested;
-  c.latency_last = micros32(latency);
-  c.latency_max = std::max(c.latency_max, c.latency_last);
-  c.latency_sum += latency.count();
-  c.last_start = at.count();
-  ++c.frames;
-}
-
-std::size_t TimedBus::id_slot(std::uint32_t key) const {
-  std::size_t i = slot_of(key, id_index_.size());
-  while (id_index_[i].index && id_index_[i].key != key) i = (i + 1) & (id_index_.size() - 1);
-  return i;
-}
-
-std::uint32_t TimedBus::find_counts(std::uint32_t key) const {
-  return id_index_.empty() ? 0 : id_index_[id_slot(key)].index;
-}
-
-std::uint32_t TimedBus::id_counts(std::uint32_t key) {
-  if (2 * (id_counts_.size() + 1) > id_index_.size()) {  // grow: at most half full
-    std::vector<IdSlot> old(std::max<std::size_t>(64, 2 * id_index_.size()));
-    old.swap(id_index_);
-    for (const IdSlot& e : old)
-      if (e.index) id_index_[id_slot(e.key)] = e;
-  }
-  IdSlot& e = id_index_[id_slot(key)];
-  if (!e.index) {
-    id_counts_.emplace_back().key = key;
-    e = IdSlot{key, static_cast<std::uint32_t>(id_counts_.size())};
-  }
-  return e.index;
-}
-
-TimedBus::IdStatistics TimedBus::statistics(const IdCounts& c) {
-  IdStatistics s;
-  const ArbitrationField field = arbitration_field(c.key);
-  s.id = field.id;
-  s.remote = field.remote;
-  s.frames = c.frames;
-  s.last_start = Time(c.last_start);
-  s.period_last = Duration(c.period_last);
-  s.period_min = Duration(c.period_min);
-  s.period_max = Duration(c.period_max);
-  s.period_sum = Duration(c.period_sum);
-  s.latency_last = Duration(c.latency_last);
-  s.latency_max = Duration(c.latency_max);
-  s.latency_sum = Duration(c.latency_sum);
-  return s;
-}
-
-std::map<std::uint32_t, TimedBus::IdStatistics> TimedBus::identifiers() const {
-  std::map<std::uint32_t, IdStatistics> out;
-  for (const IdCounts& c : id_counts_) out.emplace(c.key, statistics(c));
-  return out;
-}
-
-void TimedBus::identifiers(std::vector<IdStatistics>& out) const {
-  // The counts are kept in the order their identifiers first started: sorted by key here.
-  std::vector<const IdCounts*> order;
-  order.reserve(id_counts_.size());
-  for (const IdCounts& c : id_counts_) order.push_back(&c);
-  std::sort(order.begin(), order.end(),
-            [](const IdCounts* a, const IdCounts* b) { return a->key < b->key; });
-  out.clear();
-  for (const IdCounts* c : order) out.push_back(statistics(*c));
 }
 
 void TimedBus::finish() {

@@ -35,6 +35,7 @@
 
 #include "can/channel.hpp"
 #include "can/frame.hpp"
+#include "can/id_counts.hpp"
 #include "common/ring.hpp"
 #include "common/time.hpp"
 
@@ -81,21 +82,8 @@ class TimedBus {
   // Called when a frame starts (it won arbitration) and when it has ended (its receivers get it).
   using Hook = std::function<void(const OnBus&)>;
 
-  // Per identifier (the arbitration field: identifier, IDE and RTR; a remote frame apart from the
-  // data frames of its identifier). Period: the time between two starts of frame; jitter: the
-  // largest period less the smallest. Latency: send request to start of frame. The last, smallest
-  // and largest period and latency are kept up to 2^32 − 1 µs (71 min 35 s); the sums are exact.
-  struct IdStatistics {
-    Ident id;
-    bool remote = false;
-    std::uint64_t frames = 0;
-    Time last_start{0};
-    Duration period_last{0}, period_min{0}, period_max{0}, period_sum{0};
-    Duration latency_last{0}, latency_max{0}, latency_sum{0};
-    Duration period_mean() const;
-    Duration jitter() const { return period_max - period_min; }
-    Duration latency_mean() const;
-  };
+  // Per identifier: frames, period, jitter, queueing latency (can/id_counts.hpp).
+  using IdStatistics = can::IdStatistics;
   // The load of one second of bus time: the bits that frames occupied in it over the bits it has.
   struct Load {
     double last_pct = 0;  // the last complete second
@@ -210,11 +198,11 @@ class TimedBus {
   // The load as of `now` (a second with no frame counts as 0 %).
   Load load(Time now) const;
   // By arbitration_key (the order of priority); built at each call (the status's, not per frame).
-  std::map<std::uint32_t, IdStatistics> identifiers() const;
+  std::map<std::uint32_t, IdStatistics> identifiers() const { return ids_.identifiers(); }
   // The same in the same order as a list, into `out` (cleared, its storage kept): the status
   // documents list every identifier of every bus, twice a second with a panel open, and a map's
   // node per identifier cost more than the rest (docs/can-bus.md "Performance").
-  void identifiers(std::vector<IdStatistics>& out) const;
+  void identifiers(std::vector<IdStatistics>& out) const { ids_.identifiers(out); }
 
  private:
   struct Pending {
@@ -281,7 +269,7 @@ class TimedBus {
     // run began (nullopt while a frame is on the bus).
     std::uint32_t recessive_runs = 0;
     std::optional<std::uint64_t> run_from;
-    // Its last frame's identifier counts, + 1 (0: none): IdCounts.
+    // Its last frame's entry in ids_ (0: none).
     std::uint32_t last = 0;
   };
   // The node may start a frame at `bit`, whose time is `at` (present, plugged, not bus-off, not
@@ -365,51 +353,7 @@ class TimedBus {
   std::optional<Time> compute_deadline() const;
   std::function<void()> on_moved_;
   void moved();
-  // Each identifier's counts as start() keeps them, in one cache line (identifiers() gives them
-  // as IdStatistics): periods and latencies in microseconds up to 2^32 − 1 (71 min 35 s), larger
-  // ones read as that. `after`: the entry of the frame its node started next the last time (+ 1;
-  // 0 none): a node sends its frames in the same order cycle after cycle, so its next frame's
-  // entry is found without the index (docs/can-bus.md "Performance").
-  struct alignas(64) IdCounts {
-    std::uint32_t key = 0;
-    std::uint32_t after = 0;
-    std::uint64_t frames = 0;
-    std::int64_t last_start = 0;  // µs since the epoch of Time
-    std::int64_t period_sum = 0, latency_sum = 0;
-    std::uint32_t period_last = 0, period_min = 0, period_max = 0;
-    std::uint32_t latency_last = 0, latency_max = 0;
-  };
-  static_assert(sizeof(IdCounts) == 64);
-  // Found by arbitration key when the entry after the node's last one is not the frame's: a small
-  // index (open addressing, linear probing, at most half full) into the counts kept densely in the
-  // order the identifiers first appeared (a std::unordered_map's node walk, then a std::map's node
-  // apart from every other, cost more than the rest of start(): docs/can-bus.md "Performance").
-  // identifiers() sorts them for the status.
-  struct IdSlot {
-    std::uint32_t key = 0;
-    std::uint32_t index = 0;  // into id_counts_ + 1; 0: empty
-  };
-  std::vector<IdSlot> id_index_;
-  std::vector<IdCounts> id_counts_;
-  static IdStatistics statistics(const IdCounts& c);
-  // The position after the last frame's counts, and how many counts advance() fetches from there.
-  std::size_t last_counted_ = 0;
-  static constexpr std::size_t kCountsAhead = 6;
-  // The slot of `key` in id_index_, or the empty slot where it would go.
-  std::size_t id_slot(std::uint32_t key) const;
-  std::uint32_t id_counts(std::uint32_t key);          // index + 1, made on the first frame
-  std::uint32_t find_counts(std::uint32_t key) const;  // index + 1, 0: none yet
-  // The counts of the frame node `n` starts now (key `key`): those that followed its last frame
-  // the last time, else the index's.
-  std::uint32_t counts_of(const Node& n, std::uint32_t key) const {
-    if (n.last != 0)
-      if (const std::uint32_t next = id_counts_[n.last - 1].after;
-          next != 0 && id_counts_[next - 1].key == key)
-        return next;
-    return find_counts(key);
-  }
-  // Counts a frame of node `n` without error that started at `at` (entry + 1 of its key).
-  void count_frame(Node& n, std::uint32_t entry, Time at, Time requested);
+  IdCounts ids_;                   // per identifier, counted at each start of frame without error
   std::size_t bus_off_nodes_ = 0;  // nodes in BusOff (none: no recovery to look for)
   // What every frame would otherwise ask of every node, counted again at each change of a node's
   // counters, state or faults (docs/can-bus.md "Performance"): calm_, no node with an error
