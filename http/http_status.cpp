@@ -1,7 +1,6 @@
 #include "http/http_status.hpp"
 
 #include <array>
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 
@@ -27,8 +26,13 @@ std::string_view direction(gw::SlotKind k) {
   }
 }
 
+// A time or a duration in milliseconds, as the documents show them.
+double ms(Duration d) {
+  return static_cast<double>(d.count()) / 1000.0;
+}
+
 double ms_since(Time now, Time then) {
-  return static_cast<double>((now - then).count()) / 1000.0;
+  return ms(now - then);
 }
 
 // A row of the station table (station/status.hpp) by name; a name the table lacks does not
@@ -212,8 +216,7 @@ json StatusModel::slot_json(std::size_t index, std::size_t i, Time now, bool age
   if (age)
     e["age_ms"] = stat.last ? json(ms_since(now, *stat.last)) : json(nullptr);
   else
-    e["last_ms"] =
-        stat.last ? json(static_cast<double>(stat.last->count()) / 1000.0) : json(nullptr);
+    e["last_ms"] = stat.last ? json(ms(*stat.last)) : json(nullptr);
   return e;
 }
 
@@ -329,13 +332,12 @@ json StatusModel::http_json() const {
 
 json StatusModel::host_stalls_json() const {
   const HostStalls h = src_.host_stalls ? src_.host_stalls() : HostStalls{};
-  auto ms = [](Duration d) { return static_cast<double>(d.count()) / 1000.0; };
   return {{"count", h.count}, {"total_ms", ms(h.total)}, {"longest_ms", ms(h.longest)}};
 }
 
 json StatusModel::trace_frame(const BusMonitor::Traced& t) const {
   return {{"seq", t.seq},
-          {"t_ms", static_cast<double>(t.time.count()) / 1000.0},
+          {"t_ms", ms(t.time)},
           {"id", t.frame.id},
           {"ext", t.frame.extended},
           {"rtr", t.frame.remote},
@@ -398,20 +400,11 @@ std::string StatusModel::bus_text(std::size_t i, Time now, bool trace) {
 }
 
 namespace {
-double ms(Duration d) {
-  return static_cast<double>(d.count()) / 1000.0;
-}
-
 void put_number(std::string& out, double v) {
   // nlohmann::json's dump of a finite double (its own shortest round-trip digits), so that the
   // text is the one the json value would give, byte for byte.
   std::array<char, 64> buf{};
   out.append(buf.data(), nlohmann::detail::to_chars(buf.data(), buf.data() + buf.size(), v));
-}
-
-void put_number(std::string& out, std::uint64_t v) {
-  std::array<char, 24> buf{};
-  out.append(buf.data(), std::to_chars(buf.data(), buf.data() + buf.size(), v).ptr);
 }
 }  // namespace
 
@@ -426,9 +419,9 @@ void StatusModel::put_identifiers(std::string& out, const can::TimedBus& t) {
     const auto& s = list[k];
     if (k > 0) out += ',';
     out += s.id.extended ? "{\"ext\":true,\"frames\":" : "{\"ext\":false,\"frames\":";
-    put_number(out, s.frames);
+    out += std::to_string(s.frames);
     out += ",\"id\":";
-    put_number(out, std::uint64_t{s.id.id});
+    out += std::to_string(s.id.id);
     out += ",\"jitter_ms\":";
     put_number(out, ms(s.jitter()));
     out += ",\"latency_ms\":{\"last\":";
@@ -492,7 +485,7 @@ json StatusModel::status_head(Time now, bool parts) {
   update_load(now);
   json j;
   j["version"] = 1;
-  j["time_ms"] = static_cast<double>(now.count()) / 1000.0;
+  j["time_ms"] = ms(now);
   j["cycle"] = cycle_json();
   if (src_.line || src_.line_stats) j["line"] = line_json();
   if (src_.modbus) j["modbus"] = modbus_json();
