@@ -9,6 +9,11 @@ buses[0].frames) or --timeout seconds passed. Per run: the frames the bus counte
 gateway received (its Rx counter, the slot's identifier), lost = sent - counted, and the rate
 (frames counted per second from the first send to the last count).
 
+The gateway's own frames are not the client's: its Tx slot sends once when the master's first
+Data_Exchange reaches it (about 50 ms after the daemon answers). The run starts when the gateway
+exchanges data, and the bus's count is taken less the gateway's Tx counter (a start before that
+frame once counted 2 000 001 of 2 000 000).
+
 Usage: bench/socketcand_ingest.py --a build/bin/candp2d [--b OTHER/candp2d] [--frames 2000000]
        [--rounds 3]
 """
@@ -48,11 +53,19 @@ def status(http: int) -> dict[str, Any]:
 
 
 def counts(http: int) -> tuple[int, int | None]:
-    """The frames the bus counted and the gateway's Rx counter (None: not in the status)."""
+    """The frames on the bus that the gateway did not send, and its Rx counter (None: not in the
+    status)."""
     st = status(http)
     bus = st["buses"][0]
     gw = st["gateways"][0]
-    return bus["frames"], gw.get("rx_frames", gw.get("counters", {}).get("rx_frames"))
+    c = gw.get("counters", {})
+    return bus["frames"] - c.get("tx_frames", 0), gw.get("rx_frames", c.get("rx_frames"))
+
+
+def exchanging(http: int) -> bool:
+    """The gateway is in Data_Exchange and has sent its Tx slot's first frame."""
+    gw = status(http)["gateways"][0]
+    return bool(gw.get("dp_state") == "Data_Exch" and gw.get("counters", {}).get("tx_frames"))
 
 
 class Result(TypedDict):
@@ -86,12 +99,13 @@ def one_run(candp2d: str, frames: int, timeout: float) -> Result:
         deadline = time.monotonic() + 10
         while True:
             try:
-                counts(http)
-                break
+                if exchanging(http):
+                    break
             except OSError:
-                if time.monotonic() > deadline or proc.poll() is not None:
-                    raise RuntimeError("candp2d did not answer")
-                time.sleep(0.05)
+                pass
+            if time.monotonic() > deadline or proc.poll() is not None:
+                raise RuntimeError("candp2d did not answer, or its gateway did not exchange data")
+            time.sleep(0.05)
         sock = socket.create_connection(("127.0.0.1", scand), timeout=5)
         sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         rest = expect(sock, b"< hi >")
