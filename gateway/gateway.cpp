@@ -241,21 +241,22 @@ void Gateway::transmit(const can::Frame& frame) {
   can_tx_.send(frame);
 }
 
-void Gateway::on_can_frame(const can::Frame& frame, Time now) {
+bool Gateway::on_can_frame(const can::Frame& frame, Time now) {
   ++rx_frames_;
   if (log_.enabled(LogLevel::Debug)) log_.debug("rx " + can::format_candump(frame));
   if (role() == CanopenRole::Slave && !frame.extended && !frame.remote && frame.id == kNmtId) {
     handle_nmt(frame, now);
-    return;
+    return true;
   }
   // docs/slots.md "Data exchange in normal mode": identifiers enabled in the CW take precedence
   // over input slots.
-  if (cw_.on_frame(frame)) return;
-  if (!cfg_) return;
+  if (cw_.on_frame(frame)) return false;
+  if (!cfg_) return false;
   if (cfg_->page_mode)
     page_.on_frame(frame, now);
   else
     slots_.on_frame(frame, input_image_, now);
+  return false;
 }
 
 void Gateway::set_controller_status(can::BusState state, std::uint32_t rx_lost_total) {

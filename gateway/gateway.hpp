@@ -71,8 +71,11 @@ class Gateway final : private dp::SlaveApplication, private CwHost {
   const dp::DpSlave& dp() const { return slave_; }
   std::uint8_t address() const { return address_; }
 
-  // A frame received from the CAN bus.
-  void on_can_frame(const can::Frame& frame, Time now);
+  // A frame received from the CAN bus. True when what the gateway waits for (next_deadline()) may
+  // have moved: an NMT command to a CANopen slave (release, halt, reset). A frame into a slot, a
+  // page or the CW leaves it as it was, and its holder need not ask again (docs/can-bus.md
+  // "Performance").
+  bool on_can_frame(const can::Frame& frame, Time now);
   // Controller state and the transport's cumulative lost-frame count (IRQ_LOST).
   void set_controller_status(can::BusState state, std::uint32_t rx_lost_total);
 

@@ -16,9 +16,11 @@ namespace candp2::plant {
 
 // ------------------------------------------------- what a gateway waits for (GatewayUnit)
 
+// docs/can-bus.md "Performance": only a frame that may move what the gateway waits for (an NMT
+// command) has its deadline asked again. Its bus and controller state are the deliverer's:
+// deliver() looks at them after the frames, Plant::receive() touches the gateway before them.
 void GatewayUnit::receive(const can::Frame& frame, Time now) {
-  touched();
-  if (faults_.pass_rx()) gateway_->on_can_frame(frame, now);
+  if (faults_.pass_rx() && gateway_->on_can_frame(frame, now)) touched();
 }
 
 void GatewayUnit::update_controller() {
