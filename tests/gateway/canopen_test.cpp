@@ -432,6 +432,29 @@ TEST_F(CanopenTest, SlaveNmtTransitions) {
   EXPECT_TRUE(rec.take().empty());
 }
 
+// docs/architecture.md "The plant": a gateway's deadline is asked again after a frame only when
+// on_can_frame() says the frame may have moved it. Frames into slots, remote frames and other
+// identifiers leave it as it was and say so; the NMT start that releases the slave arms its
+// cyclic Tx slot (manual §5.2.3: 03,E8 = every 1000 ms) and says it may have moved.
+TEST_F(CanopenTest, OnlyAnNmtCommandMayMoveWhatTheGatewayWaitsFor) {
+  const auto cfg =
+      cfg_of({out_slot(2, {0x02, 0x01, 0x00, 0x03, 0xE8}), in_slot(8, {0x01, 0x81, 0x00}),
+              in_slot(3, {0x20, 0x01, 0x23, 0x45, 0x00})});
+  ASSERT_TRUE(configure(slave(5), cfg));
+  exchange({1, 1});
+  const auto before = gw->next_deadline();
+  EXPECT_FALSE(before);  // no watchdog, not released: nothing to wait for
+  for (const char* f : {"181#0102030405060708", "00012345#AABBCC", "181#R", "7FF#00", "201#0101"}) {
+    EXPECT_FALSE(gw->on_can_frame(F(f), now)) << f;
+    EXPECT_EQ(gw->next_deadline(), before) << f;
+  }
+  EXPECT_FALSE(gw->status().released);
+  // NMT start for node 5: released, the Tx slot's cycle is due 1000 ms from now.
+  EXPECT_TRUE(gw->on_can_frame(F("000#0105"), now));
+  EXPECT_TRUE(gw->status().released);
+  EXPECT_EQ(gw->next_deadline(), now + milliseconds(1000));
+}
+
 TEST_F(CanopenTest, SlaveStartedBeforeDataExchReleasesAtDataExch) {
   make();
   gw->dp().set_prm(kMaster, make_set_prm(slave(9)), now);
