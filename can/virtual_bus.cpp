@@ -7,7 +7,10 @@ namespace candp2::can {
 
 VirtualEndpoint::VirtualEndpoint(VirtualBus* bus, std::string name, bool receive_own,
                                  std::size_t limit)
-    : bus_(bus), name_(std::move(name)), receive_own_(receive_own), limit_(limit) {}
+    : bus_(bus),
+      name_(std::move(name)),
+      receive_own_(receive_own),
+      limit_(std::max<std::size_t>(limit, 1)) {}
 
 VirtualEndpoint::~VirtualEndpoint() {
   if (bus_) bus_->detach(this);

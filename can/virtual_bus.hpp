@@ -123,7 +123,7 @@ class VirtualEndpoint final : public Channel {
 class VirtualBus {
  public:
   struct Options {
-    std::size_t rx_queue_limit = 4096;  // per endpoint
+    std::size_t rx_queue_limit = 4096;  // per endpoint; at least 1 (a full queue holds frames)
   };
   // Observer of every frame that reached the bus (for candump logs and test traces).
   using Tap = std::function<void(const Frame&, Time, std::string_view sender)>;
@@ -162,8 +162,10 @@ class VirtualBus {
   std::uint64_t state_changes() const { return state_changes_; }
   // Also counts them in `*shared` (the plant's count over all its buses); null: not.
   void count_changes_in(std::uint64_t* shared) { shared_changes_ = shared; }
-  // And calls `hook` at each (the plant marks this bus's gateways for delivery); empty: none.
-  void on_changed(std::function<void()> hook) { changed_hook_ = std::move(hook); }
+  // And calls `hook(state)` at each (the plant marks this bus's gateways for delivery); empty:
+  // none. `state` false: only frames ended on the bus in time (state_changes() stood still), and
+  // each endpoint they reached holds frames (taken, or counted lost on a full queue).
+  void on_changed(std::function<void(bool state)> hook) { changed_hook_ = std::move(hook); }
 
   std::uint64_t frames_sent() const { return frames_sent_; }
 
@@ -222,12 +224,12 @@ class VirtualBus {
   BusState state_ = BusState::Ok;
   std::uint64_t changes_ = 0, state_changes_ = 0;
   std::uint64_t* shared_changes_ = nullptr;
-  std::function<void()> changed_hook_;
+  std::function<void(bool)> changed_hook_;
   void changed(bool state = true) {
     ++changes_;
     if (state) ++state_changes_;
     if (shared_changes_) ++*shared_changes_;
-    if (changed_hook_) changed_hook_();
+    if (changed_hook_) changed_hook_(state);
   }
   Time now_{0};
   const Time* clock_ = nullptr;

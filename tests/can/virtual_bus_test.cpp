@@ -128,6 +128,48 @@ TEST(VirtualBusInTime, DeliveredAtTheEndTappedAtTheStart) {
   EXPECT_EQ(bus.timed()->frames(), 2u);
 }
 
+// docs/can-bus.md "Performance": the frames that end in an advance are one change without a state
+// (the plant then looks only at the endpoints that hold frames: each one they reached, also one
+// whose full queue counted one lost); a change of state says so. An ideal bus's changes all do.
+TEST(VirtualBusInTime, FramesEndedAreOneChangeWithoutStateAndReachedEndpointsHoldThem) {
+  VirtualBus bus({.rx_queue_limit = 1});
+  Time now{0};
+  bus.use_clock(&now);
+  bus.set_bitrate(125000, Time(0));
+  std::vector<bool> hooks;
+  bus.on_changed([&](bool state) { hooks.push_back(state); });
+  auto a = bus.endpoint("a");
+  auto b = bus.endpoint("b");
+  auto c = bus.endpoint("c");
+  hooks.clear();
+  const std::uint64_t states = bus.state_changes();
+  a->send(F("123#11"));
+  a->send(F("124#22"));
+  EXPECT_TRUE(hooks.empty());  // requests: nothing reached anybody yet
+  now = Time(10000);           // both frames end by then
+  bus.advance(now);
+  EXPECT_EQ(hooks, (std::vector<bool>{false}));
+  EXPECT_EQ(bus.state_changes(), states);
+  EXPECT_EQ(a->pending(), 0u);  // the sender holds nothing
+  EXPECT_EQ(b->pending(), 1u);  // the second frame found the queue full
+  EXPECT_EQ(b->rx_lost(), 1u);
+  EXPECT_EQ(c->pending(), 1u);
+  a->set_bus_state_override(BusState::Warning);
+  EXPECT_EQ(hooks, (std::vector<bool>{false, true}));
+
+  VirtualBus ideal({.rx_queue_limit = 0});  // a queue holds at least one frame
+  std::vector<bool> ideal_hooks;
+  ideal.on_changed([&](bool state) { ideal_hooks.push_back(state); });
+  auto x = ideal.endpoint("x");
+  auto y = ideal.endpoint("y");
+  ideal_hooks.clear();
+  x->send(F("001#01"));
+  x->send(F("002#02"));
+  EXPECT_EQ(ideal_hooks, (std::vector<bool>{true, true}));
+  EXPECT_EQ(y->pending(), 1u);
+  EXPECT_EQ(y->rx_lost(), 1u);
+}
+
 // A gateway's frame lost past its full queue counts in IRQ_LOST (rx_lost, manual §3.4.2 "receive
 // or send"); another node's in tx_dropped.
 TEST(VirtualBusInTime, LostPastTheQueueCountedWhereTheDeviceCountsIt) {
