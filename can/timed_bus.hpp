@@ -197,7 +197,8 @@ class TimedBus {
   std::uint64_t busy_bits() const { return busy_bits_; }
   // The load as of `now` (a second with no frame counts as 0 %).
   Load load(Time now) const;
-  // By arbitration_key (the order of priority); built at each call (the status's, not per frame).
+  // By arbitration_key (the order of priority); built at each call (replay's expect_bus looks
+  // identifiers up by key; not per frame).
   std::map<std::uint32_t, IdStatistics> identifiers() const { return ids_.identifiers(); }
   // The same in the same order as a list, into `out` (cleared, its storage kept): the status
   // documents list every identifier of every bus, twice a second with a panel open, and a map's

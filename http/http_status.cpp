@@ -387,15 +387,15 @@ json StatusModel::faults_json(const std::vector<plant::CanFaultView>& faults) {
 std::string StatusModel::bus_text(std::size_t i, Time now, bool trace) {
   std::string text = bus_json(i, now, trace, false).dump();
   const can::TimedBus* t = src_.buses[i].timed;
-  if (!t || !src_.buses[i].monitor) return text;
+  if (!t) return text;
   // The member's key cannot occur anywhere else in the text: a quote inside a string is escaped,
   // and no other object of a bus has an "identifiers" member.
-  constexpr std::string_view placeholder = "\"identifiers\":null";
+  constexpr std::string_view placeholder = "\"identifiers\":null", null = "null";
   const std::size_t at = text.find(placeholder);
-  if (at == std::string::npos) return text;
+  if (at == std::string::npos) return text;  // not in this bus's text (no monitor)
   std::string ids;
   put_identifiers(ids, *t);
-  text.replace(at + placeholder.size() - 4, 4, ids);
+  text.replace(at + placeholder.size() - null.size(), null.size(), ids);
   return text;
 }
 

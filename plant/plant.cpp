@@ -125,8 +125,8 @@ bool Plant::add_bus(const config::BusConfig& cfg, std::string* /*error*/) {
     // docs/can-bus.md "Performance": the frames that ended on a bus in time reached the gateways
     // that now hold frames; the sender has nothing to take and its state stood still.
     b->vbus_->on_changed([this, bus](bool state) {
-      for (std::size_t k = 0; k < bus->gateways_.size(); ++k)
-        if (state || bus->endpoints_[k]->pending() > 0) mark_delivery(bus->gateways_[k]);
+      for (const auto& [g, endpoint] : bus->gateways_)
+        if (state || endpoint->pending() > 0) mark_delivery(g);
     });
     b->vbus_->add_tap([this, bus](const can::Frame& f, Time t, std::string_view sender) {
       tap_can(*bus, f, sender, t);
@@ -152,8 +152,7 @@ bool Plant::add_gateway(const config::GatewayConfig& cfg, std::string* error) {
   if (b.type == BusType::Virtual) {
     auto ep = g->bus_->virtual_bus()->endpoint(g->sender_);
     ep->set_tx_queue(can::kGatewayTxQueue);
-    g->bus_->gateways_.push_back(g->index_);
-    g->bus_->endpoints_.push_back(ep.get());
+    g->bus_->gateways_.push_back({g->index_, ep.get()});
     g->endpoint_ = ep.get();
     g->channel_ = std::move(ep);
   } else {

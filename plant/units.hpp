@@ -43,8 +43,12 @@ class BusUnit {
   const config::BusConfig* cfg_ = nullptr;
   std::uint16_t index_ = 0;
   std::unique_ptr<can::VirtualBus> vbus_;
-  std::vector<std::size_t> gateways_;  // the gateways on it (virtual buses), by index
-  std::vector<const can::VirtualEndpoint*> endpoints_;  // and their endpoints, in that order
+  // The gateways on it (virtual buses): index and endpoint (on_changed looks at its frames).
+  struct OnBus {
+    std::size_t gateway = 0;
+    const can::VirtualEndpoint* endpoint = nullptr;
+  };
+  std::vector<OnBus> gateways_;
   // Its gateways' and drives' endpoints by the address of their name, with what sender_of()
   // says of that name: a tapped frame's sender is the sending endpoint's own name, found here
   // without hashing or comparing it (docs/can-bus.md "Performance").
