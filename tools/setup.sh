@@ -234,11 +234,11 @@ ctest_failed() {
 }
 
 # failed_output DIR: the last 40 lines each failed test of DIR's last ctest printed, from ctest's
-# own log. Printed again at the very end, beside the stage table: a CI log is read from its tail,
+# own log (ctest_stage's copy of it). Printed again at the very end, beside the stage table: a CI log is read from its tail,
 # and a test that failed early in a run of a thousand is far above it.
 failed_output() {
   local dir=$1 name
-  local failed=$dir/Testing/Temporary/LastTestsFailed.log all=$dir/Testing/Temporary/LastTest.log
+  local failed=$dir/Testing/Temporary/LastTestsFailed.log all=$dir/ctest-tests.log
   [ -f "$failed" ] && [ -f "$all" ] || return 0
   for name in $(cut -d: -f2- "$failed"); do
     echo "setup: ---- the output of $name ($dir), its last 40 lines ----"
@@ -315,6 +315,9 @@ ctest_stage() {
   rm -f "$dir/Testing/Temporary/LastTestsFailed.log"
   ctest --test-dir "$dir" --output-on-failure -j "$jobs" --timeout 600 "$@" | tee "$dir/ctest.log" ||
     rc=$?
+  # Every later ctest in $dir (even `ctest -N`, as vendor_summary runs) rewrites LastTest.log:
+  # failed_output reads this run's copy.
+  cp -f "$dir/Testing/Temporary/LastTest.log" "$dir/ctest-tests.log" 2>/dev/null || true
   stage_note=$(grep -o '[0-9]* tests failed out of [0-9]*' "$dir/ctest.log" | tail -1)
   return $rc
 }

@@ -39,7 +39,11 @@ bus.shutdown()
 print("BYE", flush=True)
 )PY";
 
-// Connects while frames keep arriving, then reads a few of them.
+// Connects while frames keep arriving, then reads a few of them. python-can's handshake reads
+// "< ok >" with one recv() and raises "< ok > message expected!" when a frame arrived glued to it
+// (docs/transports.md "socketcand (server and client)"): a race of the client's scheduling, which
+// a loaded host loses now and then (about one connect in five beside six busy loops on two cores).
+// That error, and only that one, is retried; any other failure ends the script.
 constexpr char kBusyScript[] = R"PY(
 import sys
 try:
@@ -47,7 +51,18 @@ try:
 except Exception as e:
     print("SKIP python-can is not importable: %r" % (e,), flush=True)
     sys.exit(0)
-bus = can.Bus(interface="socketcand", host=sys.argv[1], port=int(sys.argv[2]), channel="vcan0")
+for attempt in range(1, 21):
+    try:
+        bus = can.Bus(interface="socketcand", host=sys.argv[1], port=int(sys.argv[2]),
+                      channel="vcan0")
+        break
+    except can.CanError as e:
+        if "< ok > message expected" not in str(e):
+            raise
+        print("RACE %d" % attempt, flush=True)
+else:
+    sys.exit("python-can lost its handshake race 20 times")
+print("CONNECTED %d" % attempt, flush=True)
 got = [bus.recv(timeout=10) for _ in range(3)]
 print("GOT %d" % sum(m is not None for m in got), flush=True)
 bus.shutdown()
@@ -185,9 +200,9 @@ TEST(PythonCanInterop, SocketcandInterfaceSendsAndReceivesThroughOurServer) {
 }
 
 TEST(PythonCanInterop, ConnectsWhileTheBusIsBusy) {
-  // A frame every millisecond during python-can's handshake. python-can reads "< ok >" with one
-  // recv() and fails if a frame is glued to it; the server writes every message with its own
-  // send() right away (as socketcand does), so in practice the reply arrives alone.
+  // A frame every millisecond during python-can's handshake. The server writes every message with
+  // its own send() right away (as socketcand does), so the reply mostly arrives alone; the script
+  // retries the connects that lost python-can's race (above).
   if (::access(CANDP2_PYTHON, X_OK) != 0) GTEST_SKIP() << CANDP2_PYTHON << " not found";
   ServerRig rig(can::SocketcandServer::Options{.host = "127.0.0.1", .port = 0},
                 /*live_clock=*/true);
@@ -202,7 +217,10 @@ TEST(PythonCanInterop, ConnectsWhileTheBusIsBusy) {
   ASSERT_TRUE(rig.loop.run_until([&] { return py.eof() && py.reap() >= 0; }, 60s)) << py.output();
   if (py.has("SKIP")) GTEST_SKIP() << py.output();
   EXPECT_EQ(py.reap(), 0) << py.output();
+  EXPECT_TRUE(py.has("CONNECTED ")) << py.output();
   EXPECT_TRUE(py.has("GOT 3\n")) << py.output();
+  // Every connection that lost the race was closed by python-can; none was dropped by the server.
+  EXPECT_EQ(rig.server->stats().clients_dropped, 0u) << py.output();
 }
 
 }  // namespace
