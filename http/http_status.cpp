@@ -78,10 +78,17 @@ std::uint32_t frame_bits_stuffed(const can::Frame& f) {
 }
 
 void BusMonitor::on_frame(const can::Frame& f, Time now) {
-  ++frames_;
   bits_ += frame_bits_stuffed(f);
-  trace_.push_back({frames_, now, f});
-  if (trace_.size() > kTrace) trace_.pop_front();
+  ring_[frames_ % kTrace] = {frames_ + 1, now, f};
+  ++frames_;
+}
+
+std::vector<BusMonitor::Traced> BusMonitor::trace() const {
+  const std::uint64_t kept = std::min<std::uint64_t>(frames_, kTrace);
+  std::vector<Traced> out;
+  out.reserve(kept);
+  for (std::uint64_t n = frames_ - kept; n < frames_; ++n) out.push_back(ring_[n % kTrace]);
+  return out;
 }
 
 StatusModel::StatusModel(StatusSources sources)

@@ -13,8 +13,8 @@
 // other face is read.
 #pragma once
 
+#include <array>
 #include <cstdint>
-#include <deque>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <span>
@@ -57,12 +57,15 @@ class BusMonitor {
   void on_frame(const can::Frame& f, Time now);
   std::uint64_t frames() const { return frames_; }
   std::uint64_t bits() const { return bits_; }
-  const std::deque<Traced>& trace() const { return trace_; }
+  // The last kTrace frames (fewer at first), oldest first; built at each call.
+  std::vector<Traced> trace() const;
 
  private:
   std::uint64_t frames_ = 0;
   std::uint64_t bits_ = 0;
-  std::deque<Traced> trace_;
+  // A ring written at every frame: frame n (counted from 1) at (n − 1) % kTrace. No allocation
+  // per frame, unlike a deque of kTrace that allocates and frees a block every few frames.
+  std::array<Traced, kTrace> ring_{};
 };
 
 struct GatewaySource {

@@ -62,7 +62,12 @@ TEST(BusMonitor, StuffedBitsUpperBound) {
 TEST(BusMonitor, CountsAndKeepsTheLastFrames) {
   http::BusMonitor m;
   const std::array<std::uint8_t, 1> one{0x42};
-  for (std::uint32_t i = 0; i < http::BusMonitor::kTrace + 10; ++i)
+  EXPECT_TRUE(m.trace().empty());
+  for (std::uint32_t i = 0; i < 3; ++i) m.on_frame(can::Frame::std_data(i, one), Time{i * 100});
+  ASSERT_EQ(m.trace().size(), 3u);  // fewer than kTrace: all of them, oldest first
+  EXPECT_EQ(m.trace().front().seq, 1u);
+  EXPECT_EQ(m.trace().back().frame.id, 2u);
+  for (std::uint32_t i = 3; i < http::BusMonitor::kTrace + 10; ++i)
     m.on_frame(can::Frame::std_data(i, one), Time{i * 100});
   EXPECT_EQ(m.frames(), http::BusMonitor::kTrace + 10);
   EXPECT_EQ(m.bits(), m.frames() * http::frame_bits_stuffed(can::Frame::std_data(0, one)));
