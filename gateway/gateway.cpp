@@ -250,8 +250,7 @@ bool Gateway::on_can_frame(const can::Frame& frame, Time now) {
   }
   // docs/slots.md "Data exchange in normal mode": identifiers enabled in the CW take precedence
   // over input slots.
-  if (cw_.on_frame(frame)) return false;
-  if (!cfg_) return false;
+  if (cw_.on_frame(frame) || !cfg_) return false;
   if (cfg_->page_mode)
     page_.on_frame(frame, now);
   else

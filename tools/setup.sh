@@ -234,8 +234,8 @@ ctest_failed() {
 }
 
 # failed_output DIR: the last 40 lines each failed test of DIR's last ctest printed, from ctest's
-# own log (ctest_stage's copy of it). Printed again at the very end, beside the stage table: a CI log is read from its tail,
-# and a test that failed early in a run of a thousand is far above it.
+# own log (ctest_stage's copy of it). Printed again at the very end, beside the stage table: a CI
+# log is read from its tail, and a test that failed early in a run of a thousand is far above it.
 failed_output() {
   local dir=$1 name
   local failed=$dir/Testing/Temporary/LastTestsFailed.log all=$dir/ctest-tests.log
