@@ -174,6 +174,8 @@ class VirtualBus {
   void set_bitrate(std::uint32_t bitrate, Time origin);
   // The engine (statistics); nullptr on an ideal bus.
   const TimedBus* timed() const { return timed_.get(); }
+  // The endpoints attached (the plant's gateways and drives, exports, clients, testers).
+  std::size_t endpoint_count() const { return endpoints_.size(); }
   // Error frames on cue on the bus in time (docs/can-bus.md "Error confinement"); false on an
   // ideal bus. A fault on a node names its endpoint's timed_node().
   bool inject_errors(const TimedBus::ErrorFault& fault);

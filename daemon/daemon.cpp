@@ -255,6 +255,9 @@ bool DaemonImpl::start(std::string* error) {
   // docs/profibus.md "The line in time", docs/can-bus.md "In the plant": the line and the buses
   // in time in steps of 1 ms in real time.
   o.step = milliseconds(1);
+  // docs/can-bus.md "In the plant": buses that only fill images, at the plant's wakes and at
+  // least every 10 ms (before each master cycle).
+  o.image_bus_step = milliseconds(10);
   // A cycle the line step passed over starts at its own time; one the host held back by more
   // than the host-stall tolerance (at least 50 ms) starts late (master.host_stall_ms 0).
   o.line_catch_up = o.step + std::max(clock_.tolerance(), Duration(milliseconds(50)));

@@ -200,6 +200,11 @@ bool Plant::can_fault(const CanFault& fault, Time now, std::string_view origin) 
   const bool needs_node =
       fault.kind == CanFaultKind::Unplugged || fault.kind == CanFaultKind::WrongBitrate;
   if (needs_node && !node) return refuse("it names no node (a gateway or a drive)");
+  // docs/can-bus.md "In the plant": a fault is set on buses advanced to now, and from now on
+  // the buses in time step as buses with a node that answers (asked again an image step later).
+  if (images_only_) settle_buses();
+  images_only_ = false;
+  images_checked_ = now_;
   std::string what = "CAN fault " + std::string(to_string(fault.kind));
   can::TimedBus::ErrorFault e;
   // docs/faults.md "CAN faults on cue": a node's unplugged or wrong_bitrate lasts until a none,

@@ -67,7 +67,9 @@ std::optional<Time> Plant::next_deadline() const {
   for (const auto& sl : slaves_) earliest(sl->slave_->next_deadline());
   if (master_line_) earliest(master_line_->next_deadline());
   if (timed_line_) earliest(timed_line_->next_deadline());
-  if (const auto d = buses_deadline()) earliest(std::max(*d, buses_handled_ + options_.step));
+  if (const auto d = buses_deadline())
+    earliest(
+        std::max(*d, buses_handled_ + (images_only_ ? options_.image_bus_step : options_.step)));
   earliest(node_faults_deadline());
   return next;
 }
@@ -117,6 +119,10 @@ void Plant::advance(Time now) {
   set_now(now);
   run_timers(now_);
   deliver(now_);
+  // docs/can-bus.md "In the plant": buses that only fill images wait for the plant's wakes; what
+  // ended by now reaches the images before the master's cycle reads them.
+  // At the cycle's own time the cycle goes first, as replay orders them (settle_buses() last).
+  if (images_only_ && cycle_due()) settle_buses(now_ - Duration(1));
   // docs/profibus.md "The line in time": a cycle starts when the line's last rotation has ended;
   // when that is later than its grid point the cycles run back to back (missed grid points count).
   // On the timed line a cycle starts at its own time, not when the line step woke the plant: the
@@ -134,16 +140,47 @@ void Plant::advance(Time now) {
 // receivers send back at once, until the buses wait for a later time. The buses due come from the
 // deadlines' tree (docs/can-bus.md "Performance": not a walk over every bus), in the order of the
 // configuration; advancing one bus changes no other's deadline.
-void Plant::settle_buses() {
+void Plant::settle_buses(std::optional<Time> until) {
+  const Time to = until.value_or(now_);
   while (true) {
-    if (const auto first = buses_deadline(); !first || *first > now_) break;
+    if (const auto first = buses_deadline(); !first || *first > to) break;
     due_buses_.clear();
-    bus_deadlines_.due(now_, due_buses_);
+    bus_deadlines_.due(to, due_buses_);
     if (due_buses_.empty()) break;
-    for (const std::uint32_t i : due_buses_) timed_buses_[i]->advance(now_);
-    buses_handled_ = now_;
+    for (const std::uint32_t i : due_buses_) timed_buses_[i]->advance(to);
+    buses_handled_ = to;
     deliver(now_);
   }
+  if (options_.image_bus_step > options_.step && now_ >= images_checked_ + options_.image_bus_step)
+    check_image_buses();
+}
+
+// docs/can-bus.md "In the plant": a frame on a bus that only fills images changes nothing until
+// the master's next cycle reads the images (or a document shows the counts), so such a bus needs
+// no wake of its own every step. A bus is one when only its layer-2 gateways are on it (no drive,
+// no socketcand export or client, no CANopen role: nothing answers a frame or shows it live), no
+// fault is set on it and every node is error active; the line must not be in time (its cycles
+// start within a line step). Asked again once an image step: a Set_Prm that gives a gateway a
+// CANopen role, or an export attached, is seen within it.
+void Plant::check_image_buses() {
+  images_checked_ = now_;
+  images_only_ = !timed_line_ && !timed_units_.empty() &&
+                 std::all_of(timed_units_.begin(), timed_units_.end(),
+                             [this](const BusUnit* b) { return image_bus(*b); });
+}
+
+bool Plant::image_bus(const BusUnit& bus) const {
+  const can::VirtualBus& vb = *bus.vbus_;
+  const can::TimedBus& timed = *vb.timed();
+  // Two gateways at least: a gateway alone on its bus is not acknowledged (ACK errors).
+  if (bus.gateways_.size() < 2 || vb.endpoint_count() != bus.gateways_.size()) return false;
+  if (!timed.error_faults().empty() || !timed.all_receive()) return false;
+  for (std::size_t n = 0; n < timed.nodes(); ++n)
+    if (timed.confinement(n).state != can::BusState::Ok) return false;
+  return std::all_of(bus.gateways_.begin(), bus.gateways_.end(), [this](const auto& on) {
+    const auto& prm = gateways_[on.gateway]->gateway_->user_prm();
+    return !prm || prm->role() == gw::CanopenRole::None;
+  });
 }
 
 std::optional<Time> Plant::cycle_due() const {

@@ -97,6 +97,13 @@ struct Options {
   // exact (docs/profibus.md "The line in time", docs/can-bus.md "In the plant": candp2d 1 ms;
   // replay and the tests 0, at every telegram's own bit and every frame's own microsecond).
   Duration step{0};
+  // docs/can-bus.md "In the plant": when every bus in time only fills images (its receivers are
+  // layer-2 gateways, nothing answers a frame or shows it live, no fault, every node error
+  // active) and the line is not in time, the buses' events come due no closer than this after
+  // the plant last advanced them (0 or not above `step`: `step`), and the buses are advanced
+  // before each master cycle, so a frame still reaches the master's image at the same cycle
+  // (candp2d 10 ms; replay and the tests 0).
+  Duration image_bus_step{0};
   // The line in time: a master cycle due within a step starts at its own time (its grid point or
   // the end of the last rotation) when the plant wakes at most this much after that time; later,
   // the host kept the plant from running (candp2d with master.host_stall_ms 0): the cycle starts
@@ -245,7 +252,12 @@ class Plant final : public ControlSurface {
   void run_cycle(Time now);
   // The time the master cycle due by now_ starts at (docs/profibus.md "The line in time"), if any.
   std::optional<Time> cycle_due() const;
-  void settle_buses();
+  // Every start and end of frame due by `until` (now_ without it), and the answers.
+  void settle_buses(std::optional<Time> until = std::nullopt);
+  // Options::image_bus_step: whether every bus in time only fills images (images_only_), asked
+  // again at most once a step and false at once when a CAN fault is set.
+  void check_image_buses();
+  bool image_bus(const BusUnit& bus) const;
   void log_misses(Time due, Time now, std::uint64_t missed);
   void tap_can(const BusUnit& bus, const can::Frame& frame, std::string_view sender, Time time);
   // The emulated gateway or drive whose endpoint is named `sender`, or SenderKind::Outside.
@@ -265,7 +277,10 @@ class Plant final : public ControlSurface {
   Time now_{0};
   std::vector<std::unique_ptr<BusUnit>> buses_;
   std::vector<can::VirtualBus*> timed_buses_;  // the virtual buses with a bit rate
+  std::vector<const BusUnit*> timed_units_;    // and their units (check_image_buses())
   Time buses_handled_{0};                      // when settle_buses() last advanced one
+  bool images_only_ = false;                   // Options::image_bus_step applies
+  Time images_checked_{0};                     // when check_image_buses() last looked
   // The timed buses' deadlines, asked again only of the buses whose deadline moved.
   mutable DeadlineTree bus_deadlines_;
   std::vector<std::uint32_t> due_buses_;  // settle_buses(): the timed buses due (indices)

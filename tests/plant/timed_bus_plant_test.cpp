@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <optional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -117,6 +118,183 @@ TEST(TimedBusInThePlant, FramesDroppedOnCueReachIrqLost) {
   const auto status = gw.gateway().status();
   EXPECT_EQ(status.irq_lost, 2u);
   EXPECT_EQ(status.rx_frames, rx_before + 1);  // the third frame got through
+}
+
+// docs/can-bus.md "In the plant": two layer-2 gateways, each's Tx identifiers the other's Rx, a
+// writer changing every output 2 ms after each cycle, while the cycle's frames are still on the
+// bus (about 4.6 ms of them at 125 kbit/s). candp2d's steps (1 ms, and
+// 10 ms for buses that only fill images) against replay's wake at every frame: the same frames at
+// the same times, the same master input image at every cycle, the same statistics; and the
+// plant woke only for the cycles and the writes.
+constexpr const char* kImageBuses = R"({
+  "master": { "address": 1, "cycle_ms": 10 },
+  "buses": { "can0": { "type": "virtual", "bitrate": "125k" } },
+  "gateways": [
+    { "name": "gw3", "address": 3, "bus": "can0", "parameters": { "can_bitrate": "125k" },
+      "slots": [ { "io": "output", "address": 0, "length": 8, "comment": "03,01,00" },
+                 { "io": "output", "address": 8, "length": 8, "comment": "03,02,00" },
+                 { "io": "output", "address": 16, "length": 4, "comment": "03,03,00" },
+                 { "io": "input", "address": 0, "length": 8, "comment": "04,01,00" },
+                 { "io": "input", "address": 8, "length": 8, "comment": "04,02,00" } ] },
+    { "name": "gw4", "address": 4, "bus": "can0", "parameters": { "can_bitrate": "125k" },
+      "slots": [ { "io": "output", "address": 32, "length": 8, "comment": "04,01,00" },
+                 { "io": "output", "address": 40, "length": 8, "comment": "04,02,00" },
+                 { "io": "input", "address": 32, "length": 8, "comment": "03,01,00" },
+                 { "io": "input", "address": 40, "length": 8, "comment": "03,02,00" },
+                 { "io": "input", "address": 48, "length": 4, "comment": "03,03,00" } ] } ]
+})";
+
+struct ImageRun {
+  Frames frames;
+  std::vector<std::vector<std::uint8_t>> inputs;  // the master's inputs after each cycle
+  std::vector<Time> wakeups, cycles, writes;
+  std::vector<std::string> identifiers;  // the bus's statistics per identifier
+  std::uint64_t rx_frames = 0;
+  std::optional<Time> after_fault;  // the plant's next deadline once the fault was set
+};
+
+// `fault_at`: a CAN fault on cue (error frames on 402, once) set at that write.
+// An overloaded bus: 12 frames of 8 bytes a cycle (about 1500 bits in 1250), always busy, so
+// frames end at every bit, a cycle's own among them.
+constexpr const char* kOverloaded = R"({
+  "master": { "address": 1, "cycle_ms": 10 },
+  "buses": { "can0": { "type": "virtual", "bitrate": "125k" } },
+  "gateways": [
+    { "name": "gw3", "address": 3, "bus": "can0", "parameters": { "can_bitrate": "125k" },
+      "slots": [ { "io": "output", "address": 0, "length": 8, "comment": "03,01,00" },
+                 { "io": "output", "address": 8, "length": 8, "comment": "03,02,00" },
+                 { "io": "output", "address": 16, "length": 8, "comment": "03,03,00" },
+                 { "io": "output", "address": 24, "length": 8, "comment": "03,04,00" },
+                 { "io": "output", "address": 32, "length": 8, "comment": "03,05,00" },
+                 { "io": "output", "address": 40, "length": 8, "comment": "03,06,00" },
+                 { "io": "input", "address": 0, "length": 8, "comment": "04,01,00" },
+                 { "io": "input", "address": 8, "length": 8, "comment": "04,06,00" } ] },
+    { "name": "gw4", "address": 4, "bus": "can0", "parameters": { "can_bitrate": "125k" },
+      "slots": [ { "io": "output", "address": 48, "length": 8, "comment": "04,01,00" },
+                 { "io": "output", "address": 56, "length": 8, "comment": "04,02,00" },
+                 { "io": "output", "address": 64, "length": 8, "comment": "04,03,00" },
+                 { "io": "output", "address": 72, "length": 8, "comment": "04,04,00" },
+                 { "io": "output", "address": 80, "length": 8, "comment": "04,05,00" },
+                 { "io": "output", "address": 88, "length": 8, "comment": "04,06,00" },
+                 { "io": "input", "address": 16, "length": 8, "comment": "03,01,00" },
+                 { "io": "input", "address": 24, "length": 8, "comment": "03,06,00" } ] } ]
+})";
+
+ImageRun run_images(Duration step, Duration image_step, int fault_at = -1,
+                    const char* config = kImageBuses) {
+  const auto cfg = std::get<config::DaemonConfig>(config::parse_daemon(config, "img.json"));
+  plant::Options o;
+  o.step = step;
+  o.image_bus_step = image_step;
+  o.first_cycle_at_start = true;
+  std::string error;
+  auto p = plant::Plant::build(cfg, std::move(o), Time{0}, &error);
+  EXPECT_TRUE(p) << error;
+  ImageRun r;
+  p->add_tap(&r.frames);
+  p->on_cycle([&](Time now) {
+    r.cycles.push_back(now);
+    // The hook runs in the cycle: the inputs it read are the image now.
+    const auto& in = p->master().image().inputs;
+    r.inputs.emplace_back(in.begin(), in.end());
+  });
+  auto run_to = [&](Time end) {
+    while (const auto next = p->next_deadline()) {
+      if (*next > end) break;
+      r.wakeups.push_back(*next);
+      p->advance(*next);
+    }
+    r.wakeups.push_back(end);
+    p->advance(end);
+  };
+  auto& q = p->master().image().outputs;
+  for (int k = 0; k < 300; ++k) {  // 3 s: the release, then 2.5 s of changing outputs
+    const Time at = milliseconds(10) * k + milliseconds(2);
+    run_to(at);
+    r.writes.push_back(at);
+    for (std::size_t i = 0; i < q.size(); ++i) q[i] = static_cast<std::uint8_t>(k * 7 + i);
+    if (k == fault_at) {
+      plant::CanFault f;
+      f.kind = plant::CanFaultKind::ErrorFrames;
+      f.bus = "can0";
+      f.id = can::Ident{0x402, false};
+      p->can_fault(f, at, "(test)");
+      r.after_fault = p->next_deadline();
+    }
+  }
+  run_to(seconds(3));
+  p->remove_tap(&r.frames);
+  for (const auto& [key, s] : p->buses().at(0)->virtual_bus()->timed()->identifiers())
+    r.identifiers.push_back(std::to_string(s.id.id) + " " + std::to_string(s.frames) + " " +
+                            std::to_string(s.latency_max.count()) + " " +
+                            std::to_string(s.latency_mean().count()));
+  for (auto& g : p->gateways()) r.rx_frames += g->gateway().status().rx_frames;
+  return r;
+}
+
+TEST(TimedBusInThePlant, BusesThatOnlyFillImagesWaitForThePlantsWakes) {
+  const ImageRun exact = run_images(Duration{0}, Duration{0});
+  const ImageRun lazy = run_images(milliseconds(1), milliseconds(10));
+  ASSERT_GT(exact.frames.seen.size(), 1000u);  // 5 frames a cycle once released
+  EXPECT_EQ(lazy.frames.seen, exact.frames.seen);
+  ASSERT_EQ(lazy.inputs.size(), exact.inputs.size());
+  // The frames reached the gateways' inputs before the master's cycle read them, as in replay.
+  for (std::size_t c = 0; c < exact.inputs.size(); ++c)
+    ASSERT_EQ(lazy.inputs[c], exact.inputs[c]) << "cycle " << c;
+  EXPECT_NE(exact.inputs.back(), exact.inputs.front());  // the writer's bytes went round
+  EXPECT_EQ(lazy.identifiers, exact.identifiers);
+  EXPECT_EQ(lazy.rx_frames, exact.rx_frames);
+  // Woken for nothing but the cycles and the writes (and the gateways' power-on timers).
+  std::size_t other = 0;
+  for (const Time t : lazy.wakeups)
+    if (std::find(lazy.cycles.begin(), lazy.cycles.end(), t) == lazy.cycles.end() &&
+        std::find(lazy.writes.begin(), lazy.writes.end(), t) == lazy.writes.end())
+      ++other;
+  EXPECT_LE(other, 10u);
+  // With the 1 ms step alone the plant wakes for the buses between them.
+  const ImageRun stepped = run_images(milliseconds(1), Duration{0});
+  EXPECT_EQ(stepped.frames.seen, exact.frames.seen);
+  EXPECT_GT(stepped.wakeups.size(), lazy.wakeups.size() + 500);
+}
+
+// On an overloaded bus frames end at a cycle's own time too: there the cycle reads the images
+// first, as replay orders them.
+TEST(TimedBusInThePlant, OnAnOverloadedBusTheImagesAreReplays) {
+  const ImageRun exact = run_images(Duration{0}, Duration{0}, -1, kOverloaded);
+  const ImageRun lazy = run_images(milliseconds(1), milliseconds(10), -1, kOverloaded);
+  std::size_t at_cycles = 0;  // frames that ended at a cycle's time
+  for (std::size_t i = 1; i < exact.frames.seen.size(); ++i)
+    if (std::find(exact.cycles.begin(), exact.cycles.end(), exact.frames.seen[i].first) !=
+        exact.cycles.end())
+      ++at_cycles;
+  EXPECT_GT(at_cycles, 0u);
+  EXPECT_EQ(lazy.frames.seen, exact.frames.seen);
+  ASSERT_EQ(lazy.inputs.size(), exact.inputs.size());
+  for (std::size_t c = 0; c < exact.inputs.size(); ++c)
+    ASSERT_EQ(lazy.inputs[c], exact.inputs[c]) << "cycle " << c;
+  EXPECT_EQ(lazy.identifiers, exact.identifiers);
+}
+
+TEST(TimedBusInThePlant, ACanFaultMakesTheBusesStepAgain) {
+  // From the fault on, the bus steps every 1 ms while it has frames: at once (the cycle's frames
+  // are still on the bus), and between the write that set it, the next cycle and the write
+  // after.
+  auto between = [](const ImageRun& r, Time from) {
+    std::size_t n = 0;
+    for (const Time t : r.wakeups)
+      if (t > from && t < from + milliseconds(10) &&
+          std::find(r.cycles.begin(), r.cycles.end(), t) == r.cycles.end())
+        ++n;
+    return n;
+  };
+  const ImageRun r = run_images(milliseconds(1), milliseconds(10), 150);
+  const ImageRun quiet = run_images(milliseconds(1), milliseconds(10));
+  ASSERT_TRUE(r.after_fault);
+  EXPECT_LE(*r.after_fault, r.writes.at(150) + milliseconds(1));
+  EXPECT_GE(between(r, r.writes.at(150)), 3u);
+  EXPECT_EQ(between(quiet, quiet.writes.at(150)), 0u);
+  // The fault spoiled 402's next frame once, then the bus went back to waiting for the wakes.
+  EXPECT_EQ(between(r, r.writes.at(200)), 0u);
 }
 
 }  // namespace
