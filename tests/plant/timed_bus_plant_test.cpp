@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <optional>
 #include <string>
 #include <variant>
@@ -122,27 +123,35 @@ TEST(TimedBusInThePlant, FramesDroppedOnCueReachIrqLost) {
 
 // docs/can-bus.md "In the plant": two layer-2 gateways, each's Tx identifiers the other's Rx, a
 // writer changing every output 2 ms after each cycle, while the cycle's frames are still on the
-// bus (about 4.6 ms of them at 125 kbit/s). candp2d's steps (1 ms, and
+// bus (about 5 ms of them at 125 kbit/s). candp2d's steps (1 ms, and
 // 10 ms for buses that only fill images) against replay's wake at every frame: the same frames at
 // the same times, the same master input image at every cycle, the same statistics; and the
 // plant woke only for the cycles and the writes.
-constexpr const char* kImageBuses = R"({
-  "master": { "address": 1, "cycle_ms": 10 },
-  "buses": { "can0": { "type": "virtual", "bitrate": "125k" } },
-  "gateways": [
-    { "name": "gw3", "address": 3, "bus": "can0", "parameters": { "can_bitrate": "125k" },
-      "slots": [ { "io": "output", "address": 0, "length": 8, "comment": "03,01,00" },
-                 { "io": "output", "address": 8, "length": 8, "comment": "03,02,00" },
-                 { "io": "output", "address": 16, "length": 4, "comment": "03,03,00" },
-                 { "io": "input", "address": 0, "length": 8, "comment": "04,01,00" },
-                 { "io": "input", "address": 8, "length": 8, "comment": "04,02,00" } ] },
-    { "name": "gw4", "address": 4, "bus": "can0", "parameters": { "can_bitrate": "125k" },
-      "slots": [ { "io": "output", "address": 32, "length": 8, "comment": "04,01,00" },
-                 { "io": "output", "address": 40, "length": 8, "comment": "04,02,00" },
-                 { "io": "input", "address": 32, "length": 8, "comment": "03,01,00" },
-                 { "io": "input", "address": 40, "length": 8, "comment": "03,02,00" },
-                 { "io": "input", "address": 48, "length": 4, "comment": "03,03,00" } ] } ]
-})";
+// gw3 and gw4 on a 125 kbit/s bus with `tx3` and `tx4` 8-byte Tx slots (0x301.., 0x401..), each
+// reading the other's first and last identifier.
+std::string image_buses(int tx3, int tx4) {
+  auto gateway = [](int address, int tx, int peer, int peer_tx, int base) {
+    std::string slots;
+    auto slot = [&](const char* io, int at, int id) {
+      char text[120];
+      std::snprintf(text, sizeof text,
+                    R"(%s{ "io": "%s", "address": %d, "length": 8, "comment": "%02X,%02X,00" })",
+                    slots.empty() ? "" : ", ", io, at, id >> 8, id & 0xFF);
+      slots += text;
+    };
+    for (int k = 0; k < tx; ++k) slot("output", base + 8 * k, address * 0x100 + 1 + k);
+    slot("input", base, peer * 0x100 + 1);
+    slot("input", base + 8, peer * 0x100 + peer_tx);
+    return R"({ "name": "gw)" + std::to_string(address) + R"(", "address": )" +
+           std::to_string(address) +
+           R"(, "bus": "can0", "parameters": { "can_bitrate": "125k" }, "slots": [ )" + slots +
+           " ] }";
+  };
+  return R"({ "master": { "address": 1, "cycle_ms": 10 },
+              "buses": { "can0": { "type": "virtual", "bitrate": "125k" } },
+              "gateways": [ )" +
+         gateway(3, tx3, 4, tx4, 0) + ", " + gateway(4, tx4, 3, tx3, 64) + " ] }";
+}
 
 struct ImageRun {
   Frames frames;
@@ -154,34 +163,10 @@ struct ImageRun {
 };
 
 // `fault_at`: a CAN fault on cue (error frames on 402, once) set at that write.
-// An overloaded bus: 12 frames of 8 bytes a cycle (about 1500 bits in 1250), always busy, so
-// frames end at every bit, a cycle's own among them.
-constexpr const char* kOverloaded = R"({
-  "master": { "address": 1, "cycle_ms": 10 },
-  "buses": { "can0": { "type": "virtual", "bitrate": "125k" } },
-  "gateways": [
-    { "name": "gw3", "address": 3, "bus": "can0", "parameters": { "can_bitrate": "125k" },
-      "slots": [ { "io": "output", "address": 0, "length": 8, "comment": "03,01,00" },
-                 { "io": "output", "address": 8, "length": 8, "comment": "03,02,00" },
-                 { "io": "output", "address": 16, "length": 8, "comment": "03,03,00" },
-                 { "io": "output", "address": 24, "length": 8, "comment": "03,04,00" },
-                 { "io": "output", "address": 32, "length": 8, "comment": "03,05,00" },
-                 { "io": "output", "address": 40, "length": 8, "comment": "03,06,00" },
-                 { "io": "input", "address": 0, "length": 8, "comment": "04,01,00" },
-                 { "io": "input", "address": 8, "length": 8, "comment": "04,06,00" } ] },
-    { "name": "gw4", "address": 4, "bus": "can0", "parameters": { "can_bitrate": "125k" },
-      "slots": [ { "io": "output", "address": 48, "length": 8, "comment": "04,01,00" },
-                 { "io": "output", "address": 56, "length": 8, "comment": "04,02,00" },
-                 { "io": "output", "address": 64, "length": 8, "comment": "04,03,00" },
-                 { "io": "output", "address": 72, "length": 8, "comment": "04,04,00" },
-                 { "io": "output", "address": 80, "length": 8, "comment": "04,05,00" },
-                 { "io": "output", "address": 88, "length": 8, "comment": "04,06,00" },
-                 { "io": "input", "address": 16, "length": 8, "comment": "03,01,00" },
-                 { "io": "input", "address": 24, "length": 8, "comment": "03,06,00" } ] } ]
-})";
-
+// `config`: image_buses(3, 2) by default, five frames a cycle.
+// `listener`: a third endpoint on the bus (as a socketcand export is).
 ImageRun run_images(Duration step, Duration image_step, int fault_at = -1,
-                    const char* config = kImageBuses) {
+                    const std::string& config = image_buses(3, 2), bool listener = false) {
   const auto cfg = std::get<config::DaemonConfig>(config::parse_daemon(config, "img.json"));
   plant::Options o;
   o.step = step;
@@ -191,6 +176,7 @@ ImageRun run_images(Duration step, Duration image_step, int fault_at = -1,
   auto p = plant::Plant::build(cfg, std::move(o), Time{0}, &error);
   EXPECT_TRUE(p) << error;
   ImageRun r;
+  const auto watcher = listener ? p->buses().at(0)->virtual_bus()->endpoint("listener") : nullptr;
   p->add_tap(&r.frames);
   p->on_cycle([&](Time now) {
     r.cycles.push_back(now);
@@ -255,13 +241,19 @@ TEST(TimedBusInThePlant, BusesThatOnlyFillImagesWaitForThePlantsWakes) {
   const ImageRun stepped = run_images(milliseconds(1), Duration{0});
   EXPECT_EQ(stepped.frames.seen, exact.frames.seen);
   EXPECT_GT(stepped.wakeups.size(), lazy.wakeups.size() + 500);
+  // A third endpoint on the bus may show or answer a frame: the bus steps at 1 ms.
+  const ImageRun watched =
+      run_images(milliseconds(1), milliseconds(10), -1, image_buses(3, 2), true);
+  EXPECT_EQ(watched.frames.seen, exact.frames.seen);
+  EXPECT_GT(watched.wakeups.size(), lazy.wakeups.size() + 500);
 }
 
-// On an overloaded bus frames end at a cycle's own time too: there the cycle reads the images
-// first, as replay orders them.
+// On an overloaded bus (12 frames of 8 bytes a cycle, about 1500 bits in 1250: always busy)
+// frames end at a cycle's own time too: there the cycle reads the images first, as replay orders
+// them.
 TEST(TimedBusInThePlant, OnAnOverloadedBusTheImagesAreReplays) {
-  const ImageRun exact = run_images(Duration{0}, Duration{0}, -1, kOverloaded);
-  const ImageRun lazy = run_images(milliseconds(1), milliseconds(10), -1, kOverloaded);
+  const ImageRun exact = run_images(Duration{0}, Duration{0}, -1, image_buses(6, 6));
+  const ImageRun lazy = run_images(milliseconds(1), milliseconds(10), -1, image_buses(6, 6));
   std::size_t at_cycles = 0;  // frames that ended at a cycle's time
   for (std::size_t i = 1; i < exact.frames.seen.size(); ++i)
     if (std::find(exact.cycles.begin(), exact.cycles.end(), exact.frames.seen[i].first) !=
