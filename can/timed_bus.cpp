@@ -262,6 +262,12 @@ void TimedBus::count_seconds(std::uint64_t from, std::uint64_t bits) {
 }
 
 TimedBus::Load TimedBus::load(Time now) const {
+  // A frame's bits count at its start of frame. With frames queued, a bus not yet advanced to
+  // `now` (candp2d's steps, docs/can-bus.md "In the plant") knows its seconds up to its next
+  // deadline only: a second that ends later is still being counted. Without frames queued nothing
+  // starts before the next request, which comes at `now` or later.
+  if (pending_ > 0)
+    if (const auto d = next_deadline(); d && *d < now) now = *d;
   const std::uint64_t w =
       now <= origin_ ? 0 : static_cast<std::uint64_t>((now - origin_).count()) / kMicrosPerSecond;
   if (w <= window_) return {last_pct_, max_pct_};

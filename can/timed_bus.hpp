@@ -195,7 +195,8 @@ class TimedBus {
   std::uint64_t frames() const { return frames_; }
   std::uint64_t lost() const { return lost_; }
   std::uint64_t busy_bits() const { return busy_bits_; }
-  // The load as of `now` (a second with no frame counts as 0 %).
+  // The load as of `now` (a second with no frame counts as 0 %); a second the bus has not been
+  // advanced through while frames wait counts as not complete.
   Load load(Time now) const;
   // By arbitration_key (the order of priority); built at each call (replay's expect_bus looks
   // identifiers up by key; not per frame).

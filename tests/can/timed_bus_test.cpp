@@ -152,6 +152,22 @@ TEST(TimedBus, ARemovedNodeSendsNothingMore) {
   EXPECT_EQ(trace.lines[1].substr(trace.lines[1].size() - 4), "003#");
 }
 
+// docs/can-bus.md "In the plant": a bus advanced in steps reads a second as complete only once it
+// has been advanced through it. 400 frames of 080# (51 bits) requested at 0.99 s at 1 Mbit/s go
+// back to back to 1.0104 s: second 0 holds 10 000 of their bits, 1.0 %.
+TEST(TimedBus, ASecondNotAdvancedThroughIsNotComplete) {
+  TimedBus bus(1000000, Time(0));
+  const auto a = bus.add_node(4096);
+  for (int k = 0; k < 400; ++k) bus.request(a, F("080#"), Time(990'000));
+  bus.advance(Time(995'000));
+  // Read at 1.005 s: half of second 0's frames have started, the rest wait for the advance.
+  EXPECT_DOUBLE_EQ(bus.load(Time(1'005'000)).last_pct, 0.0);
+  EXPECT_DOUBLE_EQ(bus.load(Time(1'005'000)).max_pct, 0.0);
+  bus.advance(Time(1'005'000));
+  EXPECT_DOUBLE_EQ(bus.load(Time(1'005'000)).last_pct, 1.0);
+  EXPECT_DOUBLE_EQ(bus.load(Time(1'005'000)).max_pct, 1.0);
+}
+
 // 080# (51 bits) every millisecond at 1 Mbit/s: 51 000 bits a second, 5.1 %; period 1 ms, no
 // jitter, no latency.
 TEST(TimedBus, LoadPeriodAndJitter) {
