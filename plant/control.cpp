@@ -202,7 +202,7 @@ bool Plant::can_fault(const CanFault& fault, Time now, std::string_view origin) 
   if (needs_node && !node) return refuse("it names no node (a gateway or a drive)");
   // docs/can-bus.md "In the plant": a fault is set on buses advanced to now, and from now on
   // the buses in time step as buses with a node that answers (asked again an image step later).
-  if (images_only_) settle_buses();
+  if (images_only_) settle_buses(now_);
   images_only_ = false;
   images_checked_ = now_;
   std::string what = "CAN fault " + std::string(to_string(fault.kind));

@@ -133,26 +133,25 @@ void Plant::advance(Time now) {
     deliver(now_);
     if (!timed_line_) break;
   }
-  settle_buses();
+  settle_buses(now_);
+  if (options_.image_bus_step > options_.step && now_ >= images_checked_ + options_.image_bus_step)
+    check_image_buses();
 }
 
 // docs/can-bus.md "The bus in time": every start and end of frame due by now, and what the
 // receivers send back at once, until the buses wait for a later time. The buses due come from the
 // deadlines' tree (docs/can-bus.md "Performance": not a walk over every bus), in the order of the
 // configuration; advancing one bus changes no other's deadline.
-void Plant::settle_buses(std::optional<Time> until) {
-  const Time to = until.value_or(now_);
+void Plant::settle_buses(Time until) {
   while (true) {
-    if (const auto first = buses_deadline(); !first || *first > to) break;
+    if (const auto first = buses_deadline(); !first || *first > until) break;
     due_buses_.clear();
-    bus_deadlines_.due(to, due_buses_);
+    bus_deadlines_.due(until, due_buses_);
     if (due_buses_.empty()) break;
-    for (const std::uint32_t i : due_buses_) timed_buses_[i]->advance(to);
-    buses_handled_ = to;
+    for (const std::uint32_t i : due_buses_) timed_buses_[i]->advance(until);
+    buses_handled_ = until;
     deliver(now_);
   }
-  if (options_.image_bus_step > options_.step && now_ >= images_checked_ + options_.image_bus_step)
-    check_image_buses();
 }
 
 // docs/can-bus.md "In the plant": a frame on a bus that only fills images changes nothing until
@@ -164,9 +163,10 @@ void Plant::settle_buses(std::optional<Time> until) {
 // CANopen role, or an export attached, is seen within it.
 void Plant::check_image_buses() {
   images_checked_ = now_;
-  images_only_ = !timed_line_ && !timed_units_.empty() &&
-                 std::all_of(timed_units_.begin(), timed_units_.end(),
-                             [this](const BusUnit* b) { return image_bus(*b); });
+  images_only_ = !timed_line_ && !timed_buses_.empty() &&
+                 std::all_of(buses_.begin(), buses_.end(), [this](const auto& b) {
+                   return !b->vbus_ || !b->vbus_->timed() || image_bus(*b);
+                 });
 }
 
 bool Plant::image_bus(const BusUnit& bus) const {

@@ -118,7 +118,6 @@ bool Plant::add_bus(const config::BusConfig& cfg, std::string* /*error*/) {
       b->vbus_->set_bitrate(*cfg.timed_bitrate, now_);
       const std::size_t i = timed_buses_.size();
       timed_buses_.push_back(b->vbus_.get());
-      timed_units_.push_back(b.get());
       bus_deadlines_.resize(timed_buses_.size());
       b->vbus_->on_deadline_moved([this, i] { bus_deadlines_.moved(i); });
     }

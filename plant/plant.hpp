@@ -252,10 +252,11 @@ class Plant final : public ControlSurface {
   void run_cycle(Time now);
   // The time the master cycle due by now_ starts at (docs/profibus.md "The line in time"), if any.
   std::optional<Time> cycle_due() const;
-  // Every start and end of frame due by `until` (now_ without it), and the answers.
-  void settle_buses(std::optional<Time> until = std::nullopt);
+  // Every start and end of frame due by `until`, and the answers.
+  void settle_buses(Time until);
   // Options::image_bus_step: whether every bus in time only fills images (images_only_), asked
-  // again at most once a step and false at once when a CAN fault is set.
+  // again at most once an image step (at the end of advance()) and false at once when a CAN
+  // fault is set.
   void check_image_buses();
   bool image_bus(const BusUnit& bus) const;
   void log_misses(Time due, Time now, std::uint64_t missed);
@@ -277,7 +278,6 @@ class Plant final : public ControlSurface {
   Time now_{0};
   std::vector<std::unique_ptr<BusUnit>> buses_;
   std::vector<can::VirtualBus*> timed_buses_;  // the virtual buses with a bit rate
-  std::vector<const BusUnit*> timed_units_;    // and their units (check_image_buses())
   Time buses_handled_{0};                      // when settle_buses() last advanced one
   bool images_only_ = false;                   // Options::image_bus_step applies
   Time images_checked_{0};                     // when check_image_buses() last looked

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "common/log.hpp"
 #include "plant/plant.hpp"
@@ -23,14 +24,19 @@ class StderrErrors final : public LogSink {
   }
 };
 
-// The plant in virtual time: every event at or before `until`, as replay runs it.
-inline void run_until(plant::Plant& p, Time until) {
+// The plant in virtual time: every event at or before `until`, as replay runs it; with `wakes`,
+// the time of each advance appended to it.
+inline void run_until(plant::Plant& p, Time until, std::vector<Time>* wakes = nullptr) {
+  auto advance = [&](Time t) {
+    if (wakes) wakes->push_back(t);
+    p.advance(t);
+  };
   while (true) {
     const auto next = p.next_deadline();
     if (!next || std::max(*next, p.now()) > until) break;
-    p.advance(std::max(*next, p.now()));
+    advance(std::max(*next, p.now()));
   }
-  p.advance(until);
+  advance(until);
 }
 
 }  // namespace candp2::test

@@ -13,6 +13,7 @@
 #include "can/frame_bits.hpp"
 #include "config/config.hpp"
 #include "plant/plant.hpp"
+#include "tests/virtual_time_plant.hpp"
 
 namespace candp2 {
 namespace {
@@ -184,19 +185,10 @@ ImageRun run_images(Duration step, Duration image_step, int fault_at = -1,
     const auto& in = p->master().image().inputs;
     r.inputs.emplace_back(in.begin(), in.end());
   });
-  auto run_to = [&](Time end) {
-    while (const auto next = p->next_deadline()) {
-      if (*next > end) break;
-      r.wakeups.push_back(*next);
-      p->advance(*next);
-    }
-    r.wakeups.push_back(end);
-    p->advance(end);
-  };
   auto& q = p->master().image().outputs;
   for (int k = 0; k < 300; ++k) {  // 3 s: the release, then 2.5 s of changing outputs
     const Time at = milliseconds(10) * k + milliseconds(2);
-    run_to(at);
+    test::run_until(*p, at, &r.wakeups);
     r.writes.push_back(at);
     for (std::size_t i = 0; i < q.size(); ++i) q[i] = static_cast<std::uint8_t>(k * 7 + i);
     if (k == fault_at) {
@@ -208,7 +200,7 @@ ImageRun run_images(Duration step, Duration image_step, int fault_at = -1,
       r.after_fault = p->next_deadline();
     }
   }
-  run_to(seconds(3));
+  test::run_until(*p, seconds(3), &r.wakeups);
   p->remove_tap(&r.frames);
   for (const auto& [key, s] : p->buses().at(0)->virtual_bus()->timed()->identifiers())
     r.identifiers.push_back(std::to_string(s.id.id) + " " + std::to_string(s.frames) + " " +
